@@ -1,0 +1,75 @@
+"""Entry point of the ``aida-kb`` (alias ``kb``) command.
+
+Exit codes: 0 success, 1 errors found in the input (or a failed run), 2 usage error or an
+unreadable input file, 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+from types import ModuleType
+
+from aida_kb import __version__
+from aida_kb.errors import AidaError, FormatError
+
+# Command modules, in the order `--help` lists them. Each module is aida_kb.cli.<name>
+# and must import nothing heavy at module level.
+COMMANDS: tuple[str, ...] = ()
+
+EXIT_OK = 0
+EXIT_FAILURE = 1
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+
+def _command_modules() -> list[ModuleType]:
+    return [importlib.import_module(f"aida_kb.cli.{name}") for name in COMMANDS]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with every registered command."""
+    parser = argparse.ArgumentParser(
+        prog="aida-kb",
+        description=(
+            "aida-kb turns explicit knowledge about buildings (.kb files) and calibrated "
+            "stereo images into closed 3-D models."
+        ),
+        epilog="Run 'aida-kb COMMAND --help' for a command's options and an example.",
+    )
+    parser.add_argument("--version", action="version", version=f"aida-kb {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for module in _command_modules():
+        module.register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the process exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    run = getattr(args, "run", None)
+    if run is None:
+        parser.print_help(sys.stderr)
+        return EXIT_USAGE
+    try:
+        code: int = run(args)
+    except KeyboardInterrupt:
+        print("aida-kb: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except FormatError as exc:
+        print(f"aida-kb: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except AidaError as exc:
+        print(f"aida-kb: error: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
+    except OSError as exc:
+        print(f"aida-kb: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Constraint templates compiled to vectorised residuals with analytic Jacobians."""

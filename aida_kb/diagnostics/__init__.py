@@ -1,0 +1,1 @@
+"""Diagnostics: Span, Severity, Diagnostic and the registry of codes; rendering lives apart."""

@@ -1,0 +1,1 @@
+"""Geometry: planes with local frames, CAHV cameras, polygons, polyhedra."""

@@ -1,0 +1,1 @@
+"""Hypothesis-verification interpretation of evidence against the knowledge base."""

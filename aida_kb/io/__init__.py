@@ -1,0 +1,1 @@
+"""Files on disk: scene directories, evidence, models; atomic writes."""

@@ -1,0 +1,1 @@
+"""The knowledge-base compiler: resolution, semantic checks -> pydantic model, networkx net."""

@@ -1,0 +1,1 @@
+"""Weighted least squares over parts and cameras, hierarchical refinement, residual report."""

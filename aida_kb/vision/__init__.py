@@ -1,0 +1,1 @@
+"""The vision front end: calibration, rectification, NCC stereo, segmentation, lines -> evidence."""

@@ -1,0 +1,34 @@
+"""Atomic writes leave either the old file or the complete new one."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from aida_kb.io.atomic import atomic_path, write_text_atomic
+
+
+def test_write_text_atomic_replaces_target(tmp_path: Path) -> None:
+    target = tmp_path / "sub" / "out.json"
+    write_text_atomic(target, "first")
+    write_text_atomic(target, "second")
+    assert target.read_text() == "second"
+    assert sorted(p.name for p in target.parent.iterdir()) == ["out.json"]
+
+
+def test_failed_write_keeps_old_file_and_leaves_no_temporary(tmp_path: Path) -> None:
+    target = tmp_path / "model.obj"
+    target.write_text("old")
+    with pytest.raises(RuntimeError, match="half-way"), atomic_path(target) as tmp:
+        tmp.write_text("partial")
+        raise RuntimeError("failed half-way")
+    assert target.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["model.obj"]
+
+
+def test_temporary_keeps_suffix(tmp_path: Path) -> None:
+    with atomic_path(tmp_path / "depth.npy") as tmp:
+        assert tmp.suffix == ".npy"
+        tmp.write_bytes(b"x")
+    assert (tmp_path / "depth.npy").read_bytes() == b"x"
