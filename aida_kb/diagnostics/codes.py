@@ -54,4 +54,6 @@ SYNTAX = register("KB001", Severity.ERROR, "the text does not follow the grammar
 # (registered by the compiler's owners, KB100 upwards)
 
 # --- files and imports ---------------------------------------------------------------------
-UNREADABLE_FILE = register("KB900", Severity.ERROR, "a file cannot be read (missing, unreadable, not UTF-8)")
+UNREADABLE_FILE = register(
+    "KB900", Severity.ERROR, "a file cannot be read (missing, unreadable, not UTF-8)"
+)

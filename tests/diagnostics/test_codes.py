@@ -12,7 +12,8 @@ def test_registered_codes_are_well_formed() -> None:
     assert codes.REGISTRY, "no codes registered"
     for name, entry in codes.REGISTRY.items():
         assert name == entry.code
-        assert entry.summary and not entry.summary.endswith(".")
+        assert entry.summary
+        assert not entry.summary.endswith(".")
 
 
 def test_register_rejects_duplicates_and_bad_names() -> None:
