@@ -1,0 +1,92 @@
+"""model.json and model.obj: round trip, validation, closed mesh."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from pathlib import Path
+
+import pytest
+
+from aida_kb.errors import FormatError
+from aida_kb.io.model import (
+    ModelPart,
+    ReconstructedModel,
+    obj_text,
+    read_model,
+    write_model,
+    write_obj,
+)
+
+
+def _cube(size: float = 2.0) -> ReconstructedModel:
+    s = size
+    corners = {(i, j, k): (i * s, j * s, k * s) for i in (0, 1) for j in (0, 1) for k in (0, 1)}
+    faces = {
+        "x0": ((-1, 0, 0), 0.0, [(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)]),
+        "x1": ((1, 0, 0), s, [(1, 0, 0), (1, 1, 0), (1, 1, 1), (1, 0, 1)]),
+        "y0": ((0, -1, 0), 0.0, [(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)]),
+        "y1": ((0, 1, 0), s, [(0, 1, 0), (0, 1, 1), (1, 1, 1), (1, 1, 0)]),
+        "z0": ((0, 0, -1), 0.0, [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)]),
+        "z1": ((0, 0, 1), s, [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]),
+    }
+    parts = [
+        ModelPart(
+            role=f"box.{name}",
+            concept="Plane",
+            normal=(float(n[0]), float(n[1]), float(n[2])),
+            offset_m=d,
+            polygon=[corners[c] for c in poly],
+        )
+        for name, (n, d, poly) in faces.items()
+    ]
+    return ReconstructedModel(parts=parts)
+
+
+def test_model_json_round_trip(tmp_path: Path) -> None:
+    model = _cube()
+    write_model(tmp_path / "model.json", model)
+    assert read_model(tmp_path / "model.json") == model
+
+
+def test_obj_is_closed_and_welded(tmp_path: Path) -> None:
+    write_obj(tmp_path / "model.obj", _cube())
+    text = (tmp_path / "model.obj").read_text()
+    assert sum(line.startswith("v ") for line in text.splitlines()) == 8
+    faces = [line.split()[1:] for line in text.splitlines() if line.startswith("f ")]
+    assert len(faces) == 6
+    edges: Counter[frozenset[str]] = Counter()
+    for face in faces:
+        for a, b in zip(face, face[1:] + face[:1], strict=True):
+            edges[frozenset((a, b))] += 1
+    assert len(edges) == 12
+    assert set(edges.values()) == {2}, "every edge of a closed mesh is shared by two faces"
+
+
+def test_obj_text_uses_part_roles() -> None:
+    assert "g box.z1" in obj_text(_cube())
+
+
+def test_nan_and_bad_normals_are_rejected_with_file_and_field(tmp_path: Path) -> None:
+    data = json.loads(_cube().model_dump_json())
+    data["parts"][2]["polygon"][1][0] = float("nan")
+    bad = tmp_path / "model.json"
+    bad.write_text(json.dumps(data))
+    with pytest.raises(
+        FormatError, match=r"(?s)model\.json.*parts\[2\]\.polygon\[1\]\[0\].*finite"
+    ):
+        read_model(bad)
+    data = json.loads(_cube().model_dump_json())
+    data["parts"][0]["normal"] = [0.0, 0.0, 2.0]
+    bad.write_text(json.dumps(data))
+    with pytest.raises(FormatError, match="length 2, not 1"):
+        read_model(bad)
+
+
+def test_malformed_json_names_line(tmp_path: Path) -> None:
+    bad = tmp_path / "model.json"
+    bad.write_text('{"parts": [\n  {,]}')
+    with pytest.raises(FormatError, match=r"model\.json:2:4: not valid JSON"):
+        read_model(bad)
+    with pytest.raises(FormatError, match="no such file"):
+        read_model(tmp_path / "missing.json")
