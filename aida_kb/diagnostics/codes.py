@@ -49,6 +49,31 @@ def lookup(code: str) -> Code | None:
 
 # --- syntax (aida_kb.dsl) ----------------------------------------------------------------
 SYNTAX = register("KB001", Severity.ERROR, "the text does not follow the grammar of the language")
+UNTERMINATED_STRING = register(
+    "KB002", Severity.ERROR, "a string is not closed by '\"' on the line where it starts"
+)
+UNKNOWN_UNIT = register(
+    "KB003", Severity.ERROR, "a quantity carries a unit other than deg, rad, m, cm, mm or px"
+)
+UNTERMINATED_COMMENT = register("KB004", Severity.ERROR, "a '/*' comment has no closing '*/'")
+UNEXPECTED_CHARACTER = register(
+    "KB005", Severity.ERROR, "a character that no token of the language can start with"
+)
+BAD_CARDINALITY = register(
+    "KB006", Severity.ERROR, "a cardinality bound is not a whole number ([1..*], [0..4], [2])"
+)
+DUPLICATE_QUALIFIER = register(
+    "KB007", Severity.ERROR, "a relation gives its tolerance, weight or threshold twice"
+)
+UNEXPECTED_EOF = register(
+    "KB008", Severity.ERROR, "the file ends inside a declaration (a '}' or more is missing)"
+)
+BAD_RELATION = register(
+    "KB009", Severity.ERROR, "a relation is neither a call such as parallel(a, b) nor a comparison"
+)
+INTERNAL_PARSER_ERROR = register(
+    "KB099", Severity.ERROR, "the parser failed unexpectedly (a bug in aida-kb: please report it)"
+)
 
 # --- semantic (aida_kb.kb) -----------------------------------------------------------------
 # (registered by the compiler's owners, KB100 upwards)

@@ -1,0 +1,679 @@
+"""Parse ``.kb`` source text into an `ast.Module` and syntax diagnostics; never raises.
+
+The grammar (``grammars/kb.lark``) is parsed by Lark's LALR(1) parser with the contextual
+lexer; the AST is built *during* the parse by an inline transformer (no parse tree), so a
+parse costs little more than Lark's own. When the text has a syntax error, the parser
+resynchronises: it cuts the text at every top-level declaration keyword (``concept``,
+``abstract``, ``template``, ``instance``, ``import``, ``layers``) and parses each piece on its
+own, so one run reports every broken declaration and keeps every sound one.
+"""
+
+from __future__ import annotations
+
+import bisect
+import difflib
+import itertools
+import re
+import threading
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path as FsPath
+from typing import Any
+
+from lark import Lark, Token, Transformer
+from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
+
+from aida_kb.diagnostics import codes
+from aida_kb.diagnostics.core import Diagnostic, Span
+from aida_kb.dsl import ast
+
+__all__ = ["ParseResult", "grammar_path", "parse"]
+
+
+@dataclass(frozen=True, slots=True)
+class ParseResult:
+    """What `parse` found: the module (every declaration that parsed) and the diagnostics.
+
+    ``broken`` names the declarations that failed to parse (``concept Foo`` with a syntax
+    error gives ``"Foo"``), so that later phases need not report them again as unknown.
+    """
+
+    module: ast.Module
+    diagnostics: tuple[Diagnostic, ...]
+    broken: frozenset[str] = field(default_factory=frozenset)
+
+    @property
+    def ok(self) -> bool:
+        """True when no diagnostic is an error."""
+        return not any(d.is_error for d in self.diagnostics)
+
+
+def grammar_path() -> FsPath:
+    """The grammar file: inside the installed wheel, else the repository's ``grammars/``."""
+    packaged = resources.files("aida_kb").joinpath("_data", "grammars", "kb.lark")
+    if packaged.is_file():
+        return FsPath(str(packaged))
+    return FsPath(__file__).resolve().parents[2] / "grammars" / "kb.lark"
+
+
+# ---- building the AST ---------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class _Doc:
+    text: str | None
+
+
+@dataclass(frozen=True, slots=True)
+class _InLayer:
+    name: ast.Name
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class _IsA:
+    names: tuple[ast.Name, ...]
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class _Qualifier:
+    kind: str
+    value: ast.Expr
+    span: Span
+
+
+_ESCAPE = re.compile(r"\\(.)")
+_ESCAPES = {"n": "\n", "t": "\t", "r": "\r"}
+_QUANTITY = re.compile(r"(-?[0-9.eE+-]+?)[ \t]*([A-Za-z_][A-Za-z0-9_]*)$")
+_INTEGER = re.compile(r"[0-9]+$")
+
+
+def _unescape(literal: str) -> str:
+    body = literal[1:-1]
+    if "\\" not in body:
+        return body
+    return _ESCAPE.sub(lambda m: _ESCAPES.get(m.group(1), m.group(1)), body)
+
+
+class _Builder(Transformer[Token, Any]):
+    """Inline transformer: each grammar rule's callback returns its AST node."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.file = "<string>"
+        self.line_offset = 0
+        self.diagnostics: list[Diagnostic] = []
+
+    def reset(self, file: str, line_offset: int) -> None:
+        self.file = file
+        self.line_offset = line_offset
+        self.diagnostics = []
+
+    # -- spans
+    def span(self, ch: list[Any]) -> Span:
+        """The span from the first to the last positioned child (all tokens are kept)."""
+        off = self.line_offset
+        first: Any = None
+        last: Any = None
+        for c in ch:
+            if c is not None and not isinstance(c, _Doc | tuple):
+                first = c
+                break
+        for c in reversed(ch):
+            if c is not None and not isinstance(c, _Doc | tuple):
+                last = c
+                break
+        if first is None or last is None:
+            return Span.point(self.file, 1 + off, 1)
+        if isinstance(first, Token):
+            line, column = (first.line or 1) + off, first.column or 1
+        else:
+            line, column = first.span.line, first.span.column
+        if isinstance(last, Token):
+            end_line, end_column = (last.end_line or 1) + off, last.end_column or 1
+        else:
+            end_line, end_column = last.span.end_line, last.span.end_column
+        return Span(self.file, line, column, end_line, end_column)
+
+    def tspan(self, tok: Token) -> Span:
+        off = self.line_offset
+        return Span(
+            self.file,
+            (tok.line or 1) + off,
+            tok.column or 1,
+            (tok.end_line or 1) + off,
+            tok.end_column or 1,
+        )
+
+    def name(self, tok: Token) -> ast.Name:
+        return ast.Name(str(tok), self.tspan(tok))
+
+    def report(self, code: codes.Code, message: str, span: Span, hint: str | None = None) -> None:
+        self.diagnostics.append(Diagnostic(code.code, code.severity, message, span, hint))
+
+    # -- top level
+    def start(self, ch: list[Any]) -> list[Any]:
+        return [c for c in ch if c is not None]
+
+    def layers_decl(self, ch: list[Token]) -> ast.Layers:
+        return ast.Layers(tuple(self.name(t) for t in _names(ch)), self.span(ch))
+
+    def import_decl(self, ch: list[Token]) -> ast.Import:
+        tok = ch[1]
+        return ast.Import(ast.String(_unescape(str(tok)), self.tspan(tok)), self.span(ch))
+
+    def template_decl(self, ch: list[Any]) -> ast.Template:
+        doc = next((c.text for c in ch if isinstance(c, _Doc)), None)
+        return ast.Template(
+            self.name(ch[1]),
+            tuple(c for c in ch if isinstance(c, ast.Param)),
+            doc,
+            tuple(c for c in ch if isinstance(c, ast.Relation)),
+            self.span(ch),
+        )
+
+    def param(self, ch: list[Any]) -> ast.Param:
+        # NAME ":" NAME ["=" expr]  (placeholders: "=" and expr are None when absent)
+        default = ch[-1] if len(ch) > 3 and not isinstance(ch[-1], Token) else None
+        return ast.Param(self.name(ch[0]), self.name(ch[2]), default, self.span(ch))
+
+    def concept_decl(self, ch: list[Any]) -> ast.Concept:
+        abstract = isinstance(ch[0], Token) and ch[0].type == "ABSTRACT"
+        layer: ast.Name | None = None
+        parents: tuple[ast.Name, ...] = ()
+        doc: str | None = None
+        members: list[ast.Member] = []
+        for c in ch:
+            if isinstance(c, Token):
+                continue
+            if isinstance(c, _InLayer):
+                layer = c.name
+            elif isinstance(c, _IsA):
+                parents = c.names
+            elif isinstance(c, _Doc):
+                doc = c.text
+            elif c is not None:
+                members.append(c)
+        name = _names(ch)[0]
+        return ast.Concept(
+            self.name(name), abstract, layer, parents, doc, tuple(members), self.span(ch)
+        )
+
+    def in_layer(self, ch: list[Token]) -> _InLayer:
+        return _InLayer(self.name(ch[1]), self.span(ch))
+
+    def is_a(self, ch: list[Token]) -> _IsA:
+        return _IsA(tuple(self.name(t) for t in _names(ch)), self.span(ch))
+
+    def instance_decl(self, ch: list[Any]) -> ast.Instance:
+        names = _names(ch)
+        doc = next((c.text for c in ch if isinstance(c, _Doc)), None)
+        return ast.Instance(
+            self.name(names[0]),
+            self.name(names[1]),
+            doc,
+            tuple(c for c in ch if isinstance(c, ast.Binding)),
+            self.span(ch),
+        )
+
+    def binding(self, ch: list[Any]) -> ast.Binding:
+        return ast.Binding(self.name(ch[0]), ch[2], self.span(ch))
+
+    def list_value(self, ch: list[Any]) -> ast.ListExpr:
+        items = tuple(c for c in ch if c is not None and not isinstance(c, Token))
+        return ast.ListExpr(items, self.span(ch))
+
+    def doc(self, ch: list[Token]) -> _Doc:
+        if not ch:
+            return _Doc(None)
+        return _Doc("".join(_unescape(str(t)) for t in ch))
+
+    # -- members
+    def part(self, ch: list[Any]) -> ast.Part:
+        names = _names(ch)
+        card = ch[-1] if isinstance(ch[-1], ast.Cardinality) else None
+        optional = isinstance(ch[0], Token) and ch[0].type == "OPTIONAL"
+        return ast.Part(
+            tuple(self.name(t) for t in names[:-1]),
+            self.name(names[-1]),
+            optional,
+            card,
+            self.span(ch),
+        )
+
+    def con_of(self, ch: list[Any]) -> ast.ConOf:
+        names = _names(ch)
+        card = ch[-1] if isinstance(ch[-1], ast.Cardinality) else None
+        return ast.ConOf(self.name(names[0]), self.name(names[1]), card, self.span(ch))
+
+    def cardinality(self, ch: list[Token | None]) -> ast.Cardinality:
+        span = self.span(ch)
+        bounds = [t for t in ch if t is not None and t.type in ("NUMBER", "STAR")]
+        low = self.int_bound(bounds[0], span)
+        if len(bounds) == 1:
+            return ast.Cardinality(low, low, span)
+        high_tok = bounds[1]
+        high = None if high_tok.type == "STAR" else self.int_bound(high_tok, span)
+        return ast.Cardinality(low, high, span)
+
+    def int_bound(self, tok: Token, span: Span) -> int:
+        text = str(tok)
+        if _INTEGER.match(text):
+            return int(text)
+        self.report(
+            codes.BAD_CARDINALITY,
+            f"a cardinality bound must be a whole number, not {text}",
+            self.tspan(tok),
+            "write [1..*], [0..4] or [2]",
+        )
+        return 0
+
+    def attribute(self, ch: list[Any]) -> ast.Attribute:
+        names = _names(ch)
+        rng = next((c for c in ch if isinstance(c, ast.Range)), None)
+        default = ch[-1] if not isinstance(ch[-1], Token | ast.Range) else None
+        return ast.Attribute(self.name(names[0]), self.name(names[1]), rng, default, self.span(ch))
+
+    def attr_range(self, ch: list[Any]) -> ast.Range:
+        return ast.Range(ch[1], ch[3], self.span(ch))
+
+    def adjacent_ring(self, ch: list[Any]) -> ast.Adjacency:
+        paths = tuple(c for c in ch if isinstance(c, ast.Path))
+        return ast.Adjacency("ring", (paths,), self.span(ch))
+
+    def adjacent_pairs(self, ch: list[Any]) -> ast.Adjacency:
+        pairs = tuple(c for c in ch if isinstance(c, tuple))
+        return ast.Adjacency("pairs", pairs, self.span(ch))
+
+    def pair(self, ch: list[Any]) -> tuple[ast.Path, ast.Path]:
+        return (ch[1], ch[3])
+
+    def constraint(self, ch: list[Any]) -> ast.Constraint | None:
+        relation = ch[-1]
+        if relation is None:
+            return None
+        label = self.name(ch[1]) if isinstance(ch[1], Token) else None
+        return ast.Constraint(label, relation, self.span(ch))
+
+    def measure(self, ch: list[Any]) -> ast.Measure | None:
+        if ch[1] is None:
+            return None
+        return ast.Measure(ch[1], self.span(ch))
+
+    # -- relations
+    def relation(self, ch: list[Any]) -> ast.Relation | None:
+        lhs, eq, rhs = ch[0], ch[1], ch[2]
+        body: ast.Call | ast.Comparison
+        if eq is not None:
+            span = Span(
+                lhs.span.file,
+                lhs.span.line,
+                lhs.span.column,
+                rhs.span.end_line,
+                rhs.span.end_column,
+            )
+            body = ast.Comparison(lhs, "==", rhs, span)
+        elif isinstance(lhs, ast.Call):
+            body = lhs
+        else:
+            self.report(
+                codes.BAD_RELATION,
+                f"'{lhs}' is not a relation",
+                lhs.span,
+                "a relation is a call such as parallel(a, b) or a comparison such as "
+                "angle(a, b) == 90 deg",
+            )
+            return None
+        found: dict[str, _Qualifier] = {}
+        for q in ch[3:]:
+            if q.kind in found:
+                self.report(
+                    codes.DUPLICATE_QUALIFIER,
+                    f"this relation already has a {q.kind}",
+                    q.span,
+                    "give each of '+-', 'weight' and 'reject above' at most once",
+                )
+            else:
+                found[q.kind] = q
+        return ast.Relation(
+            body,
+            found["tolerance"].value if "tolerance" in found else None,
+            found["weight"].value if "weight" in found else None,
+            found["threshold"].value if "threshold" in found else None,
+            self.span(ch),
+        )
+
+    def tolerance(self, ch: list[Any]) -> _Qualifier:
+        return _Qualifier("tolerance", ch[-1], self.span(ch))
+
+    def weight(self, ch: list[Any]) -> _Qualifier:
+        return _Qualifier("weight", ch[-1], self.span(ch))
+
+    def reject(self, ch: list[Any]) -> _Qualifier:
+        return _Qualifier("threshold", ch[-1], self.span(ch))
+
+    # -- expressions
+    def call(self, ch: list[Any]) -> ast.Call:
+        args = tuple(c for c in ch[2:] if c is not None and not isinstance(c, Token))
+        return ast.Call(self.name(ch[0]), args, self.span(ch))
+
+    def path(self, ch: list[Token]) -> ast.Path:
+        return ast.Path(tuple(self.name(t) for t in _names(ch)), self.span(ch))
+
+    def number(self, ch: list[Token]) -> ast.Number:
+        tok = ch[0]
+        return ast.Number(float(tok), str(tok), self.tspan(tok))
+
+    def quantity(self, ch: list[Token]) -> ast.Quantity:
+        tok = ch[0]
+        text = str(tok)
+        span = self.tspan(tok)
+        m = _QUANTITY.match(text)
+        number, unit = (m.group(1), m.group(2)) if m else (text, "")
+        if unit not in ast.UNITS:
+            unit_col = span.end_column - len(unit)
+            close = difflib.get_close_matches(unit, ast.UNITS, n=1, cutoff=0.5)
+            self.report(
+                codes.UNKNOWN_UNIT,
+                f"unknown unit '{unit}' — expected {', '.join(ast.UNITS)}",
+                Span(span.file, span.end_line, unit_col, span.end_line, span.end_column),
+                f"did you mean '{close[0]}'?" if close else None,
+            )
+        return ast.Quantity(float(number), unit, text, span)
+
+    def string(self, ch: list[Token]) -> ast.String:
+        return ast.String(_unescape(str(ch[0])), self.tspan(ch[0]))
+
+
+def _names(ch: list[Any]) -> list[Token]:
+    return [c for c in ch if isinstance(c, Token) and c.type == "NAME"]
+
+
+# ---- the parser, built once ---------------------------------------------------------------------
+_lock = threading.Lock()
+_builder = _Builder()
+_lark: Lark | None = None
+
+
+def _parser() -> Lark:
+    global _lark
+    if _lark is None:
+        _lark = Lark(
+            grammar_path().read_text(encoding="utf-8"),
+            parser="lalr",
+            lexer="contextual",
+            maybe_placeholders=True,
+            keep_all_tokens=True,
+            cache=True,
+            transformer=_builder,
+        )
+    return _lark
+
+
+def parse(text: str, file: str = "<string>") -> ParseResult:
+    """Parse one ``.kb`` source text.
+
+    Parameters
+    ----------
+    text : str
+        The source.
+    file : str
+        The file name put into every span and diagnostic.
+
+    Returns
+    -------
+    ParseResult
+        The module of every declaration that parsed, the syntax diagnostics (codes KB001-KB099)
+        sorted by position, and the names of the declarations that did not parse. Never raises.
+    """
+    try:
+        with _lock:
+            return _parse_locked(text, file)
+    except Exception as exc:  # the last safety net: parse() must never raise
+        span = Span.point(file, 1, 1)
+        diag = Diagnostic(
+            codes.INTERNAL_PARSER_ERROR.code,
+            codes.INTERNAL_PARSER_ERROR.severity,
+            f"internal parser error: {type(exc).__name__}: {exc}",
+            span,
+        )
+        return ParseResult(ast.Module(file, (), span), (diag,))
+
+
+def _module_span(text: str, file: str) -> Span:
+    lines = text.split("\n")
+    return Span(file, 1, 1, len(lines), len(lines[-1]) + 1)
+
+
+def _parse_locked(text: str, file: str) -> ParseResult:
+    lark = _parser()
+    _builder.reset(file, 0)
+    try:
+        items: list[ast.Item] = lark.parse(text)  # type: ignore[assignment]
+    except UnexpectedInput:
+        pass
+    else:
+        diags = tuple(sorted(_builder.diagnostics, key=Diagnostic.sort_key))
+        return ParseResult(ast.Module(file, tuple(items), _module_span(text, file)), diags)
+    return _recover(lark, text, file)
+
+
+# ---- recovery -----------------------------------------------------------------------------------
+_SCAN = re.compile(
+    r'//[^\n]*|/\*.*?(?:\*/|\Z)|"(?:[^"\\\n]|\\.)*"?'
+    r"|(?<![A-Za-z0-9_-])(abstract|concept|template|instance|import|layers)(?![A-Za-z0-9_-])",
+    re.S,
+)
+_DECL_NAME = re.compile(r"(?:abstract\s+)?(?:concept|template|instance)\s+([A-Za-z_][A-Za-z0-9_]*)")
+
+
+def _declaration_starts(text: str) -> list[int]:
+    """Offsets where a top-level declaration keyword starts (outside strings and comments)."""
+    starts: list[int] = []
+    last_kw = ""
+    last_end = 0
+    for m in _SCAN.finditer(text):
+        kw = m.group(1)
+        if kw is None:
+            continue
+        if kw == "concept" and last_kw == "abstract" and not text[last_end : m.start()].strip():
+            last_kw = kw
+            continue
+        starts.append(m.start())
+        last_kw, last_end = kw, m.end()
+    return starts
+
+
+def _recover(lark: Lark, text: str, file: str) -> ParseResult:
+    line_starts = [0] + [i + 1 for i, ch in enumerate(text) if ch == "\n"]
+    bounds = _declaration_starts(text)
+    if not bounds or bounds[0] != 0:
+        bounds.insert(0, 0)
+    bounds.append(len(text))
+    items: list[ast.Item] = []
+    diags: list[Diagnostic] = []
+    broken: set[str] = set()
+    for start, end in itertools.pairwise(bounds):
+        chunk = text[start:end]
+        if not chunk.strip():
+            continue
+        line_index = bisect.bisect_right(line_starts, start) - 1
+        column = start - line_starts[line_index] + 1
+        padded = " " * (column - 1) + chunk
+        _builder.reset(file, line_index)
+        try:
+            items.extend(lark.parse(padded))  # type: ignore[arg-type]
+        except UnexpectedInput as exc:
+            diags.append(_describe(lark, exc, padded, file, line_index))
+            m = _DECL_NAME.match(chunk)
+            if m:
+                broken.add(m.group(1))
+        diags.extend(_builder.diagnostics)
+    diags.sort(key=Diagnostic.sort_key)
+    module = ast.Module(file, tuple(items), _module_span(text, file))
+    return ParseResult(module, tuple(diags), frozenset(broken))
+
+
+# ---- friendly messages --------------------------------------------------------------------------
+_AFTER_KEYWORD: dict[str, str] = {
+    "PART": "expected a role name after 'part'",
+    "_CON_OF": "expected a role name after 'con-of'",
+    "CONCEPT": "expected a concept name after 'concept'",
+    "TEMPLATE": "expected a template name after 'template'",
+    "INSTANCE": "expected an instance name after 'instance'",
+    "ATTRIBUTE": "expected an attribute name after 'attribute'",
+    "OF": "expected a concept name after 'of'",
+    "_IS_A": "expected a parent concept name after 'is-a'",
+    "LAYERS": "expected a layer name after 'layers'",
+    "MORETHAN": "expected a layer name after '>'",
+    "IMPORT": "expected a file name in double quotes after 'import'",
+    "ADJACENT": "expected 'ring(...)' or 'pairs(...)' after 'adjacent'",
+    "CONSTRAINT": "expected a relation after 'constraint', such as parallel(a, b) "
+    "or angle(a, b) == 90 deg",
+    "MEASURE": "expected a measurement after 'measure', such as position(self) or edge(edge(a, b))",
+    "_PLUSMINUS": "expected a tolerance after '+-', such as 0.5 deg",
+    "WEIGHT": "expected a number after 'weight'",
+    "REJECT": "expected 'above' after 'reject'",
+    "ABOVE": "expected a threshold after 'reject above', such as 3 deg",
+    "EQ": "expected a value after '=='",
+    "EQUAL": "expected a value after '='",
+    "OPTIONAL": "expected 'part' after 'optional'",
+    "ABSTRACT": "expected 'concept' after 'abstract'",
+    "__ANON_0": "expected a number or '*' after '..'",
+    "DOT": "expected a role name after '.'",
+    "RING": "expected '(' and the parts of the ring after 'ring'",
+    "PAIRS": "expected '(' and the pairs after 'pairs'",
+}
+_TERMINAL_WORDS: dict[str, str] = {
+    "NAME": "a name",
+    "NUMBER": "a number",
+    "QUANTITY": "a quantity such as 90 deg",
+    "STRING": "a string",
+    "$END": "the end of the file",
+}
+_DECLARATION_KEYWORDS = {"CONCEPT", "TEMPLATE", "INSTANCE", "IMPORT", "LAYERS", "ABSTRACT"}
+_MEMBER_KEYWORDS = {"PART", "OPTIONAL", "_CON_OF", "ATTRIBUTE", "ADJACENT", "CONSTRAINT"}
+
+
+def _terminal_word(lark: Lark, name: str) -> str:
+    if name in _TERMINAL_WORDS:
+        return _TERMINAL_WORDS[name]
+    try:
+        term = lark.get_terminal(name)
+    except KeyError:
+        return name
+    if term.pattern.type == "str":
+        return f"'{term.pattern.value}'"
+    return name.lower()
+
+
+def _found(tok: Token) -> str:
+    if tok.type == "$END":
+        return "the end of the file"
+    return f"'{tok}'"
+
+
+def _describe(lark: Lark, exc: UnexpectedInput, text: str, file: str, off: int) -> Diagnostic:
+    """A diagnostic for a syntax error, in the language's words (not the grammar's)."""
+    if isinstance(exc, UnexpectedCharacters):
+        return _describe_characters(exc, text, file, off)
+    if isinstance(exc, UnexpectedToken):
+        return _describe_token(lark, exc, text, file, off)
+    span = Span.point(file, max(exc.line, 1) + off, max(exc.column, 1))
+    return _diag(codes.SYNTAX, "syntax error", span)
+
+
+def _diag(code: codes.Code, message: str, span: Span, hint: str | None = None) -> Diagnostic:
+    return Diagnostic(code.code, code.severity, message, span, hint)
+
+
+def _describe_characters(exc: UnexpectedCharacters, text: str, file: str, off: int) -> Diagnostic:
+    pos = exc.pos_in_stream or 0
+    line, col = exc.line + off, exc.column
+    if text.startswith('"', pos):
+        eol = text.find("\n", pos)
+        length = (len(text) if eol < 0 else eol) - pos
+        span = Span(file, line, col, line, col + max(length, 1))
+        return _diag(
+            codes.UNTERMINATED_STRING,
+            "unterminated string",
+            span,
+            "close the string with '\"' on the same line; write \\\" for a quote inside it",
+        )
+    if text.startswith("/*", pos):
+        return _diag(
+            codes.UNTERMINATED_COMMENT,
+            "unterminated comment: '/*' has no closing '*/'",
+            Span(file, line, col, line, col + 2),
+        )
+    char = exc.char
+    hints = {
+        "#": "comments start with // or /*",
+        ";": "no ';' is needed: members and declarations end by themselves",
+        "'": "strings are written in double quotes",
+    }
+    return _diag(
+        codes.UNEXPECTED_CHARACTER,
+        f"unexpected character {char!r}",
+        Span.point(file, line, col),
+        hints.get(char),
+    )
+
+
+def _describe_token(lark: Lark, exc: UnexpectedToken, text: str, file: str, off: int) -> Diagnostic:
+    tok = exc.token
+    expected = set(exc.expected)
+    found = _found(tok)
+    if tok.type == "$END":
+        lines = text.split("\n")
+        span = Span.point(file, len(lines) + off, len(lines[-1]) + 1)
+    else:
+        span = Span(
+            file,
+            (tok.line or 1) + off,
+            tok.column or 1,
+            (tok.end_line or 1) + off,
+            tok.end_column or 1,
+        )
+    prev: Any = None
+    if exc.interactive_parser is not None:
+        stack = exc.interactive_parser.parser_state.value_stack
+        prev = stack[-1] if stack else None
+    prev_type = prev.type if isinstance(prev, Token) else None
+
+    message: str | None = None
+    hint: str | None = None
+    if prev_type == "NAME" and "IN" in expected and "_IS_A" in expected:
+        message = "expected 'in LAYER' or 'is-a PARENT' after the concept name"
+    elif prev_type == "IN" and "LSQB" in expected:
+        message = "expected a range such as [85 deg, 95 deg] after 'in'"
+    elif prev_type == "IN":
+        message = "expected a layer name after 'in'"
+    elif prev_type == "COLON" and expected <= {"NAME"}:
+        message = "expected a concept or type name after ':'"
+    elif prev_type is not None and prev_type in _AFTER_KEYWORD:
+        message = _AFTER_KEYWORD[prev_type]
+    elif expected & _DECLARATION_KEYWORDS and "RBRACE" not in expected:
+        message = (
+            "expected a declaration (concept, abstract concept, template, instance, import "
+            "or layers)"
+        )
+        if tok.type == "RBRACE":
+            hint = "this '}' closes nothing"
+    elif expected & _MEMBER_KEYWORDS:
+        message = (
+            "expected a member (part, optional part, con-of, attribute, adjacent, constraint, "
+            "measure) or '}'"
+        )
+        if tok.type == "NAME":
+            hint = "a role is declared with 'part NAME: Concept'"
+    if message is None:
+        words = sorted({_terminal_word(lark, t) for t in expected})
+        if len(words) > 8:
+            words = [*words[:8], "..."]
+        message = "expected " + (words[0] if len(words) == 1 else "one of " + ", ".join(words))
+    if tok.type == "$END":
+        code = codes.UNEXPECTED_EOF if "RBRACE" in expected else codes.SYNTAX
+        if "RBRACE" in expected and hint is None:
+            hint = "a '}' is missing"
+        return _diag(code, f"{message}, found the end of the file", span, hint)
+    return _diag(codes.SYNTAX, f"{message}, found {found}", span, hint)
