@@ -1,0 +1,547 @@
+"""The scene directory: the input format of the whole pipeline (reader and writer).
+
+Layout (documented field by field in docs/formats.md)::
+
+    DIR/scene.yaml               format, version, name, calib file, list of views and their files
+    DIR/calib.yaml               stereo rig as cv2.FileStorage writes it: K1 D1 K2 D2 R T
+                                 image_width image_height (x_right = R·x_left + T, T in metres)
+    DIR/views/NN/left.png        8-bit image (grey or BGR)
+    DIR/views/NN/right.png       8-bit image (grey or BGR)
+    DIR/views/NN/labels.png      optional 16-bit label image, 0 = unlabelled
+    DIR/views/NN/depth_left.npy  synthetic only: float32 z in metres, left camera, NaN = no surface
+    DIR/truth.json               synthetic only: parts, planes, polygons, view poses
+
+World coordinates are those of the left camera of view 00 (OpenCV: x right, y down, z forward),
+in metres. Every file is written atomically; every problem on reading raises `FormatError`
+naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from aida_kb.errors import FormatError
+from aida_kb.io.atomic import atomic_path, write_text_atomic
+from aida_kb.io.jsonio import describe_validation_error, read_json_model, write_json_model
+
+SCENE_FORMAT = "aida-kb-scene"
+SCENE_VERSION = 1
+SCENE_FILE = "scene.yaml"
+CALIB_FILE = "calib.yaml"
+TRUTH_FILE = "truth.json"
+
+FloatArray = npt.NDArray[np.float64]
+
+# ---------------------------------------------------------------------------------------------
+# scene.yaml
+
+
+class ViewEntry(BaseModel):
+    """One view of scene.yaml: an id and its files, relative to the scene directory."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    id: str = Field(min_length=1)
+    left: str = Field(min_length=1)
+    right: str = Field(min_length=1)
+    labels: str | None = None
+    depth_left: str | None = None
+
+
+class SceneIndex(BaseModel):
+    """The content of scene.yaml."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    format: Literal["aida-kb-scene"] = "aida-kb-scene"
+    version: Literal[1] = 1
+    name: str = ""
+    calib: str = CALIB_FILE
+    truth: str | None = None
+    views: list[ViewEntry] = Field(min_length=1)
+
+    @field_validator("views")
+    @classmethod
+    def _unique_ids(cls, views: list[ViewEntry]) -> list[ViewEntry]:
+        ids = [v.id for v in views]
+        dupes = sorted({i for i in ids if ids.count(i) > 1})
+        if dupes:
+            raise ValueError(f"view ids must be unique; repeated: {', '.join(dupes)}")
+        return views
+
+
+# ---------------------------------------------------------------------------------------------
+# truth.json
+
+Vec3 = tuple[float, float, float]
+Mat3 = tuple[Vec3, Vec3, Vec3]
+
+
+def _finite(values: Sequence[float], what: str) -> None:
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{what} must be finite numbers")
+
+
+class PartTruth(BaseModel):
+    """One planar face of the synthetic object, in world coordinates (metres).
+
+    `normal` is the unit normal pointing out of the solid; the plane is normal·x = d.
+    `polygon` lists the face's vertices in order, counter-clockwise seen from outside.
+    `label` is the id used for this part in views/NN/labels.png.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    role: str = Field(min_length=1)
+    concept: str = Field(min_length=1)
+    label: int = Field(ge=1, le=65535)
+    material: str = ""
+    normal: Vec3
+    d: float
+    polygon: list[Vec3] = Field(min_length=3)
+
+    @field_validator("normal")
+    @classmethod
+    def _unit_normal(cls, n: Vec3) -> Vec3:
+        _finite(n, "normal")
+        norm = math.sqrt(sum(c * c for c in n))
+        if abs(norm - 1.0) > 1e-6:
+            raise ValueError(f"normal must have unit length (has {norm:.6g})")
+        return n
+
+    @field_validator("polygon")
+    @classmethod
+    def _finite_polygon(cls, poly: list[Vec3]) -> list[Vec3]:
+        for vertex in poly:
+            _finite(vertex, "polygon vertices")
+        return poly
+
+
+class GroundTruth(BaseModel):
+    """The ground plane (not a part of the object): normal·x = d, normal pointing up (out)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    label: int = Field(ge=1, le=65535)
+    normal: Vec3
+    d: float
+
+
+class PoseTruth(BaseModel):
+    """The left camera of one view: x_cam = R·x_world + t, pixels = K·x_cam (before distortion)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    view: str = Field(min_length=1)
+    K: Mat3
+    R: Mat3
+    t: Vec3
+
+    @field_validator("R")
+    @classmethod
+    def _rotation(cls, R: Mat3) -> Mat3:
+        m = np.asarray(R, dtype=float)
+        if not np.all(np.isfinite(m)):
+            raise ValueError("R must be finite")
+        if np.abs(m @ m.T - np.eye(3)).max() > 1e-6 or np.linalg.det(m) < 0:
+            raise ValueError("R must be a rotation matrix (orthonormal, det +1)")
+        return R
+
+
+class SceneTruth(BaseModel):
+    """The content of truth.json (synthetic scenes only)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    version: Literal[1] = 1
+    object: str = Field(min_length=1, description="scene concept, e.g. House or ReferenceBox")
+    parts: list[PartTruth]
+    ground: GroundTruth | None = None
+    views: list[PoseTruth]
+    parameters: dict[str, float | str | bool] = Field(default_factory=dict)
+
+    def part(self, role: str) -> PartTruth:
+        """The part with role path `role` (KeyError if there is none)."""
+        for p in self.parts:
+            if p.role == role:
+                return p
+        raise KeyError(role)
+
+    def pose(self, view: str) -> PoseTruth:
+        """The left-camera pose of view `view` (KeyError if there is none)."""
+        for v in self.views:
+            if v.view == view:
+                return v
+        raise KeyError(view)
+
+
+# ---------------------------------------------------------------------------------------------
+# calib.yaml
+
+
+@dataclass(frozen=True)
+class StereoCalib:
+    """A calibrated stereo rig in OpenCV's stereoCalibrate conventions.
+
+    K1, K2 : (3, 3) camera matrices, pixels. D1, D2 : (5,) distortion k1 k2 p1 p2 k3 (or any
+    length OpenCV accepts: 4, 5, 8, 12, 14). R : (3, 3) and T : (3,) metres, mapping left-camera
+    to right-camera coordinates, x_right = R·x_left + T. image_size : (width, height), pixels.
+    """
+
+    K1: FloatArray
+    D1: FloatArray
+    K2: FloatArray
+    D2: FloatArray
+    R: FloatArray
+    T: FloatArray
+    image_size: tuple[int, int]
+
+    @property
+    def baseline_m(self) -> float:
+        """Distance between the two camera centres, metres."""
+        return float(np.linalg.norm(self.T))
+
+
+_D_LENGTHS = (4, 5, 8, 12, 14)
+
+
+def write_calib(path: str | os.PathLike[str], calib: StereoCalib) -> None:
+    """Write `calib` with cv2.FileStorage (YAML), atomically."""
+    import cv2
+
+    target = Path(path)
+    with atomic_path(target) as tmp:
+        fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
+        try:
+            fs.write("image_width", int(calib.image_size[0]))
+            fs.write("image_height", int(calib.image_size[1]))
+            fs.write("K1", np.asarray(calib.K1, dtype=np.float64).reshape(3, 3))
+            fs.write("D1", np.asarray(calib.D1, dtype=np.float64).reshape(1, -1))
+            fs.write("K2", np.asarray(calib.K2, dtype=np.float64).reshape(3, 3))
+            fs.write("D2", np.asarray(calib.D2, dtype=np.float64).reshape(1, -1))
+            fs.write("R", np.asarray(calib.R, dtype=np.float64).reshape(3, 3))
+            fs.write("T", np.asarray(calib.T, dtype=np.float64).reshape(3, 1))
+        finally:
+            fs.release()
+
+
+def _calib_matrix(fs: Any, file: Path, name: str, sizes: tuple[int, ...]) -> FloatArray:
+    node = fs.getNode(name)
+    if node.empty():
+        raise FormatError(f"{file}: field {name}: missing")
+    if not node.isMap():
+        raise FormatError(f"{file}: field {name}: not a matrix (expected an opencv-matrix)")
+    mat = node.mat()
+    if mat is None:
+        raise FormatError(f"{file}: field {name}: not a matrix (expected an opencv-matrix)")
+    arr = np.asarray(mat, dtype=np.float64)
+    if arr.size not in sizes:
+        want = " or ".join(str(s) for s in sizes)
+        raise FormatError(f"{file}: field {name}: has {arr.size} elements, expected {want}")
+    if not np.all(np.isfinite(arr)):
+        raise FormatError(f"{file}: field {name}: contains NaN or infinite values")
+    return arr
+
+
+def _calib_int(fs: Any, file: Path, name: str) -> int:
+    node = fs.getNode(name)
+    if node.empty():
+        raise FormatError(f"{file}: field {name}: missing")
+    if not node.isInt():
+        raise FormatError(f"{file}: field {name}: expected a positive integer")
+    value = int(node.real())
+    if value <= 0:
+        raise FormatError(f"{file}: field {name}: expected a positive integer, got {value}")
+    return value
+
+
+def read_calib(path: str | os.PathLike[str]) -> StereoCalib:
+    """Read a calib.yaml (or .xml/.json) written by cv2.FileStorage; validate every field."""
+    import cv2
+
+    file = Path(path)
+    if not file.is_file():
+        raise FormatError(f"{file}: no such file")
+    try:
+        fs = cv2.FileStorage(str(file), cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError) as exc:
+        cause = exc.__cause__ or exc.__context__ or exc
+        text = str(cause).strip()
+        msg = text.splitlines()[-1] if text else "parse error"
+        raise FormatError(f"{file}: not a cv2.FileStorage file: {msg}") from None
+    try:
+        if not fs.isOpened():
+            raise FormatError(f"{file}: cannot be opened by cv2.FileStorage")
+        width = _calib_int(fs, file, "image_width")
+        height = _calib_int(fs, file, "image_height")
+        K1 = _calib_matrix(fs, file, "K1", (9,)).reshape(3, 3)
+        D1 = _calib_matrix(fs, file, "D1", _D_LENGTHS).ravel()
+        K2 = _calib_matrix(fs, file, "K2", (9,)).reshape(3, 3)
+        D2 = _calib_matrix(fs, file, "D2", _D_LENGTHS).ravel()
+        R = _calib_matrix(fs, file, "R", (9,)).reshape(3, 3)
+        T = _calib_matrix(fs, file, "T", (3,)).ravel()
+    finally:
+        fs.release()
+    for name, K in (("K1", K1), ("K2", K2)):
+        if K[0, 0] <= 0 or K[1, 1] <= 0 or abs(K[2, 2] - 1.0) > 1e-9 or np.any(K[2, :2] != 0):
+            raise FormatError(
+                f"{file}: field {name}: not a camera matrix (need fx, fy > 0 and last row 0 0 1)"
+            )
+    if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
+        raise FormatError(f"{file}: field R: not a rotation matrix (orthonormal, det +1)")
+    if np.linalg.norm(T) <= 0:
+        raise FormatError(f"{file}: field T: zero baseline")
+    return StereoCalib(K1=K1, D1=D1, K2=K2, D2=D2, R=R, T=T, image_size=(width, height))
+
+
+# ---------------------------------------------------------------------------------------------
+# the scene as a whole
+
+
+@dataclass(frozen=True)
+class SceneView:
+    """One view of a scene: its id and absolute file paths (labels/depth may be absent)."""
+
+    id: str
+    left: Path
+    right: Path
+    labels: Path | None = None
+    depth_left: Path | None = None
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A scene directory as read by `read_scene`: calibration, views, optional ground truth."""
+
+    root: Path
+    name: str
+    calib: StereoCalib
+    views: tuple[SceneView, ...]
+    truth: SceneTruth | None = None
+
+    def view(self, view_id: str) -> SceneView:
+        """The view with id `view_id` (KeyError if there is none)."""
+        for v in self.views:
+            if v.id == view_id:
+                return v
+        raise KeyError(view_id)
+
+
+def _read_index(file: Path) -> SceneIndex:
+    try:
+        text = file.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise FormatError(f"{file}: no such file (is {file.parent} a scene directory?)") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise FormatError(f"{file}: cannot be read: {exc}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or "syntax error"
+        raise FormatError(f"{file}{where}: not valid YAML: {problem}") from None
+    if not isinstance(data, dict):
+        raise FormatError(f"{file}: expected a mapping with fields format, version, views")
+    try:
+        return SceneIndex.model_validate(data)
+    except ValidationError as exc:
+        raise FormatError(describe_validation_error(str(file), exc)) from None
+
+
+def _resolve(root: Path, index_file: Path, field_name: str, rel: str) -> Path:
+    path = Path(rel)
+    if path.is_absolute() or ".." in path.parts:
+        raise FormatError(
+            f"{index_file}: field {field_name}: must be a path inside the scene directory: {rel}"
+        )
+    full = root / path
+    if not full.is_file():
+        raise FormatError(f"{index_file}: field {field_name}: file not found: {full}")
+    return full
+
+
+def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) -> Scene:
+    """Read and validate a scene directory (scene.yaml, calib.yaml, truth.json if listed).
+
+    Images are not loaded here (see `read_image`, `read_labels`, `read_depth`); their files must
+    exist. Raises FormatError naming the file and the field on any problem.
+    """
+    root = Path(directory)
+    if not root.is_dir():
+        raise FormatError(f"{root}: not a directory (expected a scene directory)")
+    index_file = root / SCENE_FILE
+    index = _read_index(index_file)
+    calib = read_calib(_resolve(root, index_file, "calib", index.calib))
+    views = []
+    for i, v in enumerate(index.views):
+        prefix = f"views[{i}]"
+        views.append(
+            SceneView(
+                id=v.id,
+                left=_resolve(root, index_file, f"{prefix}.left", v.left),
+                right=_resolve(root, index_file, f"{prefix}.right", v.right),
+                labels=None
+                if v.labels is None
+                else _resolve(root, index_file, f"{prefix}.labels", v.labels),
+                depth_left=None
+                if v.depth_left is None
+                else _resolve(root, index_file, f"{prefix}.depth_left", v.depth_left),
+            )
+        )
+    truth = None
+    if with_truth and index.truth is not None:
+        truth_file = _resolve(root, index_file, "truth", index.truth)
+        truth = read_json_model(truth_file, SceneTruth)
+        ids = {v.id for v in views}
+        for j, pose in enumerate(truth.views):
+            if pose.view not in ids:
+                raise FormatError(
+                    f"{truth_file}: field views[{j}].view: {pose.view!r} is not a view of "
+                    f"{index_file}"
+                )
+        labels = [p.label for p in truth.parts] + ([truth.ground.label] if truth.ground else [])
+        if len(set(labels)) != len(labels):
+            raise FormatError(f"{truth_file}: field parts: label ids must be unique")
+    return Scene(root=root, name=index.name, calib=calib, views=tuple(views), truth=truth)
+
+
+def read_image(path: str | os.PathLike[str], *, grey: bool = False) -> npt.NDArray[np.uint8]:
+    """Load an 8-bit view image: (H, W) if grey, else (H, W, 3) BGR (grey files are expanded)."""
+    import cv2
+
+    file = Path(path)
+    flag = cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR
+    img = cv2.imread(str(file), flag)
+    if img is None:
+        raise FormatError(f"{file}: not a readable image")
+    if img.dtype != np.uint8:
+        raise FormatError(f"{file}: expected an 8-bit image, got {img.dtype}")
+    return np.asarray(img, dtype=np.uint8)
+
+
+def read_labels(path: str | os.PathLike[str]) -> npt.NDArray[np.uint16]:
+    """Load a 16-bit label image (H, W); 0 = unlabelled."""
+    import cv2
+
+    file = Path(path)
+    img = cv2.imread(str(file), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise FormatError(f"{file}: not a readable image")
+    if img.ndim != 2:
+        raise FormatError(f"{file}: a label image must have one channel, has {img.shape[2]}")
+    if img.dtype not in (np.uint16, np.uint8):
+        raise FormatError(f"{file}: a label image must be 8- or 16-bit, got {img.dtype}")
+    return np.asarray(img, dtype=np.uint16)
+
+
+def read_depth(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
+    """Load a depth map (H, W) float32, metres along the left camera's z axis, NaN = none."""
+    file = Path(path)
+    try:
+        arr = np.load(file, allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise FormatError(f"{file}: not a numpy .npy array: {exc}") from None
+    if arr.ndim != 2 or arr.dtype != np.float32:
+        raise FormatError(
+            f"{file}: expected a 2-D float32 depth map, got {arr.dtype} of shape {arr.shape}"
+        )
+    return np.asarray(arr, dtype=np.float32)
+
+
+# ---------------------------------------------------------------------------------------------
+# writing
+
+
+@dataclass
+class ViewData:
+    """The images of one view to write: 8-bit left/right, optional labels and depth."""
+
+    left: npt.NDArray[np.uint8]
+    right: npt.NDArray[np.uint8]
+    labels: npt.NDArray[np.uint16] | None = None
+    depth_left: npt.NDArray[np.float32] | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _write_png(path: Path, image: npt.NDArray[Any]) -> None:
+    import cv2
+
+    with atomic_path(path) as tmp:
+        if not cv2.imwrite(str(tmp), image, [cv2.IMWRITE_PNG_COMPRESSION, 3]):
+            raise FormatError(f"{path}: could not be written as PNG")
+
+
+def _write_npy(path: Path, array: npt.NDArray[Any]) -> None:
+    with atomic_path(path) as tmp, tmp.open("wb") as fh:
+        np.save(fh, array, allow_pickle=False)
+
+
+def write_scene(
+    directory: str | os.PathLike[str],
+    calib: StereoCalib,
+    views: Sequence[ViewData],
+    *,
+    truth: SceneTruth | None = None,
+    name: str = "",
+    view_ids: Sequence[str] | None = None,
+) -> Path:
+    """Write a scene directory; every file atomically, scene.yaml last. Returns its path.
+
+    views : one `ViewData` per view; ids default to "00", "01", ...
+    """
+    root = Path(directory)
+    root.mkdir(parents=True, exist_ok=True)
+    ids = list(view_ids) if view_ids is not None else [f"{i:02d}" for i in range(len(views))]
+    if len(ids) != len(views):
+        raise ValueError("view_ids and views differ in length")
+    width, height = calib.image_size
+    entries = []
+    for vid, view in zip(ids, views, strict=True):
+        for what, img in (("left", view.left), ("right", view.right)):
+            if img.dtype != np.uint8 or img.shape[:2] != (height, width):
+                raise ValueError(
+                    f"view {vid}: {what} image must be uint8 of size {width}x{height}, "
+                    f"got {img.dtype} {img.shape}"
+                )
+        base = Path("views") / vid
+        _write_png(root / base / "left.png", view.left)
+        _write_png(root / base / "right.png", view.right)
+        labels_rel = depth_rel = None
+        if view.labels is not None:
+            labels_rel = (base / "labels.png").as_posix()
+            _write_png(root / labels_rel, np.asarray(view.labels, dtype=np.uint16))
+        if view.depth_left is not None:
+            depth_rel = (base / "depth_left.npy").as_posix()
+            _write_npy(root / depth_rel, np.asarray(view.depth_left, dtype=np.float32))
+        entries.append(
+            ViewEntry(
+                id=vid,
+                left=(base / "left.png").as_posix(),
+                right=(base / "right.png").as_posix(),
+                labels=labels_rel,
+                depth_left=depth_rel,
+            )
+        )
+    write_calib(root / CALIB_FILE, calib)
+    if truth is not None:
+        write_json_model(root / TRUTH_FILE, truth)
+    index = SceneIndex(
+        name=name, calib=CALIB_FILE, truth=TRUTH_FILE if truth else None, views=entries
+    )
+    data = index.model_dump(exclude_none=True)
+    text = "# aida-kb scene directory (see docs/formats.md)\n" + yaml.safe_dump(
+        data, sort_keys=False
+    )
+    write_text_atomic(root / SCENE_FILE, text)
+    return root

@@ -1,0 +1,221 @@
+"""Scene directory reader/writer: round trip, OpenCV compatibility, clear errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from aida_kb.errors import FormatError
+from aida_kb.io.scene import (
+    PartTruth,
+    PoseTruth,
+    SceneTruth,
+    StereoCalib,
+    ViewData,
+    read_calib,
+    read_depth,
+    read_image,
+    read_labels,
+    read_scene,
+    write_scene,
+)
+
+
+def _calib() -> StereoCalib:
+    K = np.array([[500.0, 0.0, 31.5], [0.0, 500.0, 23.5], [0.0, 0.0, 1.0]])
+    c, s = np.cos(0.01), np.sin(0.01)
+    R = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+    return StereoCalib(
+        K,
+        np.array([-0.1, 0.01, 0.0, 0.0, 0.0]),
+        K * 1.0,
+        np.zeros(5),
+        R,
+        np.array([-0.3, 0.0, 0.01]),
+        (64, 48),
+    )
+
+
+def _truth() -> SceneTruth:
+    return SceneTruth(
+        object="House",
+        parts=[
+            PartTruth(
+                role="body.front",
+                concept="Wall",
+                label=1,
+                normal=(0.0, 0.0, -1.0),
+                d=-10.0,
+                polygon=[(-1.0, -1.0, 10.0), (1.0, -1.0, 10.0), (1.0, 1.0, 10.0)],
+            )
+        ],
+        views=[
+            PoseTruth(
+                view="00",
+                K=((500, 0, 31.5), (0, 500, 23.5), (0, 0, 1)),
+                R=((1, 0, 0), (0, 1, 0), (0, 0, 1)),
+                t=(0, 0, 0),
+            )
+        ],
+    )
+
+
+def _write(tmp_path: Path) -> Path:
+    rng = np.random.default_rng(0)
+    img = rng.integers(0, 255, (48, 64, 3), dtype=np.uint8)
+    labels = np.zeros((48, 64), np.uint16)
+    labels[10:20, 10:30] = 1
+    labels[30:, :] = 1000
+    depth = np.full((48, 64), np.nan, np.float32)
+    depth[10:20, 10:30] = 10.0
+    return write_scene(
+        tmp_path / "scene",
+        _calib(),
+        [ViewData(img, img[:, :, 0].copy()[:, :, None].repeat(3, 2), labels, depth)],
+        truth=_truth(),
+        name="t",
+    )
+
+
+def test_round_trip(tmp_path: Path) -> None:
+    root = _write(tmp_path)
+    scene = read_scene(root)
+    assert scene.name == "t"
+    assert [v.id for v in scene.views] == ["00"]
+    cal = scene.calib
+    ref = _calib()
+    np.testing.assert_allclose(cal.K1, ref.K1)
+    np.testing.assert_allclose(cal.D1, ref.D1)
+    np.testing.assert_allclose(cal.R, ref.R)
+    np.testing.assert_allclose(cal.T, ref.T)
+    assert cal.image_size == (64, 48)
+    assert cal.baseline_m == pytest.approx(np.linalg.norm(ref.T))
+    v = scene.view("00")
+    assert read_image(v.left).shape == (48, 64, 3)
+    assert read_image(v.left, grey=True).shape == (48, 64)
+    assert v.labels is not None
+    assert v.depth_left is not None
+    lab = read_labels(v.labels)
+    assert lab.dtype == np.uint16
+    assert lab[35, 5] == 1000
+    assert lab[15, 15] == 1
+    dep = read_depth(v.depth_left)
+    assert dep[15, 15] == 10.0
+    assert np.isnan(dep[0, 0])
+    assert scene.truth is not None
+    assert scene.truth.part("body.front").d == -10.0
+    assert scene.truth.pose("00").t == (0.0, 0.0, 0.0)
+    # no temporary files left behind
+    assert not [p for p in root.rglob("*") if ".tmp" in p.name]
+
+
+def test_calib_readable_by_opencv(tmp_path: Path) -> None:
+    root = _write(tmp_path)
+    fs = cv2.FileStorage(str(root / "calib.yaml"), cv2.FILE_STORAGE_READ)
+    assert fs.isOpened()
+    np.testing.assert_allclose(fs.getNode("K1").mat(), _calib().K1)
+    np.testing.assert_allclose(fs.getNode("T").mat().ravel(), _calib().T)
+    assert int(fs.getNode("image_width").real()) == 64
+    fs.release()
+
+
+def test_calib_written_by_opencv_is_read(tmp_path: Path) -> None:
+    """A calibration written by plain OpenCV code (a real rig) drops in unchanged."""
+    path = tmp_path / "calib.yaml"
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    K = np.array([[900.0, 0, 640], [0, 900.0, 360], [0, 0, 1]])
+    for name, value in [
+        ("K1", K),
+        ("D1", np.zeros((1, 5))),
+        ("K2", K),
+        ("D2", np.zeros((5, 1))),
+        ("R", np.eye(3)),
+        ("T", np.array([[-0.12], [0.0], [0.0]])),
+    ]:
+        fs.write(name, value)
+    fs.write("image_width", 1280)
+    fs.write("image_height", 720)
+    fs.release()
+    cal = read_calib(path)
+    assert cal.image_size == (1280, 720)
+    assert cal.D2.shape == (5,)
+
+
+def _expect(root: Path, *fragments: str) -> None:
+    with pytest.raises(FormatError) as info:
+        read_scene(root)
+    for f in fragments:
+        assert f in str(info.value), str(info.value)
+
+
+def test_missing_directory_and_index(tmp_path: Path) -> None:
+    _expect(tmp_path / "nope", "nope", "not a directory")
+    (tmp_path / "empty").mkdir()
+    _expect(tmp_path / "empty", "scene.yaml", "no such file")
+
+
+def test_bad_index_fields(tmp_path: Path) -> None:
+    root = _write(tmp_path)
+    index = root / "scene.yaml"
+    text = index.read_text()
+    index.write_text(text.replace("format: aida-kb-scene", "format: something"))
+    _expect(root, "scene.yaml", "format")
+    index.write_text(text.replace("left: views/00/left.png", "left: views/00/missing.png"))
+    _expect(root, "scene.yaml", "views[0].left", "missing.png")
+    index.write_text(text.replace("left: views/00/left.png", "left: ../../etc/passwd"))
+    _expect(root, "scene.yaml", "views[0].left", "inside the scene directory")
+    index.write_text("views: [\n")
+    _expect(root, "scene.yaml", "not valid YAML")
+    index.write_text(text.replace("views:", "viewz:"))
+    _expect(root, "scene.yaml", "views")
+
+
+def test_bad_calib_fields(tmp_path: Path) -> None:
+    root = _write(tmp_path)
+    calib = root / "calib.yaml"
+    text = calib.read_text()
+    calib.write_text(text.replace("K2:", "K3:"))
+    _expect(root, "calib.yaml", "K2", "missing")
+    calib.write_text(text.replace("image_width: 64", "image_width: -3"))
+    _expect(root, "calib.yaml", "image_width")
+    calib.write_text("not: [opencv")
+    _expect(root, "calib.yaml")
+    fs = cv2.FileStorage(str(calib), cv2.FILE_STORAGE_WRITE)
+    for name in ("K1", "K2"):
+        fs.write(name, np.eye(3))
+    for name in ("D1", "D2"):
+        fs.write(name, np.zeros(5))
+    fs.write("R", np.diag([1.0, 1.0, -1.0]))
+    fs.write("T", np.array([0.3, 0.0, 0.0]))
+    fs.write("image_width", 64)
+    fs.write("image_height", 48)
+    fs.release()
+    _expect(root, "calib.yaml", "field R", "rotation")
+
+
+def test_bad_truth_fields(tmp_path: Path) -> None:
+    root = _write(tmp_path)
+    truth = root / "truth.json"
+    data = json.loads(truth.read_text())
+    data["parts"][0]["normal"] = [0.0, 0.0, -2.0]
+    truth.write_text(json.dumps(data))
+    _expect(root, "truth.json", "parts[0].normal", "unit length")
+    data["parts"][0]["normal"] = [0.0, 0.0, -1.0]
+    data["views"][0]["view"] = "07"
+    truth.write_text(json.dumps(data))
+    _expect(root, "truth.json", "views[0].view")
+
+
+def test_bad_images(tmp_path: Path) -> None:
+    root = _write(tmp_path)
+    (root / "views/00/left.png").write_bytes(b"garbage")
+    scene = read_scene(root)
+    with pytest.raises(FormatError, match=r"left\.png"):
+        read_image(scene.views[0].left)
+    np.save(root / "views/00/depth_left.npy", np.zeros((3, 3, 3)))
+    with pytest.raises(FormatError, match=r"depth_left\.npy"):
+        read_depth(scene.views[0].depth_left or Path())
