@@ -1,0 +1,111 @@
+"""The result of an interpretation, ``interpretation.json`` (pydantic).
+
+An interpretation holds the instances the search created (each with its role path, its
+prototype by instance-of, and the evidence it is bound to), the reconstructed model, the
+residual report of every constraint the accepted interpretation instantiated, and the trace
+of every hypothesis the search created, verified or rejected. Coordinates are world
+coordinates (left camera of view 00, OpenCV axes), metres.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from aida_kb.io.jsonio import read_json_model, write_json_model
+from aida_kb.io.model import ReconstructedModel
+
+INSERTED = "inserted"
+"""The binding of a part the views cannot see: inserted from the knowledge base."""
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+
+class Instance(_Frozen):
+    """One instance node: a concept instantiated for a role of the scene object."""
+
+    role: str = Field(description="role path from the scene object; '' for the goal itself")
+    concept: str = Field(description="the concept of the instance (after is-a specialisation)")
+    instance_of: str = Field(description="the prototype concept in the knowledge base")
+    parent: str | None = Field(description="role path of the instance this one is part of")
+    link: Literal["goal", "con-of", "part-of"] = Field(description="how it hangs on its parent")
+    bindings: list[str] = Field(
+        default_factory=list,
+        description="evidence ids ('VIEW/REGION') of a planar part, or ['inserted']",
+    )
+
+
+class ConstraintResidual(_Frozen):
+    """The residual of one instantiated constraint after the final solve."""
+
+    label: str = Field(description="the constraint's label (from the knowledge base)")
+    kind: str = Field(description="angle, parallel, parallel_edge, symmetry, position or edge")
+    concept: str = Field(description="the concept that declared it")
+    owner: str = Field(description="role path of the instance that introduced it")
+    parts: list[str] = Field(description="the role paths it relates (absolute)")
+    residual: float = Field(description="the residual, in `unit` (RMS over its components)")
+    unit: str = Field(description="'rad', 'm', 'px' or ''")
+    sigma: float | None = Field(description="the tolerance, in `unit`")
+    normalised_cost: float = Field(description="|residual| / sigma (dimensionless)")
+    reject_above: float | None = Field(description="residuals above this reject, in `unit`")
+    rejected: bool = Field(description="True if the residual is above reject_above")
+
+
+HypothesisStatus = Literal["created", "verified", "rejected"]
+
+
+class HypothesisTrace(_Frozen):
+    """One hypothesis of the search and what became of it."""
+
+    id: int = Field(ge=0)
+    parent: int | None = Field(description="the hypothesis it was created under")
+    concept: str
+    role: str = Field(description="role path of the hypothesised instance")
+    status: HypothesisStatus
+    step: int = Field(ge=0, description="search step (expansion count) when last changed")
+    reason: str = Field(default="", description="why it was rejected or what verified it")
+    constraint: str | None = Field(default=None, description="label of the rejecting constraint")
+    cost: float | None = Field(
+        default=None, description="normalised cost (|residual| / sigma) of that constraint"
+    )
+
+
+class Interpretation(_Frozen):
+    """An interpretation of evidence against a knowledge base (``interpretation.json``)."""
+
+    format: Literal["aida-kb/interpretation"] = "aida-kb/interpretation"
+    version: Literal[1] = 1
+    goal: str = Field(description="the goal concept, e.g. 'House'")
+    accepted: bool = Field(description="True if the goal hypothesis was verified")
+    message: str = Field(description="a one-line summary for people")
+    instances: list[Instance] = Field(default_factory=list)
+    model: ReconstructedModel | None = None
+    residuals: list[ConstraintResidual] = Field(default_factory=list)
+    trace: list[HypothesisTrace] = Field(default_factory=list)
+    expanded: int = Field(ge=0, description="number of hypotheses the search expanded")
+    cost: float | None = Field(default=None, description="total normalised cost of the result")
+
+    def instance(self, role: str) -> Instance:
+        """The instance with role path `role` (KeyError if none)."""
+        for inst in self.instances:
+            if inst.role == role:
+                return inst
+        raise KeyError(role)
+
+    def rejected(self) -> list[HypothesisTrace]:
+        """The rejected hypotheses, in the order of the search."""
+        return [h for h in self.trace if h.status == "rejected"]
+
+
+def read_interpretation(path: str | os.PathLike[str]) -> Interpretation:
+    """Load ``interpretation.json``; FormatError names the file and field on bad input."""
+    return read_json_model(path, Interpretation)
+
+
+def write_interpretation(path: str | os.PathLike[str], value: Interpretation) -> None:
+    """Write ``interpretation.json`` atomically."""
+    write_json_model(path, value)
