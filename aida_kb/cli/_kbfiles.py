@@ -1,0 +1,133 @@
+"""Shared by the knowledge-base commands: finding .kb files, compiling them, printing results.
+
+Cheap to import: the compiler is imported inside `check`, rich inside the commands that use it.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from aida_kb.errors import FormatError
+
+if TYPE_CHECKING:
+    from aida_kb.diagnostics.core import Diagnostic
+
+EXIT_OK = 0
+EXIT_ERRORS = 1
+EXIT_USAGE = 2
+
+
+def packaged_kb(name: str = "buildings.kb") -> Path:
+    """A file of the shipped knowledge: the installed wheel's ``_data/kb``, else ``kb/``.
+
+    Parameters
+    ----------
+    name : str
+        Path relative to the ``kb`` directory, e.g. ``"buildings.kb"``.
+    """
+    packaged = resources.files("aida_kb").joinpath("_data", "kb", name)
+    if packaged.is_file():
+        return Path(str(packaged))
+    source = Path(__file__).resolve().parents[2] / "kb" / name
+    if source.is_file():
+        return source
+    raise FormatError(f"the shipped knowledge base {name!r} is missing from this installation")
+
+
+def display_path(path: Path) -> str:
+    """`path` relative to the working directory when it lies below it, else as given."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
+def collect_kb_files(paths: Sequence[str]) -> tuple[list[Path], list[str]]:
+    """Expand the command line's paths: files as given, directories recursively to ``*.kb``.
+
+    Hidden directories (``.venv``, ``.git``) are skipped. Returns the files (no duplicates,
+    in command-line order, each directory's files sorted) and one message per path that does
+    not exist or holds no ``.kb`` file.
+    """
+    files: list[Path] = []
+    problems: list[str] = []
+    seen: set[Path] = set()
+
+    def add(p: Path) -> None:
+        key = p.resolve()
+        if key not in seen:
+            seen.add(key)
+            files.append(p)
+
+    for raw in paths:
+        p = Path(raw)
+        if p.is_dir():
+            found: list[Path] = []
+            for root, dirs, names in os.walk(p):
+                dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+                found.extend(Path(root) / n for n in names if n.endswith(".kb"))
+            if not found:
+                problems.append(f"{raw}: no .kb files in this directory")
+            for f in sorted(found):
+                add(f)
+        elif p.exists():
+            add(p)
+        else:
+            problems.append(f"{raw}: no such file or directory")
+    return files, problems
+
+
+def read_source(path: Path) -> str:
+    """The text of a .kb file; `FormatError` naming the file when it cannot be read as UTF-8."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise FormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise FormatError(f"{path}: cannot read: {exc.strerror or exc}") from None
+
+
+@dataclass(frozen=True)
+class Checked:
+    """What checking one file gave: its diagnostics, every source read, the model if any."""
+
+    diagnostics: tuple[Diagnostic, ...]
+    sources: Mapping[str, str]
+    kb: Any = None
+    files: tuple[str, ...] = field(default=())
+
+    @property
+    def ok(self) -> bool:
+        """True when no diagnostic is an error."""
+        return not any(d.is_error for d in self.diagnostics)
+
+
+def check(path: Path) -> Checked:
+    """Read and check one .kb file (its imports included); `FormatError` if it is unreadable."""
+    name = display_path(path)
+    text = read_source(path)
+    from aida_kb.dsl import parse
+
+    result = parse(text, name)
+    return Checked(result.diagnostics, {name: text}, None, (name,))
+
+
+def use_color(stream: Any, choice: str = "auto") -> bool:
+    """Colour on a terminal (``auto``) unless NO_COLOR is set; ``always``/``never`` force it."""
+    if choice == "always":
+        return True
+    if choice == "never" or os.environ.get("NO_COLOR"):
+        return False
+    isatty = getattr(stream, "isatty", None)
+    return bool(isatty and isatty())
+
+
+def print_error(message: str) -> None:
+    """One error line on stderr, prefixed like every aida-kb error."""
+    print(f"aida-kb: error: {message}", file=sys.stderr)

@@ -1,0 +1,208 @@
+"""Render diagnostics for people (compiler-style text) and for tools (one JSON array).
+
+Text looks like this::
+
+    kb/examples/broken_syntax.kb:6:10: error[KB001]: expected a role name after 'part', found ':'
+      |
+    6 |     part : HouseBody
+      |          ^
+      = hint: a role is declared with 'part NAME: Concept'
+
+The source line is shown with tabs expanded; the underline covers the span (``^`` for one
+column, ``^^^^`` for several; a span over several lines underlines its first and last line).
+Related places (the first definition of a duplicate, each link of a cycle) follow as notes.
+Colour is plain ANSI escapes, used only when asked (the CLI asks on a terminal), so that
+importing this module costs nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import unicodedata
+from collections.abc import Iterable, Mapping, Sequence
+
+from aida_kb.diagnostics.core import Diagnostic, Severity, Span
+
+__all__ = [
+    "TAB_SIZE",
+    "diagnostic_to_json",
+    "render_json",
+    "render_summary",
+    "render_text",
+]
+
+TAB_SIZE = 4
+
+_RESET = "\x1b[0m"
+_BOLD = "\x1b[1m"
+_STYLE = {
+    Severity.ERROR: "\x1b[1;31m",
+    Severity.WARNING: "\x1b[1;33m",
+    Severity.NOTE: "\x1b[1;36m",
+}
+_GUTTER = "\x1b[1;34m"
+_HINT = "\x1b[1;32m"
+
+
+class _Paint:
+    def __init__(self, color: bool) -> None:
+        self.color = color
+
+    def __call__(self, style: str, text: str) -> str:
+        return f"{style}{text}{_RESET}" if self.color and text else text
+
+
+def _width(text: str) -> int:
+    """Display width of `text` (East Asian wide characters take two cells, marks none)."""
+    width = 0
+    for ch in text:
+        if unicodedata.combining(ch):
+            continue
+        width += 2 if unicodedata.east_asian_width(ch) in ("W", "F") else 1
+    return width
+
+
+def _display(line: str) -> str:
+    return line.expandtabs(TAB_SIZE)
+
+
+def _cell(line: str, column: int) -> int:
+    """The 0-based display cell where 1-based character `column` of `line` starts."""
+    prefix = line[: max(column - 1, 0)]
+    # Columns past the end of the line (a span at the end of a line or file) extend with blanks.
+    extra = max(column - 1 - len(line), 0)
+    return _width(_display(prefix)) + extra
+
+
+def _underline_cells(line: str, start_col: int, end_col: int | None) -> tuple[int, int]:
+    """(first cell, number of cells) to underline on `line` from `start_col` to `end_col`."""
+    first = _cell(line, start_col)
+    last = _cell(line, end_col) if end_col is not None else _width(_display(line))
+    return first, max(last - first, 1)
+
+
+def _source_lines(sources: Mapping[str, str], file: str) -> list[str] | None:
+    text = sources.get(file)
+    if text is None:
+        return None
+    return text.split("\n")
+
+
+def _snippet(
+    span: Span, sources: Mapping[str, str], paint: _Paint, mark: str, style: str
+) -> list[str]:
+    lines = _source_lines(sources, span.file)
+    if lines is None or not 1 <= span.line <= len(lines):
+        return []
+    last_line = min(max(span.end_line, span.line), len(lines))
+    numbers = [span.line] if last_line == span.line else [span.line, last_line]
+    gutter = len(str(numbers[-1]))
+    pad = " " * gutter
+    out = [paint(_GUTTER, f"{pad} |")]
+    for index, number in enumerate(numbers):
+        if index == 1 and number > span.line + 1:
+            out.append(paint(_GUTTER, "..."))
+        text = lines[number - 1].rstrip("\r")
+        out.append(paint(_GUTTER, f"{number:>{gutter}} |") + (" " + _display(text) if text else ""))
+        if len(numbers) == 1:
+            end_col = span.end_column if span.end_line == span.line else None
+            first, count = _underline_cells(text, span.column, end_col)
+        elif index == 0:
+            first, count = _underline_cells(text, span.column, None)
+        else:
+            indent = len(text) - len(text.lstrip())
+            first, count = _underline_cells(text, indent + 1, span.end_column)
+        out.append(paint(_GUTTER, f"{pad} |") + " " + " " * first + paint(style, mark * count))
+    return out
+
+
+def _severity_word(severity: Severity) -> str:
+    return severity.value
+
+
+def _render_one(diag: Diagnostic, sources: Mapping[str, str], paint: _Paint) -> str:
+    style = _STYLE[diag.severity]
+    head = (
+        paint(_BOLD, f"{diag.span}:")
+        + " "
+        + paint(style, f"{_severity_word(diag.severity)}[{diag.code}]:")
+        + " "
+        + paint(_BOLD, diag.message)
+    )
+    out = [head]
+    out.extend(_snippet(diag.span, sources, paint, "^", style))
+    gutter = " " * len(str(max(diag.span.line, diag.span.end_line)))
+    if diag.hint:
+        out.append(f"{gutter} {paint(_GUTTER, '=')} {paint(_HINT, 'hint:')} {diag.hint}")
+    for span, message in diag.related:
+        note = _STYLE[Severity.NOTE]
+        out.append(f"{paint(_BOLD, f'{span}:')} {paint(note, 'note:')} {message}")
+        out.extend(_snippet(span, sources, paint, "-", note))
+    return "\n".join(out)
+
+
+def render_text(
+    diagnostics: Iterable[Diagnostic],
+    sources: Mapping[str, str],
+    *,
+    color: bool = False,
+) -> str:
+    """Render diagnostics as compiler-style text, one block per diagnostic.
+
+    Parameters
+    ----------
+    diagnostics : iterable of Diagnostic
+        In the order to print them (callers sort them).
+    sources : mapping of str to str
+        File name -> source text, for the source lines under each message. A file missing
+        here gets its message line only.
+    color : bool
+        Add ANSI colour escapes (for a terminal).
+
+    Returns
+    -------
+    str
+        The blocks separated by blank lines, without a trailing newline ("" for none).
+    """
+    paint = _Paint(color)
+    return "\n\n".join(_render_one(d, sources, paint) for d in diagnostics)
+
+
+def render_summary(diagnostics: Sequence[Diagnostic], files: int, *, color: bool = False) -> str:
+    """One line counting errors and warnings: ``2 errors, 1 warning in 3 files``."""
+    paint = _Paint(color)
+    errors = sum(d.severity is Severity.ERROR for d in diagnostics)
+    warnings = sum(d.severity is Severity.WARNING for d in diagnostics)
+    where = f"in {files} file{'s' if files != 1 else ''}"
+    if not errors and not warnings:
+        return paint(_HINT, f"no problems {where}") if files else "no files checked"
+    parts = []
+    if errors:
+        parts.append(paint(_STYLE[Severity.ERROR], f"{errors} error{'s' if errors != 1 else ''}"))
+    if warnings:
+        word = f"{warnings} warning{'s' if warnings != 1 else ''}"
+        parts.append(paint(_STYLE[Severity.WARNING], word))
+    return f"{', '.join(parts)} {where}"
+
+
+def diagnostic_to_json(diag: Diagnostic) -> dict[str, str | int]:
+    """The JSON object of one diagnostic: code, severity, message, file and its 1-based span.
+
+    Notes (severity ``note``) are reported as ``"warning"``: the JSON format knows only
+    ``"error"`` and ``"warning"``.
+    """
+    return {
+        "code": diag.code,
+        "severity": "error" if diag.severity is Severity.ERROR else "warning",
+        "message": diag.message,
+        "file": diag.span.file,
+        "line": diag.span.line,
+        "column": diag.span.column,
+        "end_line": diag.span.end_line,
+        "end_column": diag.span.end_column,
+    }
+
+
+def render_json(diagnostics: Iterable[Diagnostic]) -> str:
+    """Exactly one JSON array of diagnostic objects (see `diagnostic_to_json`), indented."""
+    return json.dumps([diagnostic_to_json(d) for d in diagnostics], indent=2, ensure_ascii=False)

@@ -1,0 +1,89 @@
+"""`aida-kb lint` and `aida-kb validate`: output formats, exit codes, file collection."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from aida_kb.cli.main import main
+
+ROOT = Path(__file__).resolve().parents[2]
+BROKEN = ROOT / "kb" / "examples" / "broken_syntax.kb"
+BUILDINGS = ROOT / "kb" / "buildings.kb"
+KEYS = {"code", "severity", "message", "file", "line", "column", "end_line", "end_column"}
+
+
+def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main(argv)
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+@pytest.mark.parametrize("command", ["lint", "validate"])
+def test_clean_file_exits_zero(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = _run([command, str(BUILDINGS)], capsys)
+    assert code == 0
+    assert "no problems in 1 file" in out
+    assert err == ""
+
+
+@pytest.mark.parametrize("command", ["lint", "validate"])
+def test_broken_file_text_has_location_source_line_and_caret(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, _ = _run([command, "--color", "never", str(BROKEN)], capsys)
+    assert code == 1
+    lines = out.splitlines()
+    head = next(i for i, line in enumerate(lines) if ":6:10: error[KB001]:" in line)
+    assert "expected a role name after 'part'" in lines[head]
+    assert lines[head + 2].startswith("6 |     part : HouseBody")
+    assert lines[head + 3] == "  |          ^"
+    assert "5 errors in 1 file" in out
+    assert "\x1b[" not in out
+
+
+def test_json_is_one_array_with_exactly_the_contract_keys(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code, out, _ = _run(["lint", "--format", "json", str(BROKEN)], capsys)
+    assert code == 1
+    data = json.loads(out)
+    assert isinstance(data, list)
+    assert len(data) == 5
+    for item in data:
+        assert set(item) == KEYS
+        assert item["severity"] == "error"
+        assert item["file"].endswith("broken_syntax.kb")
+    first = data[0]
+    assert (first["code"], first["line"], first["column"]) == ("KB001", 6, 10)
+    assert (first["end_line"], first["end_column"]) == (6, 11)
+
+
+def test_clean_json_is_an_empty_array(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = _run(["validate", "--format", "json", str(BUILDINGS)], capsys)
+    assert code == 0
+    assert json.loads(out) == []
+
+
+def test_directory_recurses_over_kb_files(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = _run(["lint", "--format", "json", str(ROOT / "kb")], capsys)
+    assert code == 1
+    files = {Path(d["file"]).name for d in json.loads(out)}
+    assert "broken_syntax.kb" in files
+
+
+def test_missing_file_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = _run(["lint", "does/not/exist.kb"], capsys)
+    assert code == 2
+    assert "does/not/exist.kb: no such file or directory" in err
+    assert "Traceback" not in err
+
+
+def test_non_utf8_file_is_a_usage_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "latin1.kb"
+    bad.write_bytes("// caf\xe9\n".encode("latin-1"))
+    code, _, err = _run(["validate", str(bad)], capsys)
+    assert code == 2
+    assert "latin1.kb: not UTF-8" in err
