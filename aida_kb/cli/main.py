@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 from types import ModuleType
@@ -17,7 +18,7 @@ from aida_kb.errors import AidaError, FormatError
 
 # Command modules, in the order `--help` lists them. Each module is aida_kb.cli.<name>
 # and must import nothing heavy at module level.
-COMMANDS: tuple[str, ...] = ("lint", "validate", "demo", "synth")
+COMMANDS: tuple[str, ...] = ("lint", "validate", "explain", "demo", "synth")
 
 EXIT_OK = 0
 EXIT_FAILURE = 1
@@ -68,6 +69,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         print(f"aida-kb: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except Exception as exc:  # a bug in aida-kb: still no traceback unless asked for
+        if os.environ.get("AIDA_KB_DEBUG"):
+            raise
+        print(
+            f"aida-kb: internal error: {type(exc).__name__}: {exc}\n"
+            "This is a bug in aida-kb; run again with AIDA_KB_DEBUG=1 for the traceback.",
+            file=sys.stderr,
+        )
+        return EXIT_FAILURE
     return code
 
 

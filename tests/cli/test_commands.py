@@ -1,0 +1,69 @@
+"""Every command: --help with an example; lint/validate stay light (no numpy, scipy, cv2)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from aida_kb.cli.main import COMMANDS, main
+
+ROOT = Path(__file__).resolve().parents[2]
+HEAVY = ("numpy", "scipy", "cv2")
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_help_has_an_example(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    assert f"aida-kb {command}" in out.split("example", 1)[-1], "the epilog shows a call"
+
+
+def test_no_command_prints_help_and_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([]) == 2
+    assert "COMMAND" in capsys.readouterr().err
+
+
+def test_unknown_option_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["lint", "--bogus", "x.kb"])
+    assert exit_info.value.code == 2
+
+
+_PROBE = """
+import json, sys
+from aida_kb.cli.main import main
+code = main(sys.argv[1:])
+heavy = sorted(m for m in sys.modules if m.split(".")[0] in {heavy!r})
+print(json.dumps({{"code": code, "heavy": heavy}}))
+"""
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["lint", "kb/buildings.kb"],
+        ["validate", "kb/buildings.kb"],
+        ["lint", "--format", "json", "kb/"],
+        ["validate", "kb/examples/broken_syntax.kb"],
+    ],
+)
+def test_lint_and_validate_import_no_numpy_scipy_cv2(argv: list[str]) -> None:
+    probe = _PROBE.format(heavy=set(HEAVY))
+    done = subprocess.run(
+        [sys.executable, "-c", probe, *argv],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=60,
+    )
+    assert done.stderr == ""
+    result = json.loads(done.stdout.splitlines()[-1])
+    assert result["code"] in (0, 1)
+    assert result["heavy"] == []
