@@ -128,7 +128,7 @@ def test_not_json_and_missing_file(tmp_path: Path) -> None:
 def test_schema_file_in_sync() -> None:
     assert SCHEMA.read_text(encoding="utf-8") == evidence_schema_text(), (
         "docs/schemas/evidence.schema.json is stale; regenerate with: .venv/bin/python -c "
-        "\"from aida_kb.io.evidence import evidence_schema_text as s; "
+        '"from aida_kb.io.evidence import evidence_schema_text as s; '
         "open('docs/schemas/evidence.schema.json','w').write(s())\""
     )
     schema = json.loads(SCHEMA.read_text(encoding="utf-8"))
