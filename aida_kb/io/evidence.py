@@ -24,8 +24,8 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from aida_kb.io.jsonio import read_json_model, write_json_model
 from aida_kb.io.model import Cahv, Finite, Mat3, Vec3
 
-EVIDENCE_FORMAT = "aida-kb-evidence"
-EVIDENCE_VERSION = 1
+EVIDENCE_FORMAT: Literal["aida-kb-evidence"] = "aida-kb-evidence"
+EVIDENCE_VERSION: Literal[1] = 1
 
 Point2 = tuple[Finite, Finite]
 
