@@ -131,3 +131,30 @@ def use_color(stream: Any, choice: str = "auto") -> bool:
 def print_error(message: str) -> None:
     """One error line on stderr, prefixed like every aida-kb error."""
     print(f"aida-kb: error: {message}", file=sys.stderr)
+
+
+def compile_or_report(path: Path) -> Any:
+    """Compile `path`; print its diagnostics to stderr; the KnowledgeBase, or None on errors."""
+    from aida_kb.diagnostics.core import Diagnostic
+    from aida_kb.diagnostics.render import render_summary, render_text
+
+    result = check(path)
+    if result.diagnostics:
+        diags = sorted(result.diagnostics, key=Diagnostic.sort_key)
+        color = use_color(sys.stderr)
+        print(render_text(diags, result.sources, color=color) + "\n", file=sys.stderr)
+        print(render_summary(diags, 1, color=color), file=sys.stderr)
+    if not result.ok:
+        return None
+    return result.kb
+
+
+def write_output(output: str | None, text: str) -> None:
+    """`text` to stdout (`output` None or ``-``) or to the file `output`, written atomically."""
+    if output is None or output == "-":
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return
+    from aida_kb.io.atomic import write_text_atomic
+
+    write_text_atomic(output, text)

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
+import tempfile
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from aida_kb.cli.main import main
 
@@ -87,3 +92,41 @@ def test_non_utf8_file_is_a_usage_error(tmp_path: Path, capsys: pytest.CaptureFi
     code, _, err = _run(["validate", str(bad)], capsys)
     assert code == 2
     assert "latin1.kb: not UTF-8" in err
+
+
+_TEXT = BUILDINGS.read_text(encoding="utf-8")
+
+
+@settings(max_examples=40, derandomize=True, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.integers(0, len(_TEXT)),
+            st.integers(0, 12),
+            st.sampled_from(["", "}", "{", "(", '"', "/*", "part", "concept", ":", "\t", "家", "9"]),
+        ),
+        min_size=1,
+        max_size=4,
+    )
+)
+def test_mutated_buildings_give_diagnostics_never_a_traceback(
+    edits: list[tuple[int, int, str]],
+) -> None:
+    text = _TEXT
+    for at, cut, insert in edits:
+        at = min(at, len(text))
+        text = text[:at] + insert + text[at + cut :]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "mutant.kb"
+        path.write_text(text, encoding="utf-8")
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            code = main(["lint", "--format", "json", str(path)])
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            text_code = main(["lint", str(path)])
+    assert code == text_code
+    assert code in (0, 1)
+    assert "Traceback" not in err.getvalue()
+    assert "internal error" not in err.getvalue()
+    data = json.loads(out.getvalue())
+    assert (code == 1) == any(d["severity"] == "error" for d in data)
