@@ -103,7 +103,9 @@ _TEXT = BUILDINGS.read_text(encoding="utf-8")
         st.tuples(
             st.integers(0, len(_TEXT)),
             st.integers(0, 12),
-            st.sampled_from(["", "}", "{", "(", '"', "/*", "part", "concept", ":", "\t", "家", "9"]),
+            st.sampled_from(
+                ["", "}", "{", "(", '"', "/*", "part", "concept", ":", "\t", "家", "9"]
+            ),
         ),
         min_size=1,
         max_size=4,
