@@ -1,0 +1,240 @@
+"""The evidence as the interpreter uses it: regions as planes, segments, cameras, the vertical.
+
+`EvidenceView` is a numpy view of one evidence file (built by `view_of`): every region with
+its plane fit (unit normal pointing towards the camera that saw it, centroid, weight), every
+line segment with the regions it borders and its end points back-projected onto those
+regions' planes. World frame: the left camera of view 00 (OpenCV axes: x right, y down,
+z forward), metres.
+
+The vertical. Walls and roofs are defined relative to "up", which the evidence does not
+state. `estimate_up` takes the camera's -y axis as a prior (a camera held upright), selects
+the regions whose normal is within `wall_window_deg` of horizontal under that prior, and
+returns the direction most perpendicular to all of them, weighted by certainty: the
+eigenvector of the smallest eigenvalue of sum_i w_i n_i n_i^T (for two walls this is their
+normals' cross product). When the wall normals span fewer than two directions (one wall
+seen, or parallel walls only) the prior is kept, made perpendicular to the walls seen.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import InterpretError
+from aida_kb.io.evidence import Evidence
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class CameraView:
+    """A view's left camera: x_cam = R_cam_world·x_world + t_cam_world (metres, pixels)."""
+
+    view: str
+    K: FloatArray  # (3, 3) pixels
+    R_cam_world: FloatArray  # (3, 3)
+    t_cam_world: FloatArray  # (3,) metres
+    width_px: int
+    height_px: int
+
+    @property
+    def centre_m(self) -> FloatArray:
+        """Camera centre in the world frame, metres, (3,)."""
+        return -self.R_cam_world.T @ self.t_cam_world
+
+    def rays_world(self, pixels: FloatArray) -> FloatArray:
+        """Unit viewing directions in the world frame, (N, 3), of pixels (N, 2)."""
+        pix = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+        homog = np.column_stack([pix, np.ones(len(pix))])
+        dirs_cam = np.linalg.solve(self.K, homog.T).T
+        dirs = dirs_cam @ self.R_cam_world  # R^T applied to each row
+        out: FloatArray = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+        return out
+
+    def project(self, points_world_m: FloatArray) -> FloatArray:
+        """Pixel coordinates (N, 2) of world points (N, 3) (no lens distortion)."""
+        pts = np.asarray(points_world_m, dtype=np.float64).reshape(-1, 3)
+        cam = pts @ self.R_cam_world.T + self.t_cam_world
+        uvw = cam @ self.K.T
+        out: FloatArray = uvw[:, :2] / uvw[:, 2:3]
+        return out
+
+
+@dataclass(frozen=True)
+class RegionView:
+    """One evidence region seen as a plane (world frame)."""
+
+    id: str  # "VIEW/REGION", unique over the evidence
+    view: str
+    normal: FloatArray  # (3,) unit, pointing towards the camera (out of the solid)
+    centroid_m: FloatArray  # (3,)
+    weight: float  # w_c, the summed certainty
+    area_px: float
+    rms_m: float
+
+    @property
+    def offset_m(self) -> float:
+        """d of the plane n·x = d."""
+        return float(self.normal @ self.centroid_m)
+
+
+@dataclass(frozen=True)
+class SegmentView:
+    """One image line segment and the regions it borders."""
+
+    id: str  # "VIEW/SEGMENT"
+    view: str
+    ends_px: FloatArray  # (2, 2) pixels
+    regions: tuple[str, ...]  # region ids ("VIEW/REGION") on either side
+
+    @property
+    def length_px(self) -> float:
+        """Length in pixels."""
+        return float(np.linalg.norm(self.ends_px[1] - self.ends_px[0]))
+
+
+@dataclass(frozen=True)
+class EvidenceView:
+    """All views' cameras, regions and segments, indexed by id."""
+
+    cameras: dict[str, CameraView]
+    regions: dict[str, RegionView]
+    segments: tuple[SegmentView, ...]
+    reference_view: str = "00"
+    source: str = ""
+    _by_region: dict[str, tuple[SegmentView, ...]] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.reference_view not in self.cameras:
+            raise InterpretError(
+                f"{self.source or 'evidence'}: no camera for the reference view "
+                f"{self.reference_view!r}"
+            )
+        index: dict[str, list[SegmentView]] = {r: [] for r in self.regions}
+        for seg in self.segments:
+            for r in seg.regions:
+                if r in index:
+                    index[r].append(seg)
+        self._by_region.update({r: tuple(s) for r, s in index.items()})
+
+    @property
+    def camera(self) -> CameraView:
+        """The reference camera (view 00: the world frame)."""
+        return self.cameras[self.reference_view]
+
+    def segments_of(self, region_id: str) -> tuple[SegmentView, ...]:
+        """The segments bordering a region."""
+        return self._by_region.get(region_id, ())
+
+    def points_on(self, region_id: str) -> FloatArray:
+        """3-D points on a region's plane: its centroid and its segments' back-projected ends.
+
+        Returns (N, 3) world points, metres. Ends whose rays miss the plane (parallel or
+        behind the camera) are left out.
+        """
+        region = self.regions[region_id]
+        pts = [region.centroid_m[None, :]]
+        cam = self.cameras[region.view]
+        segs = self.segments_of(region_id)
+        if segs:
+            pix = np.concatenate([s.ends_px for s in segs])
+            pts.append(intersect_rays_plane(cam.centre_m, cam.rays_world(pix), region))
+        out = np.concatenate(pts)
+        keep: FloatArray = out[np.all(np.isfinite(out), axis=1)]
+        return keep
+
+
+def intersect_rays_plane(centre_m: FloatArray, rays: FloatArray, region: RegionView) -> FloatArray:
+    """Points where rays from `centre_m` meet a region's plane, (N, 3); NaN where they miss."""
+    denom = rays @ region.normal
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = (region.offset_m - float(region.normal @ centre_m)) / denom
+    lam = np.where((np.abs(denom) > 1e-9) & (lam > 0), lam, np.nan)
+    out: FloatArray = centre_m[None, :] + lam[:, None] * rays
+    return out
+
+
+def slope_deg(normal: FloatArray, up: FloatArray) -> float:
+    """Angle between a plane and the horizontal, degrees, from its outward normal.
+
+    0 for a plane facing up (a flat roof), 90 for a vertical wall, 180 for a floor. The
+    knowledge base's `tilt` (walls) and `pitch` (roof planes) attributes are this angle.
+    """
+    c = float(np.clip(np.dot(normal, up), -1.0, 1.0))
+    return math.degrees(math.acos(c))
+
+
+def estimate_up(
+    regions: list[RegionView], camera: CameraView, wall_window_deg: float = 25.0
+) -> FloatArray:
+    """The world's up direction (unit, (3,), world frame) from wall-like regions.
+
+    See the module docstring: the camera's -y axis is the prior; the weighted normals of
+    regions within `wall_window_deg` of vertical planes refine it.
+    """
+    prior: FloatArray = camera.R_cam_world.T @ np.array([0.0, -1.0, 0.0])
+    walls = [r for r in regions if abs(slope_deg(r.normal, prior) - 90.0) <= wall_window_deg]
+    if not walls:
+        return prior
+    normals = np.array([r.normal for r in walls])
+    weights = np.array([max(r.weight, 1e-12) for r in walls])
+    scatter = (normals * weights[:, None]).T @ normals / weights.sum()
+    values, vectors = np.linalg.eigh(scatter)
+    if values[1] > 0.02 * values[2]:
+        up = vectors[:, 0]
+    else:  # one direction of wall only: keep the prior, perpendicular to it
+        n = vectors[:, 2]
+        up = prior - (prior @ n) * n
+    result: FloatArray = np.asarray(up / np.linalg.norm(up), dtype=np.float64)
+    return result if float(result @ prior) >= 0 else -result
+
+
+def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
+    """The numpy view of an evidence file: the views whose 3-D quantities are in the world frame.
+
+    Views in their own camera frame (pose not yet registered) are left out. Region ids become
+    "VIEW/REGION", segment ids "VIEW/lSEGMENT".
+    """
+    cameras: dict[str, CameraView] = {}
+    regions: dict[str, RegionView] = {}
+    segments: list[SegmentView] = []
+    for v in evidence.views:
+        if v.frame != "world":
+            continue
+        cameras[v.id] = CameraView(
+            v.id,
+            np.array(v.left.K, dtype=np.float64),
+            np.array(v.left.R, dtype=np.float64),
+            np.array(v.left.t, dtype=np.float64),
+            v.image_width,
+            v.image_height,
+        )
+        for r in v.regions:
+            rid = f"{v.id}/{r.id}"
+            regions[rid] = RegionView(
+                rid,
+                v.id,
+                np.array(r.n_init, dtype=np.float64),
+                np.array(r.c_init, dtype=np.float64),
+                float(r.w_c),
+                float(r.pixel_count),
+                float(r.rms_m),
+            )
+        for s in v.lines:
+            segments.append(
+                SegmentView(
+                    f"{v.id}/l{s.id}",
+                    v.id,
+                    np.array([s.p1, s.p2], dtype=np.float64),
+                    tuple(f"{v.id}/{r}" for r in s.regions),
+                )
+            )
+    reference = evidence.views[0].id if evidence.views else "00"
+    if reference not in cameras:
+        raise InterpretError(
+            f"{source or 'evidence'}: the first view {reference!r} is not in the world frame"
+        )
+    return EvidenceView(cameras, regions, tuple(segments), reference, source)

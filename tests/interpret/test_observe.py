@@ -1,0 +1,116 @@
+"""The evidence view: the vertical, region classification by role, support offsets, edges."""
+
+from __future__ import annotations
+
+import math
+from types import ModuleType
+
+import numpy as np
+import pytest
+
+from aida_kb.interpret.edges import match_segments, plane_line
+from aida_kb.interpret.hypotheses import (
+    Frame,
+    PlanarPart,
+    candidates,
+    front_region,
+    predicted_normal,
+    support_offset,
+)
+from aida_kb.interpret.observe import EvidenceView, estimate_up, slope_deg, view_of
+from aida_kb.synth import buildings as bld
+
+TARGET = np.array([0.0, 5.0, 0.0])
+
+
+def _house_view(synthetic: ModuleType, **noise: float) -> tuple[EvidenceView, object]:
+    a = math.radians(-25.0)
+    eye = np.array([30 * math.sin(a), 5.5, 30 * math.cos(a)])
+    world = synthetic.place(bld.house(), eye, TARGET)
+    evidence = synthetic.to_evidence(synthetic.evidence_of(world, seed=1, **noise))
+    return view_of(evidence), world
+
+
+def _truth_normal(world: object, role: str) -> np.ndarray:
+    return np.asarray(world.face(role).normal)  # type: ignore[attr-defined]
+
+
+def test_up_is_the_walls_common_perpendicular(synthetic: ModuleType) -> None:
+    view, world = _house_view(synthetic, normal_noise_deg=0.5)
+    up = estimate_up(list(view.regions.values()), view.camera)
+    truth = -_truth_normal(world, "body.floor")
+    # the camera looks down by ~1 degree; the estimate must beat the camera prior
+    assert math.degrees(math.acos(float(up @ truth))) < 0.8
+    prior = np.array([0.0, -1.0, 0.0])
+    assert float(up @ truth) > float(prior @ truth)
+
+
+def test_roles_from_orientation_and_slope(synthetic: ModuleType) -> None:
+    view, world = _house_view(synthetic)
+    up = estimate_up(list(view.regions.values()), view.camera)
+    regions = list(view.regions.values())
+    walls = [r for r in regions if abs(slope_deg(r.normal, up) - 90) < 15]
+    front = front_region(walls, view.camera)
+    assert front is not None
+    np.testing.assert_allclose(front.normal, _truth_normal(world, "body.front"), atol=1e-9)
+    frame = Frame.from_front(front.normal, up)
+    wall = (85.0, 95.0)
+    left = candidates(PlanarPart("body.left", "left", "Wall", wall, False), regions, frame)
+    right = candidates(PlanarPart("body.right", "right", "Wall", wall, False), regions, frame)
+    roof = PlanarPart("body.roof.front", "front", "RoofPlane", (0.0, 65.0), True)
+    roof_front = candidates(roof, regions, frame)
+    assert [r.normal @ _truth_normal(world, "body.left") for r in left] == [pytest.approx(1.0)]
+    assert right == []  # the right wall faces away from the camera
+    assert len(roof_front) == 1
+    assert slope_deg(roof_front[0].normal, up) == pytest.approx(35.0, abs=0.1)
+    # a roof plane is never a wall candidate and vice versa
+    assert front not in candidates(roof, regions, frame)
+    # the predicted normal of the inserted back roof mirrors the front's pitch
+    back = PlanarPart("body.roof.back", "back", "RoofPlane", (0.0, 65.0), True)
+    n_back = predicted_normal(back, frame, 35.0)
+    assert float(n_back @ _truth_normal(world, "body.roof.back")) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_support_offset_places_the_hidden_back_wall(synthetic: ModuleType) -> None:
+    view, world = _house_view(synthetic)
+    points = np.concatenate([view.points_on(r) for r in view.regions])
+    n = _truth_normal(world, "body.back")
+    assert support_offset(n, points) == pytest.approx(world.face("body.back").d, abs=1e-6)  # type: ignore[attr-defined]
+
+
+def test_segments_match_edges_of_adjacent_parts(synthetic: ModuleType) -> None:
+    view, world = _house_view(synthetic, pixel_noise=0.3)
+    roles = ["body.front", "body.left", "body.roof.front"]
+    binding = {}
+    for rid, r in view.regions.items():
+        for role in roles:
+            if float(r.normal @ _truth_normal(world, role)) > 0.999:
+                binding[rid] = role
+    faces = {f.role: (f.normal, f.d) for f in world.faces}  # type: ignore[attr-defined]
+    adjacency = {
+        "body.left": frozenset(
+            {"body.front", "body.back", "body.floor", "body.roof.front", "body.roof.back"}
+        ),
+        "body.front": frozenset({"body.left", "body.right", "body.floor", "body.roof.front"}),
+        "body.roof.front": frozenset({"body.front", "body.left", "body.right", "body.roof.back"}),
+    }
+    for role, others in list(adjacency.items()):
+        for o in others:
+            adjacency[o] = adjacency.get(o, frozenset()) | {role}
+    matches = match_segments(view.segments, binding, faces, adjacency, view.cameras)
+    pairs = sorted(m.parts for m in matches)
+    assert ("body.back", "body.left") in pairs  # the silhouette of the hidden back wall
+    assert ("body.front", "body.right") in pairs
+    assert ("body.roof.back", "body.roof.front") in pairs  # the ridge
+    assert ("body.left", "body.roof.back") in pairs  # the gable's back slope
+    assert ("body.floor", "body.front") in pairs
+    assert all(m.distance_px < 2.0 for m in matches)
+    assert len(matches) == len(view.segments)
+
+
+def test_parallel_planes_have_no_line() -> None:
+    n = np.array([0.0, 0.0, 1.0])
+    assert plane_line(n, 1.0, n, 2.0) is None
+    point, direction = plane_line(n, 1.0, np.array([1.0, 0.0, 0.0]), 2.0)  # type: ignore[misc]
+    np.testing.assert_allclose(point, [2.0, 0.0, 1.0], atol=1e-12)
+    assert abs(direction[1]) == pytest.approx(1.0)
