@@ -1,0 +1,145 @@
+"""NCC stereo: known shifts, slanted planes, occlusions, flat images, a rendered house."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from aida_kb.errors import VisionError
+from aida_kb.io.scene import read_image, read_labels, read_scene
+from aida_kb.vision.evaluate import score_disparity, truth_disparity
+from aida_kb.vision.rectify import stereo_rectification
+from aida_kb.vision.stereo import ncc_disparity
+
+
+def _texture(h: int, w: int, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    noise = rng.normal(0.0, 1.0, (h, w)).astype(np.float32)
+    tex = cv2.GaussianBlur(noise, (0, 0), 1.2)
+    tex = (tex - tex.mean()) / tex.std()
+    return np.clip(128 + 40 * tex, 0, 255).astype(np.float32)
+
+
+def _warp(img: np.ndarray, disparity: np.ndarray) -> np.ndarray:
+    """The right image of a scene whose left-image disparity map is `disparity`."""
+    h, w = img.shape
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
+    # right(x_r) = left(x_r + d): d evaluated at the right pixel (fine for smooth d)
+    return cv2.remap(img, xs + disparity.astype(np.float32), ys, cv2.INTER_CUBIC)
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_constant_subpixel_shift(exact: bool) -> None:
+    left = _texture(96, 160)
+    right = _warp(left, np.full(left.shape, 7.3, np.float32))
+    res = ncc_disparity(left.astype(np.uint8), right.astype(np.uint8), num_disp=16, exact=exact)
+    inner = res.disparity[10:-10, 20:-10]
+    assert np.mean(~np.isnan(inner)) > 0.97
+    assert np.nanmedian(np.abs(inner - 7.3)) < 0.1
+    assert np.mean(np.abs(inner[~np.isnan(inner)] - 7.3) > 0.5) < 0.005
+    assert np.median(res.certainty[10:-10, 20:-10]) > 0.5
+    assert res.certainty.min() >= 0.0
+    assert res.certainty.max() <= 1.0
+    assert np.all(res.certainty[np.isnan(res.disparity)] == 0.0)
+
+
+def test_slanted_plane_subpixel() -> None:
+    h, w = 96, 200
+    left = _texture(h, w, seed=1)
+    slope = 8.0 / (w - 1)
+    xs = np.arange(w, dtype=np.float32)
+    right = _warp(left, np.tile(4.0 + slope * xs, (h, 1)))  # d as a function of x_right
+    # at the left pixel x_l = x_r + d: d = 4 + slope·(x_l - d)
+    truth = np.tile((4.0 + slope * xs) / (1.0 + slope), (h, 1))
+    res = ncc_disparity(left, right, num_disp=16, window=9)
+    err = np.abs(res.disparity - truth)[10:-10, 20:-10]
+    assert np.nanmedian(err) < 0.15
+    assert np.mean(err[~np.isnan(err)] > 1.0) < 0.01
+
+
+def test_occlusion_is_dropped_by_left_right_check() -> None:
+    # a fronto-parallel square at disparity 12 in front of a background at disparity 3
+    h, w = 100, 160
+    back, front = _texture(h, w + 40, seed=2), _texture(h, w + 40, seed=3)
+    disp = np.full((h, w), 3.0, np.float32)
+    disp[30:70, 60:110] = 12.0
+    left = np.where(disp == 12.0, front[:, :w], back[:, :w]).astype(np.float32)
+    # render the right image exactly: right(x) = surface seen at x + d
+    right = np.empty_like(left)
+    xs = np.arange(w)
+    for y in range(h):  # test data only: per-row assembly of a two-layer scene
+        right[y] = back[y, xs + 3]
+        in_front = (xs + 12 >= 60) & (xs + 12 < 110) & (y >= 30) & (y < 70)
+        right[y, in_front] = front[y, xs[in_front] + 12]
+    res = ncc_disparity(left, right, num_disp=16, window=7)
+    occluded = res.disparity[
+        35:65, 49:57
+    ]  # background visible left of the square, hidden on the right
+    assert np.mean(np.isnan(occluded)) > 0.6
+    good = ~np.isnan(res.disparity)
+    assert np.mean(np.abs(res.disparity[good] - disp[good]) > 1.0) < 0.03
+
+
+def test_flat_image_has_no_disparity() -> None:
+    flat = np.full((60, 90), 120, np.uint8)
+    res = ncc_disparity(flat, flat, num_disp=8)
+    assert np.all(np.isnan(res.disparity))
+    assert np.all(res.certainty == 0.0)
+    assert res.density == 0.0
+
+
+def test_workers_and_bands_give_identical_results() -> None:
+    left = _texture(130, 120, seed=4)
+    right = _warp(left, np.full(left.shape, 5.0, np.float32))
+    a = ncc_disparity(left, right, num_disp=12, workers=1)
+    b = ncc_disparity(left, right, num_disp=12, workers=3)
+    np.testing.assert_array_equal(a.disparity, b.disparity)
+    np.testing.assert_array_equal(a.certainty, b.certainty)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"window": 8}, "odd"),
+        ({"num_disp": 2}, "num_disp"),
+        ({"min_disp": -1}, "min_disp"),
+        ({"num_disp": 300}, "num_disp"),
+    ],
+)
+def test_bad_parameters(kwargs: dict[str, int], message: str) -> None:
+    img = np.zeros((40, 60), np.uint8)
+    with pytest.raises(VisionError, match=message):
+        ncc_disparity(img, img, **kwargs)
+
+
+def test_bad_images() -> None:
+    with pytest.raises(VisionError, match="differ in size"):
+        ncc_disparity(np.zeros((40, 60), np.uint8), np.zeros((40, 61), np.uint8))
+    with pytest.raises(VisionError, match="NaN"):
+        ncc_disparity(np.full((40, 60), np.nan), np.zeros((40, 60)))
+    with pytest.raises(VisionError, match="too small"):
+        ncc_disparity(np.zeros((40, 20), np.uint8), np.zeros((40, 20), np.uint8), min_disp=15)
+
+
+def test_rendered_house_against_truth(small_house: Path) -> None:
+    scene = read_scene(small_house)
+    assert scene.truth is not None
+    view = scene.views[0]
+    assert view.labels is not None
+    rect = stereo_rectification(scene.calib)
+    left, right = rect.rectify(read_image(view.left, grey=True), read_image(view.right, grey=True))
+    truth = truth_disparity(scene.truth, view.id, read_labels(view.labels), rect)
+    res = ncc_disparity(left, right, num_disp=16)
+    full = score_disparity(res.disparity, truth)
+    assert full.density > 0.85
+    assert full.bad2 < 0.05
+    # the most certain half is far better than the rest
+    known = ~np.isnan(truth) & ~np.isnan(res.disparity)
+    top = known & (res.certainty >= np.median(res.certainty[known]))
+    best = score_disparity(np.where(top, res.disparity, np.nan).astype(np.float32), truth)
+    assert best.bad1 < 0.03
+    assert best.bad2 < 0.01
+    assert best.mean_abs_px < 0.25
