@@ -76,9 +76,80 @@ INTERNAL_PARSER_ERROR = register(
 )
 
 # --- semantic (aida_kb.kb) -----------------------------------------------------------------
-# (registered by the compiler's owners, KB100 upwards)
+_E, _W = Severity.ERROR, Severity.WARNING
+# names
+UNKNOWN_CONCEPT = register("KB100", _E, "a name where a concept is due names no concept")
+UNKNOWN_LAYER = register("KB101", _E, "a concept is put in a layer the layers declaration lacks")
+UNKNOWN_ROLE = register(
+    "KB102", _E, "a role path or binding names no role or attribute of its concept"
+)
+UNKNOWN_RELATION = register(
+    "KB103", _E, "a call is neither a primitive relation nor a declared template"
+)
+UNKNOWN_INSTANCE = register("KB104", _E, "an instance binding names no declared instance")
+UNKNOWN_TYPE = register(
+    "KB105", _E, "an attribute or parameter type is not angle, length, number or a concept"
+)
+DUPLICATE_DEFINITION = register(
+    "KB110", _E, "two concepts, templates or instances of the knowledge base share a name"
+)
+DUPLICATE_MEMBER = register(
+    "KB111", _E, "a concept, template or instance declares the same member name twice"
+)
+LAYERS_DECLARATION = register(
+    "KB112", _E, "the knowledge base has no layers declaration, or more than one"
+)
+LAYER_CONFLICT = register("KB113", _E, "a concept's own layer differs from the layer of a parent")
+# structure of the net
+ISA_CYCLE = register("KB120", _E, "concepts specialise each other in a cycle (is-a)")
+PART_CYCLE = register("KB121", _E, "concepts contain each other in a cycle (part-of)")
+CONOF_LAYER = register("KB122", _E, "a con-of does not go exactly one layer down")
+PART_LAYER = register("KB123", _E, "a part lies in another layer than its whole")
+CARDINALITY_RANGE = register("KB124", _E, "a cardinality's minimum exceeds its maximum")
+INHERITED_CONFLICT = register(
+    "KB125", _E, "two parents give a member of the same name different declarations"
+)
+BAD_OVERRIDE = register(
+    "KB126", _E, "a member overrides an inherited one with another kind or an unrelated type"
+)
+# templates, relations, values
+TEMPLATE_ARITY = register("KB130", _E, "a template is used with too few or too many arguments")
+ARGUMENT_TYPE = register(
+    "KB131", _E, "an argument does not have the type of its template parameter or relation"
+)
+UNIT_MISMATCH = register("KB132", _E, "a quantity has a unit of the wrong kind (90 m for an angle)")
+OUT_OF_RANGE = register(
+    "KB133", _E, "a value lies outside its attribute's range, or the range is empty"
+)
+EDGE_NOT_ADJACENT = register("KB134", _E, "edge(a, b) names two parts not declared adjacent")
+MALFORMED_RELATION = register(
+    "KB135", _E, "a primitive relation has the wrong number or shape of arguments"
+)
+MEASUREMENT_MISUSE = register("KB136", _E, "a measure is not a measurement, or a constraint is one")
+BAD_QUALIFIER = register(
+    "KB137", _E, "a tolerance or weight is not positive, or a threshold cannot be read"
+)
+NO_ATTRIBUTE_VALUE = register(
+    "KB138", _E, "a relation uses an attribute that has no value in some concept"
+)
+# instances
+ABSTRACT_INSTANCE = register("KB140", _E, "an instance is declared of an abstract concept")
+MISSING_ROLE = register("KB141", _E, "an instance leaves an obligatory role unbound")
+BAD_BINDING = register(
+    "KB142", _E, "an instance binding does not fit its role (type, count or kind of value)"
+)
+# warnings
+UNUSED_TEMPLATE = register("KB300", _W, "a template is declared but never used")
+UNREACHABLE_CONCEPT = register(
+    "KB301", _W, "a concept cannot be reached from any concept of the top layer"
+)
+UNVERIFIABLE_CONCEPT = register(
+    "KB302", _W, "a concept has no part-of/con-of path down to a measured image concept"
+)
 
 # --- files and imports ---------------------------------------------------------------------
 UNREADABLE_FILE = register(
     "KB900", Severity.ERROR, "a file cannot be read (missing, unreadable, not UTF-8)"
 )
+MISSING_IMPORT = register("KB901", Severity.ERROR, "an imported file does not exist")
+IMPORT_CYCLE = register("KB902", Severity.ERROR, "files import each other in a cycle")

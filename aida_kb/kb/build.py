@@ -1,0 +1,203 @@
+"""Phase 4, build: the checked symbol table -> the immutable `KnowledgeBase` (pydantic).
+
+Runs only on a knowledge base without errors, so the models are made with ``model_construct``
+(no second validation). Each concept gets its members with inheritance resolved and its
+constraints expanded into `ConstraintSpec` primitives (templates bound, defaults applied,
+tolerances as sigma in SI, weights 1/sigma² unless explicit, thresholds in SI).
+"""
+
+from __future__ import annotations
+
+from typing import cast
+
+from aida_kb.dsl import ast
+from aida_kb.kb.model import (
+    AdjacencyModel,
+    AttributeModel,
+    BindingModel,
+    ConceptModel,
+    ConOfModel,
+    ConstraintKind,
+    ConstraintSpec,
+    InstanceModel,
+    KnowledgeBase,
+    ParamModel,
+    PartModel,
+    ResidualUnit,
+    TemplateModel,
+    ValueType,
+    ValueUnit,
+)
+from aida_kb.kb.relations import UNIT_KIND, Analyzer, Prim, quantity_si
+from aida_kb.kb.resolve import VALUE_TYPES, CInfo, PathRes, Table
+
+__all__ = ["build"]
+
+
+def _si(expr: ast.Expr | None) -> float | None:
+    if isinstance(expr, ast.Quantity) and expr.unit in UNIT_KIND:
+        return quantity_si(expr)
+    if isinstance(expr, ast.Number):
+        return expr.value
+    return None
+
+
+def _attribute(
+    table: Table, info: CInfo, name: str, node: ast.Attribute, owner: str
+) -> AttributeModel:
+    rng = node.range
+    if rng is None:  # an override without a range keeps the inherited one
+        for anc in table.ancestors(info.node.name.text):
+            slot = table.concepts[anc].slots.get(name)
+            if slot is not None and isinstance(slot.node, ast.Attribute) and slot.node.range:
+                rng = slot.node.range
+                break
+    vtype = node.type.text
+    return AttributeModel.model_construct(
+        name=name,
+        type=cast(ValueType, vtype),
+        unit=cast(ValueUnit, VALUE_TYPES[vtype]),
+        low=_si(rng.low) if rng else None,
+        high=_si(rng.high) if rng else None,
+        default=_si(node.default),
+        declared_in=owner,
+        span=node.span,
+    )
+
+
+def _specs(
+    cname: str, prims_by_rule: list[tuple[str | None, str, list[Prim]]]
+) -> tuple[ConstraintSpec, ...]:
+    out: list[ConstraintSpec] = []
+    counters: dict[str, int] = {}
+    for label, owner, prims in prims_by_rule:
+        if label is None:
+            counters[owner] = counters.get(owner, 0) + 1
+            base = f"{owner}#{counters[owner]}"
+        else:
+            base = label
+        distinct = {(p.kind, p.args) for p in prims}
+        for i, p in enumerate(prims, 1):
+            name = base if len(distinct) <= 1 else f"{base}/{i}"
+            out.append(
+                ConstraintSpec.model_construct(
+                    label=name,
+                    kind=cast(ConstraintKind, p.kind),
+                    args=p.args,
+                    value=p.value,
+                    unit=cast(ResidualUnit, p.unit),
+                    sigma=p.sigma,
+                    weight=p.weight,
+                    reject_above=p.reject_above,
+                    measurement=p.measurement,
+                    concept=owner,
+                    span=p.span,
+                    requires=p.requires,
+                )
+            )
+    return tuple(out)
+
+
+def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
+    parts: dict[str, PartModel] = {}
+    con_ofs: dict[str, ConOfModel] = {}
+    attributes: dict[str, AttributeModel] = {}
+    for key, s in info.slots.items():
+        if s.kind == "part":
+            parts[key] = PartModel.model_construct(
+                role=key,
+                concept=s.concept or "",
+                min=s.min,
+                max=s.max,
+                optional=s.optional,
+                declared_in=s.owner,
+                span=s.node.span,
+            )
+        elif s.kind == "con-of":
+            con_ofs[key] = ConOfModel.model_construct(
+                role=key,
+                concept=s.concept or "",
+                min=s.min,
+                max=s.max,
+                declared_in=s.owner,
+                span=s.node.span,
+            )
+        else:
+            assert isinstance(s.node, ast.Attribute)
+            attributes[key] = _attribute(table, info, key, s.node, s.owner)
+    adjacencies: list[AdjacencyModel] = []
+    for adj, owner in info.adjacency:
+        for a, b in adj.edges:
+            ra, rb = table.resolve_path(cname, a), table.resolve_path(cname, b)
+            req = (ra.requires if isinstance(ra, PathRes) else ()) + (
+                rb.requires if isinstance(rb, PathRes) else ()
+            )
+            adjacencies.append(
+                AdjacencyModel.model_construct(
+                    a=a.dotted, b=b.dotted, declared_in=owner, span=adj.span, requires=req
+                )
+            )
+    az = Analyzer(table, cname)
+    prims = [(r.label, r.owner, az.rule(r.node)) for r in info.rules]
+    return ConceptModel.model_construct(
+        name=cname,
+        layer=info.layer or "",
+        abstract=info.node.abstract,
+        parents=tuple(info.parents),
+        specialisations=tuple(info.children),
+        doc=info.node.doc,
+        parts=parts,
+        con_ofs=con_ofs,
+        attributes=attributes,
+        adjacencies=tuple(adjacencies),
+        constraints=_specs(cname, prims),
+        span=info.node.span,
+    )
+
+
+def _template(t: ast.Template) -> TemplateModel:
+    params = tuple(
+        ParamModel.model_construct(name=p.name.text, type=p.type.text, default=_si(p.default))
+        for p in t.params
+    )
+    return TemplateModel.model_construct(name=t.name.text, params=params, doc=t.doc, span=t.span)
+
+
+def _instance(inst: ast.Instance) -> InstanceModel:
+    bindings: dict[str, BindingModel] = {}
+    for b in inst.bindings:
+        items = b.value.items if isinstance(b.value, ast.ListExpr) else (b.value,)
+        bindings[b.role.text] = BindingModel.model_construct(
+            role=b.role.text,
+            instances=tuple(i.dotted for i in items if isinstance(i, ast.Path)),
+            evidence=tuple(i.value for i in items if isinstance(i, ast.String)),
+            value=next(
+                (
+                    v
+                    for i in items
+                    if isinstance(i, ast.Quantity | ast.Number)
+                    if (v := _si(i)) is not None
+                ),
+                None,
+            ),
+            span=b.span,
+        )
+    return InstanceModel.model_construct(
+        name=inst.name.text,
+        concept=inst.concept.text,
+        doc=inst.doc,
+        bindings=bindings,
+        span=inst.span,
+    )
+
+
+def build(table: Table, files: tuple[str, ...]) -> KnowledgeBase:
+    """The `KnowledgeBase` of a checked table (call only when the checks found no error)."""
+    concepts = {c: _concept(table, c, table.concepts[c]) for c in table.concepts}
+    return KnowledgeBase.model_construct(
+        layers=tuple(table.layers),
+        concepts=concepts,
+        templates={n: _template(t) for n, t in table.templates.items()},
+        instances={n: _instance(i) for n, i in table.instances.items()},
+        files=files,
+    )

@@ -1,0 +1,141 @@
+"""Phase 1, loading: read the root file, parse it, follow its imports transitively.
+
+An import names a file relative to the importing file; when it is not there, each of the
+``search_paths`` is tried in turn. A file imported twice (a diamond) is loaded once; a file that
+imports itself through a chain of imports is an import cycle (``KB902``); a missing file is
+``KB901``; a file that cannot be read as UTF-8 is ``KB900``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+from aida_kb.diagnostics import codes
+from aida_kb.diagnostics.core import Diagnostic, Span
+from aida_kb.dsl import ast, parse
+
+__all__ = ["Loaded", "load_path", "load_text"]
+
+
+@dataclass(slots=True)
+class Loaded:
+    """Every module of a knowledge base, in load order (root first), and what loading found."""
+
+    modules: list[ast.Module] = field(default_factory=list)
+    sources: dict[str, str] = field(default_factory=dict)
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+    broken: set[str] = field(default_factory=set)
+
+
+def _diag(code: codes.Code, message: str, span: Span, hint: str | None = None) -> Diagnostic:
+    return Diagnostic(code.code, code.severity, message, span, hint)
+
+
+def _read(path: str) -> str | Exception:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return fh.read()
+    except (OSError, UnicodeDecodeError) as exc:
+        return exc
+
+
+def _reason(exc: Exception) -> str:
+    if isinstance(exc, UnicodeDecodeError):
+        return f"not UTF-8 text ({exc.reason} at byte {exc.start})"
+    if isinstance(exc, OSError):
+        return exc.strerror or str(exc)
+    return str(exc)
+
+
+class _Loader:
+    def __init__(self, search_paths: Sequence[str]) -> None:
+        self.search_paths = [str(p) for p in search_paths]
+        self.out = Loaded()
+        self.done: set[str] = set()
+
+    def key(self, name: str) -> str:
+        return os.path.realpath(name)
+
+    def add(self, name: str, text: str, stack: list[tuple[str, str]]) -> None:
+        """Parse ``text`` (the file ``name``) and load its imports; ``stack`` is the chain."""
+        self.done.add(self.key(name))
+        self.out.sources[name] = text
+        result = parse(text, name)
+        self.out.modules.append(result.module)
+        self.out.diagnostics.extend(result.diagnostics)
+        self.out.broken |= result.broken
+        chain = [*stack, (self.key(name), name)]
+        for imp in result.module.imports:
+            self.follow(name, imp, chain)
+
+    def locate(self, importer: str, rel: str) -> str | None:
+        base = os.path.dirname(importer)
+        candidates = [os.path.normpath(os.path.join(base, rel))]
+        candidates += [os.path.normpath(os.path.join(p, rel)) for p in self.search_paths]
+        if os.path.isabs(rel):
+            candidates = [rel]
+        return next((c for c in candidates if os.path.isfile(c)), None)
+
+    def follow(self, importer: str, imp: ast.Import, chain: list[tuple[str, str]]) -> None:
+        rel = imp.path.value
+        span = imp.path.span
+        target = self.locate(importer, rel)
+        if target is None:
+            where = ", ".join([os.path.dirname(importer) or ".", *self.search_paths])
+            self.out.diagnostics.append(
+                _diag(
+                    codes.MISSING_IMPORT,
+                    f"imported file '{rel}' does not exist",
+                    span,
+                    f"looked in: {where}",
+                )
+            )
+            return
+        key = self.key(target)
+        keys = [k for k, _ in chain]
+        if key in keys:
+            names = [n for _, n in chain[keys.index(key) :]]
+            cycle = " imports ".join([*names, names[0]])
+            self.out.diagnostics.append(
+                _diag(
+                    codes.IMPORT_CYCLE,
+                    f"import cycle: {cycle}",
+                    span,
+                    "break the cycle: move what both files need into a third file",
+                )
+            )
+            return
+        if key in self.done:
+            return
+        text = _read(target)
+        if isinstance(text, Exception):
+            self.out.diagnostics.append(
+                _diag(codes.UNREADABLE_FILE, f"cannot read '{target}': {_reason(text)}", span)
+            )
+            return
+        self.add(target, text, chain)
+
+
+def load_text(text: str, file: str, search_paths: Sequence[str] = ()) -> Loaded:
+    """Parse ``text`` as the root file ``file`` and load what it imports."""
+    loader = _Loader(search_paths)
+    loader.add(file, text, [])
+    return loader.out
+
+
+def load_path(path: str, search_paths: Sequence[str] = ()) -> Loaded:
+    """Read and parse the root file ``path`` and load what it imports (``KB900`` if unreadable)."""
+    text = _read(path)
+    if isinstance(text, Exception):
+        out = Loaded()
+        out.diagnostics.append(
+            _diag(
+                codes.UNREADABLE_FILE,
+                f"cannot read '{path}': {_reason(text)}",
+                Span.point(path, 1, 1),
+            )
+        )
+        return out
+    return load_text(text, path, search_paths)

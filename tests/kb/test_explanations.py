@@ -1,0 +1,24 @@
+"""The compiler's codes: each explanation's Bad example shows its code, the Fixed one is clean."""
+
+from __future__ import annotations
+
+import pytest
+
+from aida_kb.diagnostics import codes
+from aida_kb.diagnostics.explain import explanation
+from aida_kb.kb import compile_text
+
+SEMANTIC = [c for c in sorted(codes.REGISTRY) if "KB100" <= c < "KB900"]
+
+
+@pytest.mark.parametrize("code", SEMANTIC)
+def test_bad_example_shows_the_code_and_fixed_removes_it(code: str) -> None:
+    found = explanation(code)
+    assert found is not None
+    assert found.bad is not None
+    assert found.fixed is not None
+    bad = compile_text(found.bad, "example.kb")
+    assert code in {d.code for d in bad.diagnostics}
+    fixed = compile_text(found.fixed, "example.kb")
+    assert code not in {d.code for d in fixed.diagnostics}
+    assert fixed.ok, fixed.diagnostics
