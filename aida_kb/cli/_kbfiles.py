@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -16,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from aida_kb.errors import FormatError
 
 if TYPE_CHECKING:
-    from aida_kb.diagnostics.core import Diagnostic
+    from aida_kb.kb import CompileResult
 
 EXIT_OK = 0
 EXIT_ERRORS = 1
@@ -93,29 +92,17 @@ def read_source(path: Path) -> str:
         raise FormatError(f"{path}: cannot read: {exc.strerror or exc}") from None
 
 
-@dataclass(frozen=True)
-class Checked:
-    """What checking one file gave: its diagnostics, every source read, the model if any."""
+def check(path: Path) -> CompileResult:
+    """Read and compile one .kb file (its imports included); `FormatError` if it is unreadable.
 
-    diagnostics: tuple[Diagnostic, ...]
-    sources: Mapping[str, str]
-    kb: Any = None
-    files: tuple[str, ...] = field(default=())
+    The root file is read here first, so that an unreadable file named on the command line is
+    a usage error (exit status 2); an unreadable *import* is a diagnostic of the result.
+    """
+    from aida_kb.kb import compile_path
 
-    @property
-    def ok(self) -> bool:
-        """True when no diagnostic is an error."""
-        return not any(d.is_error for d in self.diagnostics)
-
-
-def check(path: Path) -> Checked:
-    """Read and check one .kb file (its imports included); `FormatError` if it is unreadable."""
     name = display_path(path)
-    text = read_source(path)
-    from aida_kb.dsl import parse
-
-    result = parse(text, name)
-    return Checked(result.diagnostics, {name: text}, None, (name,))
+    read_source(path)
+    return compile_path(name)
 
 
 def use_color(stream: Any, choice: str = "auto") -> bool:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterator
 from typing import Any
 
 EXAMPLE = """\
@@ -50,170 +49,89 @@ def register(subparsers: Any) -> None:
     p.set_defaults(run=run)
 
 
-# ---- the net ----------------------------------------------------------------------------------
-def _net_from_module(module: Any) -> Any:
-    """A semantic net (networkx MultiDiGraph) read straight from a parsed module.
-
-    Nodes are concepts (attributes ``layer``, ``abstract``); edges run from the whole to the
-    part (``part-of``), from the concept to its realisation (``con-of``) and from the
-    specialisation to its parent (``is-a``), with ``role``, ``min``, ``max``.
-    """
-    import networkx as nx
-
-    from aida_kb.dsl import ast
-
-    net: Any = nx.MultiDiGraph()
-    concepts = [item for item in module.items if isinstance(item, ast.Concept)]
-    for c in concepts:
-        net.add_node(
-            c.name.text,
-            kind="concept",
-            layer=c.layer.text if c.layer else None,
-            abstract=c.abstract,
-        )
-    for c in concepts:
-        for parent in c.parents:
-            net.add_edge(c.name.text, parent.text, kind="is-a", role=None, min=None, max=None)
-        for m in c.members:
-            if isinstance(m, ast.Part | ast.ConOf):
-                card = m.cardinality
-                low = card.min if card else (0 if getattr(m, "optional", False) else 1)
-                high = card.max if card else 1
-                kind = "part-of" if isinstance(m, ast.Part) else "con-of"
-                roles = m.roles if isinstance(m, ast.Part) else (m.role,)
-                for role in roles:
-                    net.add_edge(
-                        c.name.text, m.concept.text, kind=kind, role=role.text, min=low, max=high
-                    )
-    return net
-
-
-# ---- the tree ---------------------------------------------------------------------------------
-def _edges(net: Any, node: str, kind: str) -> Iterator[tuple[str, str, dict[str, Any]]]:
-    for _, target, data in net.out_edges(node, data=True):
-        if data.get("kind") == kind:
-            yield node, target, data
-
-
-def _parents(net: Any, node: str) -> list[str]:
-    return [t for _, t, _ in _edges(net, node, "is-a")]
-
-
-def _children(net: Any, node: str) -> list[str]:
-    return sorted(s for s, _, d in net.in_edges(node, data=True) if d.get("kind") == "is-a")
-
-
-def _ancestry(net: Any, node: str) -> list[str]:
-    """`node` and its is-a ancestors, nearest first (cycles cut)."""
-    order: list[str] = []
-    stack = [node]
-    while stack:
-        n = stack.pop(0)
-        if n in order or n not in net:
-            continue
-        order.append(n)
-        stack.extend(_parents(net, n))
-    return order
-
-
-def _layer(net: Any, node: str) -> str | None:
-    for n in _ancestry(net, node):
-        layer = net.nodes[n].get("layer")
-        if layer:
-            return str(layer)
-    return None
-
-
-def _members(net: Any, node: str, kind: str) -> list[tuple[str, str, Any, Any, str]]:
-    """(role, concept, min, max, declared-in) of `kind` edges, inherited ones included."""
-    out: dict[str, tuple[str, str, Any, Any, str]] = {}
-    for n in reversed(_ancestry(net, node)):  # nearer declarations override
-        for _, target, data in _edges(net, n, kind):
-            role = str(data.get("role"))
-            out[role] = (role, target, data.get("min"), data.get("max"), n)
-    return list(out.values())
-
-
-def _card(low: Any, high: Any) -> str:
-    if low is None and high is None:
-        return ""
+# ---- the tree -------------------------------------------------------------------------------
+def _card(low: int | None, high: int | None) -> str:
     hi = "*" if high is None else str(high)
     return f" [{low}]" if str(low) == hi else f" [{low}..{hi}]"
 
 
-def _label(net: Any, node: str) -> str:
-    attrs = net.nodes[node] if node in net else {}
-    layer = _layer(net, node)
-    extra = "abstract, " if attrs.get("abstract") else ""
-    parents = _parents(net, node) if node in net else []
-    isa = f" is-a {', '.join(parents)}" if parents else ""
-    return f"[bold]{node}[/bold]{isa} [dim]({extra}{layer or 'no layer'})[/dim]"
+def _label(kb: Any, name: str) -> str:
+    concept = kb.concepts.get(name)
+    if concept is None:
+        return f"[bold]{name}[/bold]"
+    parents = f" is-a {', '.join(concept.parents)}" if concept.parents else ""
+    abstract = "abstract, " if concept.abstract else ""
+    return f"[bold]{name}[/bold]{parents} [dim]({abstract}{concept.layer})[/dim]"
+
+
+def _value(attribute: Any) -> str:
+    import math
+
+    if attribute.default is None:
+        return ""
+    if attribute.unit == "rad":
+        return f" = {math.degrees(attribute.default):g} deg"
+    return f" = {attribute.default:g} {attribute.unit}".rstrip()
 
 
 def _grow(
-    net: Any,
-    tree: Any,
-    node: str,
-    seen: set[str],
-    depth: int = 0,
-    known: frozenset[str] = frozenset(),
+    kb: Any, tree: Any, name: str, seen: set[str], known: frozenset[str] = frozenset()
 ) -> None:
-    """Add `node`'s realisations, parts and alternatives under `tree`.
+    """Add concept `name`'s con-of realisations, parts and is-a alternatives under `tree`.
 
-    Members declared in `known` (the concept an alternative specialises, and its ancestors)
-    were shown already and are left out.
+    Members declared in `known` (the concept an alternative specialises and its ancestors)
+    were shown already and are left out. Each concept is expanded once; later mentions say so.
     """
-    if node in seen or depth > 30:
-        tree.add(f"[dim]{node}: see above[/dim]")
+    concept = kb.concepts.get(name)
+    if concept is None:
         return
-    seen.add(node)
-    for kind, style in (("con-of", "magenta"), ("part-of", "cyan")):
-        groups: dict[tuple[str, Any, Any], list[str]] = {}
-        origin: dict[tuple[str, Any, Any], str] = {}
-        for role, target, low, high, declared in _members(net, node, kind):
-            if declared in known:
+    if name in seen:
+        tree.add(f"[dim]{name}: see above[/dim]")
+        return
+    seen.add(name)
+    for members, style in ((concept.con_ofs, "magenta"), (concept.parts, "cyan")):
+        groups: dict[tuple[str, int, int | None, str, str], list[str]] = {}
+        for role, m in members.items():
+            if m.declared_in in known:
                 continue
-            key = (target, low, high)
-            groups.setdefault(key, []).append(role)
-            origin[key] = declared
-        for (target, low, high), roles in groups.items():
-            word = "con-of" if kind == "con-of" else ("optional part" if low == 0 else "part")
-            inherited = origin[(target, low, high)]
-            via = f" [dim](from {inherited})[/dim]" if inherited != node else ""
+            optional = getattr(m, "optional", False)
+            word = "con-of" if style == "magenta" else ("optional part" if optional else "part")
+            groups.setdefault((m.concept, m.min, m.max, m.declared_in, word), []).append(role)
+        for (target, low, high, declared, word), roles in groups.items():
+            via = f" [dim](from {declared})[/dim]" if declared != name else ""
             branch = tree.add(
                 f"[{style}]{word}[/{style}] {', '.join(roles)}: "
-                f"{_label(net, target)}{_card(low, high)}{via}"
+                f"{_label(kb, target)}{_card(low, high)}{via}"
             )
-            if target in net:
-                _grow(net, branch, target, seen, depth + 1)
-    alternatives = _children(net, node)
-    if alternatives:
-        alt = tree.add(f"[yellow]is-a alternatives[/yellow] of {node}")
-        shown = frozenset(_ancestry(net, node))
-        for child in alternatives:
-            _grow(net, alt.add(_label(net, child)), child, seen, depth + 1, shown)
+            _grow(kb, branch, target, seen)
+    own = [
+        a for a in concept.attributes.values() if a.declared_in == name and a.default is not None
+    ]
+    if known and own:
+        tree.add("[green]with[/green] " + ", ".join(f"{a.name}{_value(a)}" for a in own))
+    if concept.specialisations:
+        alt = tree.add(f"[yellow]is-a alternatives[/yellow] of {name}")
+        ancestry = frozenset(
+            n for n in kb.concepts if kb.is_a(name, n)
+        )  # name and its ancestors: their members are shown above
+        for child in sorted(concept.specialisations):
+            _grow(kb, alt.add(_label(kb, child)), child, seen, ancestry)
 
 
-def net_tree(net: Any, title: str) -> Any:
-    """A rich Tree of the net from every scene-layer concept (roots: concepts of the top layer).
+def net_tree(kb: Any, title: str) -> Any:
+    """A rich Tree of the knowledge base from each concept of the top layer downwards.
 
-    Each concept is expanded once; later mentions say "see above".
+    Under a concept: its con-of realisations and parts (roles sharing a concept and a
+    cardinality grouped), each with its cardinality, then its is-a alternatives.
     """
     from rich.tree import Tree
 
     tree = Tree(title)
-    layers = [_layer(net, n) for n in net.nodes]
-    top = next((lay for lay in ("scene",) if lay in layers), None)
-    roots = sorted(
-        n
-        for n in net.nodes
-        if net.nodes[n].get("kind", "concept") == "concept"
-        and _layer(net, n) == top
-        and not _parents(net, n)
-    )
+    top = kb.layers[0] if kb.layers else None
+    roots = sorted(n for n, c in kb.concepts.items() if c.layer == top and not c.parents)
     seen: set[str] = set()
     for root in roots:
-        _grow(net, tree.add(_label(net, root)), root, seen)
+        _grow(kb, tree.add(_label(kb, root)), root, seen)
     return tree
 
 
@@ -232,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
         use_color,
     )
     from aida_kb.diagnostics.render import render_summary, render_text
-    from aida_kb.dsl import parse
+    from aida_kb.kb import build_net
 
     path = Path(args.kb) if args.kb else packaged_kb("buildings.kb")
     console = Console(highlight=False)
@@ -243,20 +161,26 @@ def run(args: argparse.Namespace) -> int:
     color = use_color(console.file)
     if result.diagnostics:
         print(render_text(result.diagnostics, result.sources, color=color))
-    print("   " + render_summary(result.diagnostics, 1, color=color))
-    if not result.ok:
+    print("   " + render_summary(result.diagnostics, len(result.sources), color=color))
+    kb = result.kb
+    if kb is None:
         console.print("[red]the knowledge base has errors; no net to show[/red]")
         return EXIT_ERRORS
-    console.print("2. compile it into the semantic net")
-    name = next(iter(result.sources))
-    net = _net_from_module(parse(result.sources[name], name).module)
+    net = build_net(kb)
     kinds: dict[str, int] = {}
-    for _, _, kind in net.edges(data="kind"):
+    for _, _, data in net.edges(data=True):
+        kind = str(data.get("kind"))
         kinds[kind] = kinds.get(kind, 0) + 1
-    summary = ", ".join(f"{v} {k}" for k, v in sorted(kinds.items()))
-    console.print(f"   {net.number_of_nodes()} concepts; links: {summary}")
+    links = ", ".join(f"{v} {k}" for k, v in sorted(kinds.items()))
+    n_constraints = sum(
+        1 for c in kb.concepts.values() for spec in c.constraints if spec.concept == c.name
+    )
+    console.print("2. compile it into the semantic net")
+    console.print(f"   {len(kb.concepts)} concepts in layers {' > '.join(kb.layers)}")
+    console.print(f"   links: {links}")
+    console.print(f"   {len(kb.templates)} templates, {n_constraints} primitive constraints")
     console.print("3. the net, from the scene layer down to the image layer:")
-    console.print(net_tree(net, f"[bold]{name}[/bold]"))
+    console.print(net_tree(kb, f"[bold]{display_path(path)}[/bold]"))
     console.print()
     print(PIPELINE)
     return EXIT_OK

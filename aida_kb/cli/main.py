@@ -18,7 +18,17 @@ from aida_kb.errors import AidaError, FormatError
 
 # Command modules, in the order `--help` lists them. Each module is aida_kb.cli.<name>
 # and must import nothing heavy at module level.
-COMMANDS: tuple[str, ...] = ("lint", "validate", "explain", "demo", "synth", "disparity")
+COMMANDS: tuple[str, ...] = (
+    "lint",
+    "validate",
+    "explain",
+    "graph",
+    "compile",
+    "schema",
+    "demo",
+    "synth",
+    "disparity",
+)
 
 EXIT_OK = 0
 EXIT_FAILURE = 1

@@ -45,8 +45,13 @@ def test_broken_file_text_has_location_source_line_and_caret(
     assert "expected a role name after 'part'" in lines[head]
     assert lines[head + 2].startswith("6 |     part : HouseBody")
     assert lines[head + 3] == "  |          ^"
-    assert "5 errors in 1 file" in out
     assert "\x1b[" not in out
+    if command == "lint":  # the compiler's warnings about what the broken declarations left
+        assert "5 errors, 4 warnings in 1 file" in out
+        assert "warning[KB301]" in out
+    else:
+        assert "5 errors in 1 file" in out
+        assert "warning[" not in out
 
 
 def test_json_is_one_array_with_exactly_the_contract_keys(
@@ -56,10 +61,10 @@ def test_json_is_one_array_with_exactly_the_contract_keys(
     assert code == 1
     data = json.loads(out)
     assert isinstance(data, list)
-    assert len(data) == 5
+    assert [d["severity"] for d in data].count("error") == 5
+    assert {d["severity"] for d in data} == {"error", "warning"}
     for item in data:
         assert set(item) == KEYS
-        assert item["severity"] == "error"
         assert item["file"].endswith("broken_syntax.kb")
     first = data[0]
     assert (first["code"], first["line"], first["column"]) == ("KB001", 6, 10)
@@ -132,3 +137,62 @@ def test_mutated_buildings_give_diagnostics_never_a_traceback(
     assert "internal error" not in err.getvalue()
     data = json.loads(out.getvalue())
     assert (code == 1) == any(d["severity"] == "error" for d in data)
+
+
+WARN_ONLY = """layers scene > world > image
+template unused(a: Plane, b: Plane) { parallel(a, b) }
+concept House in scene { con-of body: Body }
+concept Plane in world { con-of region: Region [0..1] }
+concept Body in world { part front: Plane }
+concept Region in image { measure position(self) +- 1 px }
+"""
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["lint"], 0),
+        (["lint", "--strict"], 1),
+        (["validate"], 0),
+        (["validate", "--strict"], 1),
+    ],
+)
+def test_warnings_fail_only_with_strict(
+    argv: list[str], expected: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "warn.kb"
+    path.write_text(WARN_ONLY, encoding="utf-8")
+    code, out, _ = _run([*argv, "--format", "json", str(path)], capsys)
+    assert code == expected
+    data = json.loads(out)
+    assert {d["code"] for d in data} == ({"KB300"} if argv != ["validate"] else set())
+
+
+def test_semantic_errors_show_related_notes_and_imports_are_followed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "lib.kb").write_text(
+        "concept A is-a B { }\nconcept B is-a A { }\n", encoding="utf-8"
+    )
+    root = tmp_path / "root.kb"
+    root.write_text('import "lib.kb"\nimport "gone.kb"\nlayers scene > world\n', encoding="utf-8")
+    code, out, _ = _run(["validate", "--color", "never", str(root)], capsys)
+    assert code == 1  # a missing import is an error in the knowledge base, not a usage error
+    assert "error[KB901]: imported file 'gone.kb' does not exist" in out
+    assert "error[KB120]: is-a cycle: " in out
+    assert "lib.kb:1:16: note: A is-a B" in out
+    assert "1 | concept A is-a B { }" in out
+
+
+def test_a_file_imported_by_two_linted_files_reports_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "lib.kb").write_text("concept A in nowhere { }\n", encoding="utf-8")
+    for name in ("a.kb", "b.kb"):
+        (tmp_path / name).write_text('import "lib.kb"\nlayers scene\n', encoding="utf-8")
+    code, out, _ = _run(["validate", "--format", "json", str(tmp_path)], capsys)
+    assert code == 1
+    data = json.loads(out)
+    unknown = [d for d in data if d["code"] == "KB101"]
+    assert len(unknown) == 1
+    assert unknown[0]["file"].endswith("lib.kb")
