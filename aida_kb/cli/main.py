@@ -1,7 +1,7 @@
 """Entry point of the ``aida-kb`` (alias ``kb``) command.
 
 Exit codes: 0 success, 1 errors found in the input (or a failed run), 2 usage error or an
-unreadable input file, 130 interrupted.
+unreadable input file, 130 interrupted, 141 the output pipe was closed by its reader.
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ EXIT_OK = 0
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a writer killed by a closed pipe
 
 
 def _command_modules() -> list[ModuleType]:
@@ -76,6 +77,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except AidaError as exc:
         print(f"aida-kb: error: {exc}", file=sys.stderr)
         return EXIT_FAILURE
+    except BrokenPipeError:  # `aida-kb compile kb.kb | head`: the reader left; end quietly
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except OSError as exc:
         print(f"aida-kb: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

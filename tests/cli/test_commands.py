@@ -67,3 +67,19 @@ def test_lint_and_validate_import_no_numpy_scipy_cv2(argv: list[str]) -> None:
     result = json.loads(done.stdout.splitlines()[-1])
     assert result["code"] in (0, 1)
     assert result["heavy"] == []
+
+
+def test_a_closed_output_pipe_ends_quietly() -> None:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "aida_kb", "compile", "kb/buildings.kb"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None
+    assert proc.stderr is not None
+    proc.stdout.close()  # the reader leaves before the ~70 kB of JSON are written
+    err = proc.stderr.read().decode()
+    proc.stderr.close()
+    assert proc.wait(timeout=60) == 141
+    assert err == ""
