@@ -28,6 +28,7 @@ COMMANDS: tuple[str, ...] = (
     "demo",
     "synth",
     "disparity",
+    "evidence",
 )
 
 EXIT_OK = 0

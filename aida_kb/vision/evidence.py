@@ -1,0 +1,387 @@
+"""Evidence assembly: a scene directory's stereo views -> `aida_kb.io.evidence.Evidence`.
+
+Per view: rectify, NCC disparity with certainty, depth on the original left image, regions
+(labels.png where the scene has one, else regions of equal orientation), a robust certainty-
+weighted plane per region (fitted in disparity space, see aida_kb.vision.planes), line segments
+attached to the regions they border, region contours, and the cameras.
+
+Frames: view 00's left camera is the world frame. A later view is given in the world frame
+when its pose (R_cam_world, t_cam_world of its left camera) is passed in `poses`; otherwise in
+its own left camera frame (`frame = "camera"`), to be registered later (paper §5).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import VisionError
+from aida_kb.io.evidence import (
+    Contour,
+    Evidence,
+    EvidenceCamera,
+    LineSegment,
+    Region,
+    ViewEvidence,
+)
+from aida_kb.io.model import Cahv
+from aida_kb.io.scene import Scene, SceneView, StereoCalib, read_image, read_labels
+from aida_kb.vision.depth import DepthMap, depth_map
+from aida_kb.vision.lines import Segment, attach_segments, detect_segments
+from aida_kb.vision.planes import fit_disparity_plane, pixel_areas_m2, plane_depth
+from aida_kb.vision.rectify import Rectification, remap, stereo_rectification
+from aida_kb.vision.segmentation import local_planes, region_contours, segment_planes
+from aida_kb.vision.stereo import DisparityMap, ncc_disparity
+
+F32 = npt.NDArray[np.float32]
+F64 = npt.NDArray[np.float64]
+I32 = npt.NDArray[np.int32]
+Pose = tuple[npt.ArrayLike, npt.ArrayLike]
+Stage = Callable[[str], None]
+SegmentationMode = Literal["auto", "labels", "orientation"]
+
+STAGES = ("rectify", "disparity", "depth", "segmentation", "planes", "lines", "contours")
+MIN_FIT_SAMPLES = 30
+
+
+@dataclass(frozen=True)
+class VisionParams:
+    """Parameters of the pipeline (defaults suit 640x480 building pairs)."""
+
+    num_disp: int = 64
+    min_disp: int = 0
+    window: int = 11
+    min_certainty: float = 0.05
+    min_line_px: float = 15.0
+    min_region_px: int = 200
+
+
+@dataclass(frozen=True)
+class ViewProducts:
+    """Everything computed for one view (for debug images and tests).
+
+    disparity : on the rectified left image. depth : on the original left image.
+    regions : (H, W) int32 region ids on the original left image, 0 = none.
+    left_rectified : the rectified left image (8-bit grey).
+    """
+
+    evidence: ViewEvidence
+    disparity: DisparityMap
+    depth: DepthMap
+    regions: I32
+    segments: list[Segment]
+    left: npt.NDArray[np.uint8]
+    left_rectified: npt.NDArray[np.uint8]
+
+
+def _camera(K: F64, D: F64, R: F64, t: F64) -> EvidenceCamera:
+    # TEMPORARY until aida_kb.geometry.camera lands (DOMAIN.md formulas)
+    C = -R.T @ t
+    A = R[2]
+    H = K[0, 0] * R[0] + K[0, 1] * R[1] + K[0, 2] * A
+    V = K[1, 1] * R[1] + K[1, 2] * A
+    return EvidenceCamera(
+        K=_m3(K),
+        D=[float(x) for x in np.asarray(D, float).ravel()],
+        R=_m3(R),
+        t=_v3(t),
+        cahv=Cahv(C=_v3(C), A=_v3(A), H=_v3(H), V=_v3(V)),
+    )
+
+
+def _v3(v: npt.ArrayLike) -> tuple[float, float, float]:
+    a = np.asarray(v, float).ravel()
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def _m3(
+    m: npt.ArrayLike,
+) -> tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]:
+    a = np.asarray(m, float).reshape(3, 3)
+    return (_v3(a[0]), _v3(a[1]), _v3(a[2]))
+
+
+def original_rays(calib: StereoCalib) -> F64:
+    """Undistorted viewing rays (H, W, 3) (x, y, 1) of the original left image's pixels."""
+    W, H = calib.image_size
+    ys, xs = np.mgrid[0:H, 0:W].astype(np.float64)
+    pts = np.stack([xs.ravel(), ys.ravel()], axis=1).reshape(-1, 1, 2)
+    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-8)
+    norm = cv2.undistortPoints(pts, calib.K1, calib.D1, criteria=crit).reshape(H, W, 2)
+    return np.dstack([norm, np.ones((H, W))]).astype(np.float64)
+
+
+def _read_pair(view: SceneView, calib: StereoCalib) -> tuple[np.ndarray, np.ndarray]:
+    left = read_image(view.left, grey=True)
+    right = read_image(view.right, grey=True)
+    W, H = calib.image_size
+    for path, img in ((view.left, left), (view.right, right)):
+        if img.shape != (H, W):
+            raise VisionError(
+                f"{path}: image is {img.shape[1]}x{img.shape[0]}, the calibration says {W}x{H}"
+            )
+    return left, right
+
+
+def _region_map(
+    view: SceneView,
+    mode: SegmentationMode,
+    disp: DisparityMap,
+    rect: Rectification,
+    params: VisionParams,
+) -> tuple[I32, Literal["labels", "orientation"]]:
+    W, H = rect.size
+    if mode != "orientation" and view.labels is not None:
+        labels = read_labels(view.labels)
+        if labels.shape != (H, W):
+            raise VisionError(
+                f"{view.labels}: label image is {labels.shape[1]}x{labels.shape[0]}, "
+                f"the calibration says {W}x{H}"
+            )
+        return labels.astype(np.int32), "labels"
+    if mode == "labels":
+        raise VisionError(f"view {view.id}: segmentation 'labels' asked for, but no labels.png")
+    planes = local_planes(disp.disparity, disp.certainty)
+    seg = segment_planes(disp.disparity, disp.certainty, planes, min_pixels=params.min_region_px)
+    back = remap(seg.astype(np.float32), rect.inverse_left, nearest=True, border=0.0)
+    return np.nan_to_num(back, nan=0.0).astype(np.int32), "orientation"
+
+
+def _plane_regions(
+    regions: I32,
+    disp: DisparityMap,
+    depth: DepthMap,
+    rect: Rectification,
+    rays: F64,
+    calib: StereoCalib,
+    window: int,
+    to_frame: tuple[F64, F64] | None,
+    labelled: bool,
+) -> list[Region]:
+    """A plane fit per region; regions with too few depth samples are left out."""
+    W, H = rect.size
+    rect_regions = remap(regions.astype(np.float32), rect.map_left, nearest=True, border=0.0)
+    rect_regions = np.nan_to_num(rect_regions, nan=0.0).astype(np.int32)
+    f, cx, cy, B = rect.focal_px, float(rect.P1[0, 2]), float(rect.P1[1, 2]), rect.baseline_m
+    vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
+    fx, fy = float(calib.K1[0, 0]), float(calib.K1[1, 1])
+    erode = np.ones((window + 2, window + 2), np.uint8)
+    valid_disp = ~np.isnan(disp.disparity) & (disp.certainty > 0)
+    ids, counts = np.unique(regions, return_counts=True)
+    out: list[Region] = []
+    for rid, count in zip(ids.tolist(), counts.tolist(), strict=True):
+        if rid == 0:
+            continue
+        mask_r = rect_regions == rid
+        inner = cv2.erode(mask_r.astype(np.uint8), erode).astype(bool) & valid_disp
+        sel = inner if np.count_nonzero(inner) >= MIN_FIT_SAMPLES else mask_r & valid_disp
+        if np.count_nonzero(sel) < MIN_FIT_SAMPLES:
+            continue
+        u, v = us[sel], vs[sel]
+        dd = disp.disparity[sel].astype(np.float64)
+        cert = disp.certainty[sel].astype(np.float64)
+        try:
+            fit = fit_disparity_plane(u, v, dd, cert)
+            n_rect, D = fit.plane(f, cx, cy, B)
+        except VisionError:
+            continue
+        w = fit.weights
+        rays_rect = np.stack([(u - cx) / f, (v - cy) / rect.P1[1, 1], np.ones_like(u)], axis=1)
+        on_plane = rays_rect * plane_depth(rays_rect, n_rect, D)[:, None]
+        measured = rays_rect * (f * B / dd)[:, None]
+        wsum = float(w.sum())
+        c_rect = (on_plane * w[:, None]).sum(axis=0) / wsum
+        dist = measured @ n_rect - D
+        rms = float(np.sqrt(np.sum(w * dist * dist) / wsum))
+        n_cam = rect.R1.T @ n_rect
+        c_cam = rect.R1.T @ c_rect
+        mask_o = regions == rid
+        areas = pixel_areas_m2(rays[mask_o], n_cam, D, fx, fy)
+        area = float(np.nansum(np.where(areas > 0, areas, 0.0)))
+        w_c = float(depth.certainty[mask_o].sum())
+        n_out, d_out, c_out = n_cam, D, c_cam
+        if to_frame is not None:  # camera -> world: x_w = R^T (x_cam - t)
+            R, t = to_frame
+            n_out = R.T @ n_cam
+            d_out = D - float(n_cam @ t)
+            c_out = R.T @ (c_cam - t)
+        ys_o, xs_o = np.nonzero(mask_o)
+        values = (n_out, d_out, c_out, area, w_c, rms)
+        if not all(np.all(np.isfinite(x)) for x in values):
+            raise VisionError(f"region {rid}: the plane fit produced non-finite values")
+        out.append(
+            Region(
+                id=int(rid),
+                label=int(rid) if labelled else None,
+                pixel_count=int(count),
+                depth_pixel_count=int(np.count_nonzero(~np.isnan(depth.depth_m[mask_o]))),
+                inlier_count=min(
+                    int(np.count_nonzero(fit.inliers)),
+                    int(np.count_nonzero(~np.isnan(depth.depth_m[mask_o]))),
+                ),
+                area_m2=area,
+                n_init=_v3(n_out / np.linalg.norm(n_out)),
+                d_init=float(d_out),
+                c_init=_v3(c_out),
+                w_c=min(w_c, float(count)),
+                rms_m=rms,
+                mean_certainty=min(1.0, w_c / count),
+                bbox=(int(xs_o.min()), int(ys_o.min()), int(xs_o.max()), int(ys_o.max())),
+            )
+        )
+    return out
+
+
+def process_view(
+    scene: Scene,
+    view_id: str,
+    *,
+    params: VisionParams | None = None,
+    segmentation: SegmentationMode = "auto",
+    pose: Pose | None = None,
+    rect: Rectification | None = None,
+    rays: F64 | None = None,
+    stage: Stage | None = None,
+) -> ViewProducts:
+    """Run the vision pipeline on one view of `scene`.
+
+    pose : (R_cam_world, t_cam_world) of the view's left camera, if known; view 00 always has
+    the identity (world = its left camera). Without a pose, other views are given in their own
+    camera frame. segmentation : "auto" uses labels.png where the view has one, "labels"
+    requires it, "orientation" always segments by surface orientation. stage : called with
+    each stage's name (see STAGES) as it starts.
+    """
+    p = params or VisionParams()
+    try:
+        view = scene.view(view_id)
+    except KeyError:
+        raise VisionError(f"{scene.root}: no view {view_id!r}") from None
+    tick: Stage = stage or (lambda _name: None)
+    calib = scene.calib
+    tick("rectify")
+    left, right = _read_pair(view, calib)
+    rect = rect or stereo_rectification(calib)
+    rays = rays if rays is not None else original_rays(calib)
+    left_r, right_r = rect.rectify(left, right)
+    tick("disparity")
+    disp = ncc_disparity(left_r, right_r, min_disp=p.min_disp, num_disp=p.num_disp, window=p.window)
+    tick("depth")
+    depth = depth_map(disp, rect, min_certainty=p.min_certainty)
+    tick("segmentation")
+    regions, used = _region_map(view, segmentation, disp, rect, p)
+    if view_id == scene.views[0].id:
+        frame: Literal["world", "camera"] = "world"
+        R_w, t_w = np.eye(3), np.zeros(3)
+        to_frame = None
+    elif pose is not None:
+        frame = "world"
+        R_w, t_w = np.asarray(pose[0], float), np.asarray(pose[1], float).ravel()
+        to_frame = (R_w, t_w)
+    else:
+        frame = "camera"
+        R_w, t_w = np.eye(3), np.zeros(3)
+        to_frame = None
+    tick("planes")
+    plane_regions = _plane_regions(
+        regions, disp, depth, rect, rays, calib, p.window, to_frame, used == "labels"
+    )
+    kept = {r.id for r in plane_regions}
+    regions = np.where(np.isin(regions, list(kept)), regions, 0).astype(np.int32)
+    tick("lines")
+    segments = attach_segments(detect_segments(left, min_length_px=p.min_line_px), left, regions)
+    lines = [
+        LineSegment(
+            id=i + 1,
+            p1=s.p1,
+            p2=s.p2,
+            length_px=s.length_px,
+            contrast=s.contrast,
+            regions=s.regions,
+            left_region=s.left_region,
+            right_region=s.right_region,
+        )
+        for i, s in enumerate(segments)
+    ]
+    tick("contours")
+    contours = [
+        Contour(
+            id=i + 1,
+            region=rid,
+            hole=hole,
+            points=[(float(x), float(y)) for x, y in poly],
+        )
+        for i, (rid, hole, poly) in enumerate(region_contours(regions))
+    ]
+    R_r = calib.R @ R_w
+    t_r = calib.R @ t_w + calib.T
+    evidence = ViewEvidence(
+        id=view.id,
+        frame=frame,
+        image_width=calib.image_size[0],
+        image_height=calib.image_size[1],
+        left=_camera(calib.K1, calib.D1, R_w, t_w),
+        right=_camera(calib.K2, calib.D2, R_r, t_r),
+        segmentation=used,
+        disparity_density=depth.density,
+        regions=plane_regions,
+        lines=lines,
+        contours=contours,
+    )
+    return ViewProducts(
+        evidence=evidence,
+        disparity=disp,
+        depth=depth,
+        regions=regions,
+        segments=segments,
+        left=left,
+        left_rectified=left_r,
+    )
+
+
+def scene_evidence(
+    scene: Scene,
+    *,
+    views: Sequence[str] | None = None,
+    params: VisionParams | None = None,
+    segmentation: SegmentationMode = "auto",
+    poses: Mapping[str, Pose] | None = None,
+    stage: Callable[[str, str], None] | None = None,
+) -> tuple[Evidence, list[ViewProducts]]:
+    """Evidence of the given views (default: all) of `scene`, and each view's products.
+
+    poses : view id -> (R_cam_world, t_cam_world) for views whose pose is known.
+    stage : called with (view id, stage name) as each stage starts.
+    """
+    ids = list(views) if views is not None else [v.id for v in scene.views]
+    known = {v.id for v in scene.views}
+    missing = [i for i in ids if i not in known]
+    if missing:
+        raise VisionError(f"{scene.root}: no view(s) {', '.join(missing)}")
+    rect = stereo_rectification(scene.calib)
+    rays = original_rays(scene.calib)
+    products = []
+    for vid in ids:
+
+        def tick(name: str, vid: str = vid) -> None:
+            if stage is not None:
+                stage(vid, name)
+
+        products.append(
+            process_view(
+                scene,
+                vid,
+                params=params,
+                segmentation=segmentation,
+                pose=(poses or {}).get(vid),
+                rect=rect,
+                rays=rays,
+                stage=tick,
+            )
+        )
+    evidence = Evidence(scene=scene.name, views=[p.evidence for p in products])
+    return evidence, products

@@ -1,0 +1,119 @@
+"""Certainty-weighted robust plane fits (paper §4.5: n_init, c_init, w_c).
+
+A plane seen by a rectified pair is a plane in disparity space too: with rectified focal length
+f, principal point (cx, cy) and baseline B, the plane n·x = D (rectified left camera frame)
+has disparity d(u, v) = a·u + b·v + g with (a, b, (g + a·cx + b·cy)/f) = (B/D)·n. Stereo noise
+is nearly uniform in disparity (pixels) but grows with depth² in metres, so the plane is
+fitted where the noise is homoscedastic: a weighted least-squares fit of d(u, v), weights =
+certainty, made robust by iterative reweighting (Tukey's biweight on the residuals scaled by
+their median absolute deviation).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import VisionError
+
+F64 = npt.NDArray[np.float64]
+TUKEY_C = 4.685  # biweight tuning constant (95 % efficiency for Gaussian noise)
+MIN_SCALE_PX = 0.05  # floor of the robust residual scale, pixels
+
+
+@dataclass(frozen=True)
+class DisparityPlane:
+    """A plane in disparity space, d = a·u + b·v + g (u, v rectified pixels, d pixels).
+
+    inliers : (N,) bool over the fitted samples; weights : (N,) final weights (certainty x
+    robust); scale_px : robust residual scale, pixels.
+    """
+
+    a: float
+    b: float
+    g: float
+    inliers: npt.NDArray[np.bool_]
+    weights: F64
+    scale_px: float
+
+    def plane(self, focal_px: float, cx: float, cy: float, baseline_m: float) -> tuple[F64, float]:
+        """The plane as (unit normal n, offset D) in the rectified left camera frame, n·x = D.
+
+        n points towards the camera (D < 0: the camera centre lies on the side n points to).
+        """
+        m = np.array([self.a, self.b, (self.g + self.a * cx + self.b * cy) / focal_px])
+        norm = float(np.linalg.norm(m))
+        if norm == 0.0 or not np.isfinite(norm):
+            raise VisionError("degenerate plane: zero disparity everywhere (at infinity)")
+        n = m / norm
+        D = baseline_m / norm
+        # d > 0 in front of the camera means D > 0 for n = m/|m|; flip to face the camera
+        return -n, -D
+
+
+def fit_disparity_plane(
+    u: F64, v: F64, d: F64, certainty: F64, *, iterations: int = 8
+) -> DisparityPlane:
+    """Robust certainty-weighted fit of d = a·u + b·v + g.
+
+    Parameters
+    ----------
+    u, v : (N,) rectified pixel coordinates. d : (N,) disparities, pixels (finite).
+    certainty : (N,) weights in [0, 1].
+
+    Raises VisionError when fewer than 3 samples with positive weight remain.
+    """
+    u, v, d, w0 = (np.asarray(x, np.float64).ravel() for x in (u, v, d, certainty))
+    if not (len(u) == len(v) == len(d) == len(w0)):
+        raise VisionError("fit_disparity_plane: u, v, d and certainty differ in length")
+    if not np.all(np.isfinite(d)):
+        raise VisionError("fit_disparity_plane: disparities must be finite")
+    if np.count_nonzero(w0 > 0) < 3:
+        raise VisionError("fit_disparity_plane: fewer than 3 samples with positive certainty")
+    # centre the design matrix for conditioning
+    uc, vc = float(np.average(u, weights=w0)), float(np.average(v, weights=w0))
+    A = np.stack([u - uc, v - vc, np.ones_like(u)], axis=1)
+    w = w0.copy()
+    coef = np.zeros(3)
+    scale = 1.0
+    for _ in range(iterations):
+        sw = np.sqrt(w)
+        coef, *_ = np.linalg.lstsq(A * sw[:, None], d * sw, rcond=None)
+        r = d - A @ coef
+        active = w > 0
+        mad = float(np.median(np.abs(r[active] - np.median(r[active]))))
+        scale = max(1.4826 * mad, MIN_SCALE_PX)
+        t = r / (TUKEY_C * scale)
+        robust = np.where(np.abs(t) < 1.0, (1.0 - t * t) ** 2, 0.0)
+        w_new = w0 * robust
+        if np.count_nonzero(w_new > 0) < 3:
+            break
+        w = w_new
+    a, b, g0 = (float(c) for c in coef)
+    inliers = w > 0
+    return DisparityPlane(
+        a=a, b=b, g=g0 - a * uc - b * vc, inliers=inliers, weights=w, scale_px=scale
+    )
+
+
+def plane_depth(rays: F64, n: F64, D: float) -> F64:
+    """Depth scale s with s·ray on the plane n·x = D; rays (..., 3); NaN where parallel."""
+    denom = rays @ n
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(np.abs(denom) > 1e-12, D / denom, np.nan)
+    return np.asarray(s, np.float64)
+
+
+def pixel_areas_m2(rays: F64, n: F64, D: float, fx: float, fy: float) -> F64:
+    """Area (m²) of the plane seen through each pixel (rays with z = 1, undistorted).
+
+    A pixel's footprint on the plane n·x = D is z² / (fx·fy·|n·r|), z the depth along the ray
+    r = (x, y, 1): the area of the projection of a 1/fx by 1/fy patch of the normalised image.
+    """
+    denom = np.abs(rays @ n)
+    z = plane_depth(rays, n, D)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        area = np.where(denom > 1e-12, z * z / (fx * fy * denom), np.nan)
+    return np.asarray(area, np.float64)

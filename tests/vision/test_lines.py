@@ -1,0 +1,89 @@
+"""Line segments (subpixel end points, bordering regions) and region contours."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aida_kb.vision.lines import attach_segments, detect_segments
+from aida_kb.vision.segmentation import region_contours
+
+CORNERS = np.array([[40.3, 30.6], [150.7, 42.2], [140.2, 110.4], [52.6, 100.9]])
+
+
+def _inside(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Inside the convex quad CORNERS (counter-clockwise on screen = clockwise in y-down)."""
+    ok = np.ones(x.shape, bool)
+    for i in range(4):
+        (ax, ay), (bx, by) = CORNERS[i], CORNERS[(i + 1) % 4]
+        ok &= (bx - ax) * (y - ay) - (by - ay) * (x - ax) >= 0
+    return ok
+
+
+def _quad_image() -> tuple[np.ndarray, np.ndarray]:
+    """The quad rendered with 8x8 supersampling (pixel centres at integer coordinates)."""
+    h, w, s = 140, 200, 8
+    ys, xs = np.mgrid[0 : h * s, 0 : w * s].astype(float)
+    cover = _inside((xs + 0.5) / s - 0.5, (ys + 0.5) / s - 0.5).reshape(h, s, w, s).mean((1, 3))
+    img = np.round(200.0 - 140.0 * cover).astype(np.uint8)
+    regions = np.where(cover >= 0.5, 1, 2).astype(np.int32)
+    return img, regions
+
+
+def _distance_to_line(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    t = (b - a) / np.linalg.norm(b - a)
+    q = p - a
+    return float(abs(q[0] * t[1] - q[1] * t[0]))
+
+
+def test_lsd_finds_the_four_edges_with_subpixel_accuracy() -> None:
+    img, regions = _quad_image()
+    segs = detect_segments(img, min_length_px=30)
+    assert 4 <= len(segs) <= 8
+    edges = [(CORNERS[i], CORNERS[(i + 1) % 4]) for i in range(4)]
+    found = set()
+    for seg in segs:
+        p1, p2 = seg[:2], seg[2:]
+        mid = (p1 + p2) / 2
+        dists = [_distance_to_line(mid, a, b) for a, b in edges]
+        k = int(np.argmin(dists))
+        assert dists[k] < 0.2, f"segment {seg} is {dists[k]:.2f} px off the nearest edge"
+        a, b = edges[k]
+        assert max(_distance_to_line(p1, a, b), _distance_to_line(p2, a, b)) < 0.4
+        found.add(k)
+    assert found == {0, 1, 2, 3}
+    attached = attach_segments(segs, img, regions)
+    for s in attached:
+        assert s.regions == [1, 2]
+        assert {s.left_region, s.right_region} == {1, 2}
+        assert s.contrast > 100
+        assert s.length_px >= 30
+
+
+def test_left_and_right_follow_the_direction() -> None:
+    img = np.zeros((60, 80), np.uint8)
+    img[30:, :] = 200
+    regions = np.where(np.arange(60)[:, None] < 30, 5, 7) * np.ones((1, 80), np.int32)
+    seg = np.array([[10.0, 29.5, 70.0, 29.5]])
+    (s,) = attach_segments(seg, img, regions)
+    assert (s.left_region, s.right_region) == (5, 7)  # pointing right: left is up
+    (r,) = attach_segments(seg[:, [2, 3, 0, 1]], img, regions)
+    assert (r.left_region, r.right_region) == (7, 5)
+    assert detect_segments(np.full((50, 50), 90, np.uint8)).shape == (0, 4)
+
+
+def test_region_contours_with_a_hole() -> None:
+    regions = np.zeros((100, 120), np.int32)
+    regions[10:90, 20:100] = 3
+    regions[40:60, 50:70] = 0
+    found = region_contours(regions)
+    outer = [p for rid, hole, p in found if rid == 3 and not hole]
+    holes = [p for rid, hole, p in found if rid == 3 and hole]
+    assert len(outer) == 1
+    assert len(holes) == 1
+    assert sorted(map(tuple, outer[0].astype(int).tolist())) == [
+        (20, 10),
+        (20, 89),
+        (99, 10),
+        (99, 89),
+    ]
+    assert len(holes[0]) == 4
