@@ -572,6 +572,33 @@ def _found(tok: Token) -> str:
     return f"'{tok}'"
 
 
+# A name followed by something other than ':' - what the ':' introduces depends on the keyword
+# a few tokens back (``part front, back Wall``); "PARAM" stands for a template's parameter list.
+_COLON_AFTER: dict[str, str] = {
+    "PART": "expected ':' and the part's concept after the role names, as in 'part front: Wall'",
+    "_CON_OF": (
+        "expected ':' and the realising concept after the role, as in 'con-of region: Region'"
+    ),
+    "ATTRIBUTE": "expected ':' and a type after the attribute name, as in 'attribute tilt: angle'",
+    "PARAM": "expected ':' and a type after the parameter name, as in 'a: Plane'",
+}
+
+
+def _in_context(stack: list[Any], prev_type: str | None, expected: set[str]) -> str | None:
+    """A message that needs the keyword before the last names (None: no such case)."""
+    if prev_type == "NAME" and "COLON" in expected:
+        for item in reversed(stack):
+            if isinstance(item, Token) and item.type in ("NAME", "COMMA"):
+                continue
+            keyword = item.type if isinstance(item, Token) else "PARAM"
+            if keyword == "LPAR":
+                keyword = "PARAM"
+            return _COLON_AFTER.get(keyword)
+    if {"RPAR", "COMMA"} <= expected:
+        return "expected ',' or a closing ')'"
+    return None
+
+
 def _describe(lark: Lark, exc: UnexpectedInput, text: str, file: str, off: int) -> Diagnostic:
     """A diagnostic for a syntax error, in the language's words (not the grammar's)."""
     if isinstance(exc, UnexpectedCharacters):
@@ -666,6 +693,8 @@ def _describe_token(lark: Lark, exc: UnexpectedToken, text: str, file: str, off:
         )
         if tok.type == "NAME":
             hint = "a role is declared with 'part NAME: Concept'"
+    if message is None and exc.interactive_parser is not None:
+        message = _in_context(exc.interactive_parser.parser_state.value_stack, prev_type, expected)
     if message is None:
         words = sorted({_terminal_word(lark, t) for t in expected})
         if len(words) > 8:
