@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.errors import VisionError
+from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.evidence import (
     Contour,
     Evidence,
@@ -79,18 +80,14 @@ class ViewProducts:
     left_rectified: npt.NDArray[np.uint8]
 
 
-def _camera(K: F64, D: F64, R: F64, t: F64) -> EvidenceCamera:
-    # TEMPORARY until aida_kb.geometry.camera lands (DOMAIN.md formulas)
-    C = -R.T @ t
-    A = R[2]
-    H = K[0, 0] * R[0] + K[0, 1] * R[1] + K[0, 2] * A
-    V = K[1, 1] * R[1] + K[1, 2] * A
+def _camera(K: F64, D: F64, R: F64, t: F64, size: tuple[int, int]) -> EvidenceCamera:
+    cahv = PinholeCamera(K, R, t, size[0], size[1]).to_cahv()
     return EvidenceCamera(
         K=_m3(K),
         D=[float(x) for x in np.asarray(D, float).ravel()],
         R=_m3(R),
         t=_v3(t),
-        cahv=Cahv(C=_v3(C), A=_v3(A), H=_v3(H), V=_v3(V)),
+        cahv=Cahv(C=_v3(cahv.C), A=_v3(cahv.A), H=_v3(cahv.H), V=_v3(cahv.V)),
     )
 
 
@@ -324,8 +321,8 @@ def process_view(
         frame=frame,
         image_width=calib.image_size[0],
         image_height=calib.image_size[1],
-        left=_camera(calib.K1, calib.D1, R_w, t_w),
-        right=_camera(calib.K2, calib.D2, R_r, t_r),
+        left=_camera(calib.K1, calib.D1, R_w, t_w, calib.image_size),
+        right=_camera(calib.K2, calib.D2, R_r, t_r, calib.image_size),
         segmentation=used,
         disparity_density=depth.density,
         regions=plane_regions,

@@ -63,6 +63,16 @@ def test_house_640_normals_within_2_degrees(house_640: Path) -> None:
     assert front.inlier_count > 0.5 * front.pixel_count
     # the left camera of view 01 in the world frame = the truth pose
     np.testing.assert_allclose(evidence.view("01").left.R, pose.R, atol=1e-12)
+    # CAHV and K, R, t of each camera project the truth polygons to the same pixels
+    corners = np.array(truth.polygon)
+    for view in evidence.views:
+        for cam in (view.left, view.right):
+            C, A, H, V = (np.array(x) for x in (cam.cahv.C, cam.cahv.A, cam.cahv.H, cam.cahv.V))
+            rel = corners - C
+            by_cahv = np.stack([rel @ H, rel @ V], axis=1) / (rel @ A)[:, None]
+            x_cam = corners @ np.array(cam.R).T + np.array(cam.t)
+            by_k = (x_cam @ np.array(cam.K).T)[:, :2] / x_cam[:, 2:]
+            np.testing.assert_allclose(by_cahv, by_k, atol=1e-6)
     cahv = evidence.view("00").right.cahv
     np.testing.assert_allclose(cahv.C, -np.array(scene.calib.R).T @ scene.calib.T, atol=1e-12)
     assert products[0].depth.density > 0.5
