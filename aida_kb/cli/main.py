@@ -29,6 +29,7 @@ COMMANDS: tuple[str, ...] = (
     "synth",
     "disparity",
     "evidence",
+    "interpret",
 )
 
 EXIT_OK = 0

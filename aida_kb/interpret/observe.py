@@ -7,12 +7,13 @@ regions' planes. World frame: the left camera of view 00 (OpenCV axes: x right, 
 z forward), metres.
 
 The vertical. Walls and roofs are defined relative to "up", which the evidence does not
-state. `estimate_up` takes the camera's -y axis as a prior (a camera held upright), selects
-the regions whose normal is within `wall_window_deg` of horizontal under that prior, and
-returns the direction most perpendicular to all of them, weighted by certainty: the
-eigenvector of the smallest eigenvalue of sum_i w_i n_i n_i^T (for two walls this is their
-normals' cross product). When the wall normals span fewer than two directions (one wall
-seen, or parallel walls only) the prior is kept, made perpendicular to the walls seen.
+state. Two walls that are not parallel give it as the cross product of their normals. So
+`estimate_up` tries the cross products of pairs of heavy regions, keeps those within 60
+degrees of the camera's -y axis (a camera held roughly upright, looking down by up to that
+much), and chooses the one under which the largest certainty weight of regions is vertical;
+it then refines it as the direction most perpendicular to those walls, weighted by certainty
+(the eigenvector of the smallest eigenvalue of sum_i w_i n_i n_i^T). With no usable pair
+(a single wall seen) the camera's -y axis is the answer.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ class CameraView:
     t_cam_world: FloatArray  # (3,) metres
     width_px: int
     height_px: int
+    baseline_m: float = 0.0  # distance to the stereo partner's centre (0: unknown)
 
     @property
     def centre_m(self) -> FloatArray:
@@ -168,28 +170,56 @@ def slope_deg(normal: FloatArray, up: FloatArray) -> float:
 
 
 def estimate_up(
-    regions: list[RegionView], camera: CameraView, wall_window_deg: float = 25.0
+    regions: list[RegionView],
+    camera: CameraView,
+    prior_window_deg: float = 60.0,
+    vertical_tol_deg: float = 10.0,
 ) -> FloatArray:
-    """The world's up direction (unit, (3,), world frame) from wall-like regions.
+    """The world's up direction (unit, (3,), world frame) from the regions' normals.
 
-    See the module docstring: the camera's -y axis is the prior; the weighted normals of
-    regions within `wall_window_deg` of vertical planes refine it.
+    See the module docstring. Candidates are the cross products of pairs of the heaviest
+    regions' normals that lie within `prior_window_deg` of the camera's -y axis; the winner
+    makes the largest certainty weight of regions vertical (normal within `vertical_tol_deg`
+    of horizontal) or level and facing up (the ground, flat roofs); it is then refined over
+    the vertical regions as the eigenvector of the smallest eigenvalue of sum_i w_i n_i n_i^T.
+    Without a candidate the prior is returned.
     """
     prior: FloatArray = camera.R_cam_world.T @ np.array([0.0, -1.0, 0.0])
-    walls = [r for r in regions if abs(slope_deg(r.normal, prior) - 90.0) <= wall_window_deg]
-    if not walls:
+    heavy = sorted(regions, key=lambda r: (-r.weight, r.id))[:8]
+    if len(heavy) < 2:
         return prior
-    normals = np.array([r.normal for r in walls])
-    weights = np.array([max(r.weight, 1e-12) for r in walls])
-    scatter = (normals * weights[:, None]).T @ normals / weights.sum()
-    values, vectors = np.linalg.eigh(scatter)
+    normals = np.array([r.normal for r in regions])
+    weights = np.array([max(r.weight, 1e-12) for r in regions])
+    limit = math.cos(math.radians(prior_window_deg))
+    tol = math.sin(math.radians(vertical_tol_deg))
+    best: tuple[float, float, FloatArray] | None = None
+    for i in range(len(heavy)):
+        for j in range(i + 1, len(heavy)):
+            cross = np.cross(heavy[i].normal, heavy[j].normal)
+            norm = float(np.linalg.norm(cross))
+            if norm < 0.5:  # closer than 30 degrees to parallel: no reliable direction
+                continue
+            up = cross / norm
+            if float(up @ prior) < 0:
+                up = -up
+            agreement = float(up @ prior)
+            if agreement < limit:
+                continue
+            along = normals @ up
+            score = float(weights[(np.abs(along) < tol) | (along > math.cos(tol))].sum())
+            if best is None or (score, agreement) > (best[0], best[1]):
+                best = (score, agreement, up)
+    if best is None:
+        return prior
+    up = best[2]
+    vertical = np.abs(normals @ up) < tol
+    scatter = (normals[vertical] * weights[vertical, None]).T @ normals[vertical]
+    values, vectors = np.linalg.eigh(scatter / weights[vertical].sum())
     if values[1] > 0.02 * values[2]:
-        up = vectors[:, 0]
-    else:  # one direction of wall only: keep the prior, perpendicular to it
-        n = vectors[:, 2]
-        up = prior - (prior @ n) * n
+        refined = vectors[:, 0]
+        up = refined if float(refined @ up) > 0 else -refined
     result: FloatArray = np.asarray(up / np.linalg.norm(up), dtype=np.float64)
-    return result if float(result @ prior) >= 0 else -result
+    return result
 
 
 def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
@@ -211,6 +241,7 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
             np.array(v.left.t, dtype=np.float64),
             v.image_width,
             v.image_height,
+            float(np.linalg.norm(np.array(v.right.cahv.C) - np.array(v.left.cahv.C))),
         )
         for r in v.regions:
             rid = f"{v.id}/{r.id}"

@@ -28,3 +28,37 @@ def _load(name: str) -> ModuleType:
 def synthetic() -> ModuleType:
     """tests/fixtures/synthetic.py: synthetic evidence from synth building models."""
     return _load("synthetic")
+
+
+@pytest.fixture(scope="session")
+def generate() -> ModuleType:
+    """tests/fixtures/generate.py: the fixture scenes and their ground truth."""
+    _load("synthetic")
+    return _load("generate")
+
+
+@pytest.fixture(scope="session")
+def buildings_kb() -> object:
+    """The shipped kb/buildings.kb, compiled."""
+    from aida_kb.kb import compile_path
+
+    result = compile_path(Path(__file__).resolve().parents[2] / "kb" / "buildings.kb")
+    assert result.kb is not None
+    return result.kb
+
+
+@pytest.fixture(scope="session")
+def interpreted(buildings_kb: object) -> object:
+    """interpret() of each evidence fixture, computed once per session."""
+    from aida_kb.interpret.run import interpret
+    from aida_kb.io.evidence import read_evidence
+
+    cache: dict[str, object] = {}
+
+    def get(name: str) -> object:
+        if name not in cache:
+            evidence = read_evidence(FIXTURES / name)
+            cache[name] = interpret(buildings_kb, evidence, source=name)  # type: ignore[arg-type]
+        return cache[name]
+
+    return get

@@ -1,0 +1,93 @@
+"""How far a reconstructed model is from the ground truth of a synthetic scene.
+
+For the demo and the tests only: the pipeline itself never reads ``truth.json``. Parts are
+paired by role path. Angles are the dihedral angles between parts whose true polygons share
+an edge (the angle between their normals); vertex errors are, for every true vertex, the
+distance to the nearest vertex of the reconstructed polygon of the same role, relative to the
+size of the true object (the diagonal of its bounding box).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.io.model import ReconstructedModel
+from aida_kb.io.scene import SceneTruth
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class AngleError:
+    """The angle between two adjacent parts, true and reconstructed, degrees."""
+
+    a: str
+    b: str
+    truth_deg: float
+    model_deg: float
+
+    @property
+    def error_deg(self) -> float:
+        """|model - truth|, degrees."""
+        return abs(self.model_deg - self.truth_deg)
+
+
+@dataclass(frozen=True)
+class TruthComparison:
+    """The errors of a model against the truth."""
+
+    angles: list[AngleError]
+    max_angle_error_deg: float
+    max_vertex_error_m: float
+    size_m: float
+    missing: list[str]  # true roles with no reconstructed part
+
+    @property
+    def max_vertex_error_rel(self) -> float:
+        """The largest vertex error as a fraction of the object's size."""
+        return self.max_vertex_error_m / self.size_m if self.size_m > 0 else math.inf
+
+
+def _angle_deg(n1: FloatArray, n2: FloatArray) -> float:
+    c = float(np.clip(n1 @ n2, -1.0, 1.0))
+    return math.degrees(math.acos(c))
+
+
+def _share_edge(p: FloatArray, q: FloatArray, tol: float) -> bool:
+    close = np.linalg.norm(p[:, None, :] - q[None, :, :], axis=2) < tol
+    return int(np.count_nonzero(close.any(axis=1))) >= 2
+
+
+def compare_with_truth(
+    model: ReconstructedModel, truth: SceneTruth, roles: tuple[str, ...] | None = None
+) -> TruthComparison:
+    """Compare `model` with `truth` over the true parts (or only those in `roles`)."""
+    parts = {p.role: p for p in model.parts}
+    true_parts = [p for p in truth.parts if roles is None or p.role in roles]
+    all_true = np.array([v for p in true_parts for v in p.polygon], dtype=np.float64)
+    size = (
+        float(np.linalg.norm(all_true.max(axis=0) - all_true.min(axis=0))) if len(all_true) else 0.0
+    )
+    missing = [p.role for p in true_parts if p.role not in parts]
+    angles: list[AngleError] = []
+    worst_vertex = 0.0
+    polys = {p.role: np.asarray(p.polygon, dtype=np.float64) for p in true_parts}
+    for i, p in enumerate(true_parts):
+        if p.role not in parts:
+            continue
+        mine = parts[p.role]
+        mine_poly = np.asarray(mine.polygon, dtype=np.float64)
+        dist = np.linalg.norm(polys[p.role][:, None, :] - mine_poly[None, :, :], axis=2)
+        worst_vertex = max(worst_vertex, float(dist.min(axis=1).max()))
+        for q in true_parts[i + 1 :]:
+            if q.role not in parts or not _share_edge(polys[p.role], polys[q.role], 1e-3 * size):
+                continue
+            truth_deg = _angle_deg(np.asarray(p.normal), np.asarray(q.normal))
+            model_deg = _angle_deg(np.asarray(mine.normal), np.asarray(parts[q.role].normal))
+            angles.append(AngleError(p.role, q.role, truth_deg, model_deg))
+    worst_angle = max((a.error_deg for a in angles), default=0.0)
+    return TruthComparison(angles, worst_angle, worst_vertex, size, missing)

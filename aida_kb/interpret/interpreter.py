@@ -1,0 +1,640 @@
+"""Hypothesis-verification interpretation (paper §2 and §5; ERNEST-style control).
+
+The goal hypothesis (a scene concept, e.g. House) is expanded top-down: along con-of to its
+world-layer realisation (HouseBody), along part-of into sub-hypotheses for the obligatory
+parts, and along is-a into the alternatives of abstract parts (a roof: gable, hip, flat,
+shed). Planar parts are matched to evidence regions (orientation and slope ranges in the
+instance frame, see `hypotheses`); parts the reference camera cannot see are inserted from
+the knowledge. Each alternative is verified by one adjustment (`problem.Problem`): if a
+constraint's residual exceeds its rejection threshold, or a part that the camera should see
+has no evidence, the alternative is rejected and the search goes on with the others.
+
+Hierarchy (paper §5): the main body (obligatory parts) is verified first; then optional
+parts (wings, oriels) are hypothesised one at a time from the regions the body does not
+explain, adjusted with the body's planes fixed. The search is `search.best_first` over these
+levels: its cost is the adjustment's mean squared normalised residual plus a penalty for
+evidence left unexplained; it is deterministic and counts the hypotheses it expands.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import AidaError, GeometryError, InterpretError
+from aida_kb.interpret.closure import convex_faces, polygon_area
+from aida_kb.interpret.edges import match_segments
+from aida_kb.interpret.hypotheses import (
+    DEFAULT_PITCH_DEG,
+    Frame,
+    candidates,
+    faces_camera,
+    front_region,
+    predicted_normal,
+    support_offset,
+)
+from aida_kb.interpret.knowledge import Knowledge, Node, OwnedSpec, Structure, join
+from aida_kb.interpret.observe import EvidenceView, RegionView, estimate_up, slope_deg
+from aida_kb.interpret.problem import (
+    EdgeMeasure,
+    Outcome,
+    PlaneInit,
+    PositionMeasure,
+    Problem,
+    Solve,
+)
+from aida_kb.interpret.result import INSERTED, HypothesisTrace, Instance
+from aida_kb.interpret.search import best_first
+
+FloatArray = npt.NDArray[np.float64]
+
+UNEXPLAINED_PENALTY = 4.0  # cost of leaving all evidence weight unexplained
+MAX_ASSIGNMENTS = 6  # alternatives of region assignment tried per structure and frame
+MIN_WALL_WEIGHT_FRACTION = 0.02  # a region lighter than this fraction of the total is clutter
+SEGMENT_PENALTY = 4.0  # cost of leaving every segment of the bound regions unexplained
+MIN_FACE_FRACTION = 0.01  # a face smaller than this fraction of the largest one is missing
+
+
+@dataclass
+class Trace:
+    """The hypotheses of one interpretation run, in creation order."""
+
+    entries: list[HypothesisTrace] = field(default_factory=list)
+    step: int = 0
+
+    def create(self, concept: str, role: str, parent: int | None, reason: str = "") -> int:
+        """Record a new hypothesis; return its id."""
+        hid = len(self.entries)
+        self.entries.append(
+            HypothesisTrace(
+                id=hid,
+                parent=parent,
+                concept=concept,
+                role=role,
+                status="created",
+                step=self.step,
+                reason=reason,
+            )
+        )
+        return hid
+
+    def verify(self, hid: int, reason: str = "") -> None:
+        """Mark a hypothesis verified."""
+        self.entries[hid] = self.entries[hid].model_copy(
+            update={"status": "verified", "step": self.step, "reason": reason}
+        )
+
+    def reject(
+        self, hid: int, reason: str, constraint: str | None = None, cost: float | None = None
+    ) -> None:
+        """Mark a hypothesis rejected, with the constraint and normalised cost that felled it."""
+        self.entries[hid] = self.entries[hid].model_copy(
+            update={
+                "status": "rejected",
+                "step": self.step,
+                "reason": reason,
+                "constraint": constraint,
+                "cost": cost,
+            }
+        )
+
+
+@dataclass(frozen=True)
+class Level:
+    """A verified level of the interpretation: one structure with its bindings and planes."""
+
+    hid: int
+    structure: Structure
+    binding: dict[str, str]  # region id -> role path
+    inserted: tuple[str, ...]
+    outcome: Outcome
+    frame: Frame
+    polygons: dict[str, FloatArray]  # role path -> closed face polygon (N, 3), world, metres
+    misfit: float  # adjustment cost plus the penalty for unexplained segments of bound regions
+
+
+@dataclass(frozen=True)
+class Pending:
+    """An alternative of the main body waiting to be verified, with its optimistic cost."""
+
+    structure: Structure
+    front: RegionView
+    estimate: float
+
+
+@dataclass(frozen=True)
+class State:
+    """A partial interpretation: the verified levels, and whether it is complete."""
+
+    levels: tuple[Level, ...]
+    done: bool
+    cost: float
+    pending: Pending | None = None
+
+
+@dataclass
+class Interpreter:
+    """Interprets one evidence view against the knowledge, for one goal concept."""
+
+    knowledge: Knowledge
+    evidence: EvidenceView
+    solve: Solve
+    goal: str = "House"
+    trace: Trace = field(default_factory=Trace)
+    messages: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        camera = self.evidence.camera
+        self.regions = [
+            r for r in self.evidence.regions.values() if r.view == self.evidence.reference_view
+        ]
+        self.total_weight = sum(r.weight for r in self.regions) or 1.0
+        self.up = estimate_up(self.regions, camera)
+        self.segments = [s for s in self.evidence.segments if s.view == camera.view]
+
+    # ---- the goal and its realisation ------------------------------------------------------
+    def body_slot(self) -> tuple[str, str, Node | None]:
+        """(role, concept, goal node) of the world-layer body realising the goal."""
+        goal = self.knowledge.concept(self.goal)
+        if goal.abstract:
+            raise InterpretError(f"goal {self.goal!r} is abstract; name a concrete concept")
+        real = self.knowledge.realisation(self.goal)
+        if real is None or self.knowledge.is_planar(real.concept):
+            if self.knowledge.is_planar(self.goal):
+                raise InterpretError(f"goal {self.goal!r} has no parts to interpret")
+            return "", self.goal, None
+        return real.role, real.concept, Node("", self.goal, self.goal, None, "goal")
+
+    # ---- level 0: the main body --------------------------------------------------------------
+    def body_candidates(self, parent: int) -> list[Pending]:
+        """The alternatives of the main body, not yet verified, with optimistic costs.
+
+        The estimate is the penalty for the regions the alternative's best assignment leaves
+        unexplained: its adjustment can only add to that (an admissible estimate).
+        """
+        role, concept, _ = self.body_slot()
+        structures = self.knowledge.structures(concept, role, None if not role else "", "con-of")
+        walls = [r for r in self.regions if abs(slope_deg(r.normal, self.up) - 90.0) <= 15.0]
+        fronts = _ranked_fronts(walls, self.evidence)
+        if not fronts:
+            hid = self.trace.create(concept, role, parent)
+            self.trace.reject(hid, f"no evidence for {join(role, 'front')}: no wall region seen")
+            return []
+        out: list[Pending] = []
+        for structure in structures:
+            for front in fronts:
+                frame = Frame.from_front(front.normal, self.up)
+                options = self._assignments(structure, frame, {"front": front}, frozenset())
+                bound = options[0] if not isinstance(options, str) else {}
+                estimate = self._unexplained_ids(set(bound))
+                out.append(Pending(structure, front, estimate))
+        return out
+
+    def verify_body(self, pending: Pending, parent: int) -> tuple[Level, float] | None:
+        """Verify one alternative of the main body; its level and cost, or None if rejected."""
+        frame = Frame.from_front(pending.front.normal, self.up)
+        level = self._try(pending.structure, frame, parent, {}, (), forced={"front": pending.front})
+        if level is None:
+            return None
+        return level, level.misfit + self._unexplained([level])
+
+    # ---- level 1..: optional parts ----------------------------------------------------------
+    def optional_alternatives(self, state: State, parent: int) -> list[tuple[Level, float]]:
+        """Verified alternatives for one more optional part of the body, with their costs."""
+        body = state.levels[0]
+        role, concept, _ = self.body_slot()
+        used = {r for lv in state.levels for r in lv.binding}
+        free = [r for r in self.regions if r.id not in used and self._significant(r)]
+        walls = [r for r in free if abs(slope_deg(r.normal, self.up) - 90.0) <= 15.0]
+        if not walls:
+            return []
+        fixed_planes = {k: v for lv in state.levels for k, v in lv.outcome.planes.items()}
+        out: list[tuple[Level, float]] = []
+        for slot in self.knowledge.concept(concept).slots:
+            if slot.link != "part-of" or slot.obligatory:
+                continue
+            count = sum(
+                1
+                for lv in state.levels[1:]
+                if lv.structure.root.startswith(join(role, slot.role) + "[")
+            )
+            if slot.max is not None and count >= slot.max:
+                continue
+            sub_role = f"{join(role, slot.role)}[{count}]"
+            for structure in self.knowledge.structures(slot.concept, sub_role, role, "part-of"):
+                extra = _whole_specs(self.knowledge, body.structure, slot.role, count, structure)
+                for front in _ranked_fronts(walls, self.evidence):
+                    frame = Frame.from_front(front.normal, self.up)
+                    level = self._try(
+                        structure,
+                        frame,
+                        parent,
+                        fixed_planes,
+                        extra,
+                        forced={"front": front},
+                        exclude=used,
+                        body_frame=body.frame,
+                    )
+                    if level is not None:
+                        levels = [*state.levels, level]
+                        out.append(
+                            (
+                                level,
+                                state.cost
+                                - self._unexplained(list(state.levels))
+                                + level.misfit
+                                + self._unexplained(levels),
+                            )
+                        )
+        return out
+
+    # ---- one alternative: match, initialise, adjust, verify ------------------------------
+    def _try(
+        self,
+        structure: Structure,
+        frame: Frame,
+        parent: int,
+        fixed: dict[str, tuple[FloatArray, float]],
+        extra: tuple[OwnedSpec, ...],
+        *,
+        forced: dict[str, RegionView],
+        exclude: set[str] | frozenset[str] = frozenset(),
+        body_frame: Frame | None = None,
+    ) -> Level | None:
+        root = structure.nodes[0]
+        what = "; ".join(
+            x for x in (structure.describe(), *(f"{k}={r.id}" for k, r in forced.items())) if x
+        )
+        hid = self.trace.create(root.concept, root.role, parent, f"[{what}]")
+        assignments = self._assignments(structure, frame, forced, exclude)
+        if isinstance(assignments, str):
+            self.trace.reject(hid, f"[{what}] {assignments}")
+            return None
+        best: Level | None = None
+        last_reason: tuple[str, str | None, float | None] = ("no assignment verified", None, None)
+        for binding in assignments:
+            try:
+                outcome, inserted, loose = self._adjust(structure, frame, binding, fixed, extra)
+            except _UnseenError as exc:
+                last_reason = (str(exc), None, None)
+                continue
+            except AidaError as exc:
+                last_reason = (f"adjustment failed: {exc}", None, None)
+                continue
+            worst = outcome.worst_rejected()
+            if worst is not None:
+                last_reason = (
+                    f"{worst.kind} residual {worst.residual:.3g} {worst.unit} above "
+                    f"{worst.reject_above} (parts {', '.join(worst.parts)})",
+                    worst.label,
+                    worst.normalised,
+                )
+                continue
+            try:
+                polygons = self._close(structure, outcome, fixed)
+            except GeometryError as exc:
+                last_reason = (f"its planes do not close a solid: {exc}", None, None)
+                continue
+            misfit = outcome.cost + SEGMENT_PENALTY * loose
+            level = Level(hid, structure, binding, inserted, outcome, frame, polygons, misfit)
+            if best is None or level.misfit < best.misfit:
+                best = level
+        if best is None:
+            self.trace.reject(hid, f"[{what}] {last_reason[0]}", last_reason[1], last_reason[2])
+            return None
+        self.trace.verify(hid, f"[{what}] cost {best.misfit:.3g}")
+        return best
+
+    def _assignments(
+        self,
+        structure: Structure,
+        frame: Frame,
+        forced: dict[str, RegionView],
+        exclude: set[str] | frozenset[str],
+    ) -> list[dict[str, str]] | str:
+        """Alternative bindings region id -> role path, or the reason there are none."""
+        options: list[list[RegionView | None]] = []
+        available = [r for r in self.regions if r.id not in exclude and self._significant(r)]
+        for leaf in structure.leaves:
+            direct = leaf.role == join(structure.root, leaf.name)
+            if direct and leaf.name in forced:
+                options.append([forced[leaf.name]])
+                continue
+            found: list[RegionView | None] = list(candidates(leaf, available, frame))
+            if not found:
+                if leaf.name == "front" and direct:
+                    return f"no evidence for {leaf.role} ({leaf.concept})"
+                found = [None]
+            options.append(found)
+        out: list[dict[str, str]] = []
+        for combo in itertools.product(*options):
+            ids = [r.id for r in combo if r is not None]
+            if len(set(ids)) != len(ids):
+                continue
+            out.append(
+                {r.id: leaf.role for r, leaf in zip(combo, structure.leaves, strict=True) if r}
+            )
+            if len(out) >= MAX_ASSIGNMENTS:
+                break
+        if not out:
+            return "no consistent assignment of regions to parts"
+        return out
+
+    def _adjust(
+        self,
+        structure: Structure,
+        frame: Frame,
+        binding: dict[str, str],
+        fixed: dict[str, tuple[FloatArray, float]],
+        extra: tuple[OwnedSpec, ...],
+    ) -> tuple[Outcome, tuple[str, ...], float]:
+        """Initialise, match segments, adjust twice (re-matching in between).
+
+        Returns the outcome, the inserted role paths, and the fraction of the length of the
+        segments bordering bound regions that no edge of the structure explains.
+        """
+        role_to_region = {role: self.evidence.regions[rid] for rid, role in binding.items()}
+        pts = [self.evidence.points_on(rid) for rid in binding]
+        points = np.concatenate(pts) if pts else np.zeros((0, 3))
+        pitches = [
+            slope_deg(role_to_region[leaf.role].normal, self.up)
+            for leaf in structure.leaves
+            if leaf.pitched and leaf.role in role_to_region
+        ]
+        pitch = float(np.mean(pitches)) if pitches else DEFAULT_PITCH_DEG
+        planes: list[PlaneInit] = []
+        inserted: list[str] = []
+        for leaf in structure.leaves:
+            region = role_to_region.get(leaf.role)
+            if region is not None:
+                planes.append(PlaneInit(leaf.role, leaf.concept, region.normal, region.offset_m))
+                continue
+            inserted.append(leaf.role)
+            n = predicted_normal(leaf, frame, pitch)
+            if len(points):
+                d = support_offset(n, points)
+            else:
+                d = float(n @ self.evidence.camera.centre_m) - 10.0
+            centre = points.mean(axis=0) if len(points) else self.evidence.camera.centre_m
+            on_plane = centre + (d - float(n @ centre)) * n
+            if faces_camera(n, on_plane, self.evidence.camera):
+                raise _UnseenError(
+                    f"{leaf.role} ({leaf.concept}) would face camera {self.evidence.camera.view} "
+                    "but no region fits it"
+                )
+            planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
+        for role, (n, d) in sorted(fixed.items()):
+            planes.append(PlaneInit(role, "", n, d, fixed=True))
+        known = {p.role for p in planes}
+        internal = tuple(
+            o for o in (*structure.constraints, *extra) if all(p in known for p in o.parts())
+        )
+        position_spec = self.knowledge.measurement("Region", "position")
+        positions = tuple(
+            PositionMeasure(
+                role,
+                region,
+                self.evidence.cameras[region.view],
+                position_spec,
+                join(role, "region"),
+            )
+            for role, region in role_to_region.items()
+            if position_spec is not None
+        )
+        adjacency: dict[str, set[str]] = {}
+        for a, b in structure.adjacency:
+            adjacency.setdefault(a, set()).add(b)
+            adjacency.setdefault(b, set()).add(a)
+        adj = {k: frozenset(v) for k, v in adjacency.items()}
+        current = {p.role: (p.normal, p.offset_m) for p in planes}
+        outcome: Outcome | None = None
+        edges: tuple[EdgeMeasure, ...] = ()
+        for _ in range(2):
+            rematched = self._edges(structure, binding, current, adj)
+            if outcome is not None and _same_matches(rematched, edges):
+                break
+            edges = rematched
+            problem = Problem(tuple(planes), internal, positions, edges)
+            outcome = self.solve(problem)
+            current = dict(outcome.planes)
+            planes = [
+                replace(p, normal=current[p.role][0], offset_m=current[p.role][1]) for p in planes
+            ]
+        assert outcome is not None
+        matched = {e.match.segment.id for e in edges}
+        bordering = [
+            s for s in self.segments if s.length_px >= 8.0 and any(r in binding for r in s.regions)
+        ]
+        total = sum(s.length_px for s in bordering)
+        loose = sum(s.length_px for s in bordering if s.id not in matched)
+        return outcome, tuple(inserted), loose / total if total > 0 else 0.0
+
+    def _close(
+        self,
+        structure: Structure,
+        outcome: Outcome,
+        fixed: dict[str, tuple[FloatArray, float]],
+    ) -> dict[str, FloatArray]:
+        """The closed solid of a structure's planes; GeometryError if a part has no face.
+
+        A structure without a floor of its own (a wing) is closed by its whole's floor.
+        """
+        roles = [leaf.role for leaf in structure.leaves]
+        closing = [r for r in fixed if r.rsplit(".", 1)[-1] == "floor" and r not in roles]
+        planes = [outcome.planes[r] for r in roles + closing[:1]]
+        normals = np.array([n for n, _ in planes])
+        offsets = np.array([d for _, d in planes])
+        faces = convex_faces(normals, offsets)
+        areas = [polygon_area(f) for f in faces]
+        biggest = max(areas)
+        for role, area in zip(roles, areas, strict=False):
+            if area < MIN_FACE_FRACTION * biggest:
+                raise GeometryError(
+                    f"{role} has no face in the closed model ({area:.2g} m² of {biggest:.3g} m²)"
+                )
+        return dict(zip(roles, faces, strict=False))
+
+    def _edges(
+        self,
+        structure: Structure,
+        binding: dict[str, str],
+        planes: dict[str, tuple[FloatArray, float]],
+        adjacency: dict[str, frozenset[str]],
+    ) -> tuple[EdgeMeasure, ...]:
+        contour_spec = self.knowledge.measurement("Contour", "edge")
+        declared = self._declared_edges(structure)
+        segs = [s for s in self.segments if any(r in binding for r in s.regions)]
+        matches = match_segments(segs, binding, planes, adjacency, self.evidence.cameras)
+        out: list[EdgeMeasure] = []
+        for m in matches:
+            spec, owner = declared.get(m.parts, (contour_spec, m.segment.id))
+            if spec is not None:
+                out.append(EdgeMeasure(m, self.evidence.cameras[m.segment.view], spec, owner))
+        return tuple(out)
+
+    def _declared_edges(self, structure: Structure) -> dict[tuple[str, str], tuple[Any, str]]:
+        """Edge measures a concept declares on its own edges (``measure edge(edge(a, b))``)."""
+        fillers = {n.role: n.concept for n in structure.nodes}
+        out: dict[tuple[str, str], tuple[Any, str]] = {}
+        for node in structure.nodes:
+            for spec in self.knowledge.concept(node.concept).constraints:
+                if not (spec.measurement and spec.kind == "edge" and len(spec.args) == 2):
+                    continue
+                if not self.knowledge.holds(node.role, spec.requires, fillers):
+                    continue
+                a, b = (join(node.role, x) for x in spec.args)
+                out[(a, b) if a <= b else (b, a)] = (spec, node.role)
+        return out
+
+    # ---- costs ---------------------------------------------------------------------------------
+    def _significant(self, region: RegionView) -> bool:
+        return region.weight >= MIN_WALL_WEIGHT_FRACTION * self.total_weight
+
+    def _unexplained(self, levels: list[Level]) -> float:
+        return self._unexplained_ids({r for lv in levels for r in lv.binding})
+
+    def _unexplained_ids(self, used: set[str]) -> float:
+        left = sum(r.weight for r in self.regions if r.id not in used and self._significant(r))
+        return UNEXPLAINED_PENALTY * left / self.total_weight
+
+    # ---- the search --------------------------------------------------------------------------
+    def run(self) -> tuple[State | None, int, int]:
+        """Search; return the best complete state (or None), expansions, goal hypothesis id."""
+        goal_id = self.trace.create(self.goal, "", None, "goal")
+        start = State((), False, 0.0)
+
+        def expand(state: State) -> list[tuple[State, float]]:
+            self.trace.step += 1
+            if state.pending is not None:
+                verified = self.verify_body(state.pending, goal_id)
+                if verified is None:
+                    return []
+                level, cost = verified
+                return [(State((level,), False, cost), cost)]
+            if not state.levels:
+                return [
+                    (State((), False, p.estimate, p), p.estimate)
+                    for p in self.body_candidates(goal_id)
+                ]
+            successors = [(State(state.levels, True, state.cost), state.cost)]
+            for level, cost in self.optional_alternatives(state, state.levels[0].hid):
+                successors.append((State((*state.levels, level), False, cost), cost))
+            return successors
+
+        result = best_first(start, expand, lambda s: s.done, max_expansions=50)
+        if result.best is None:
+            self.trace.reject(goal_id, "no alternative of its realisation was verified")
+        else:
+            self.trace.verify(goal_id, f"verified with cost {result.cost:.3g}")
+        return result.best, result.expanded, goal_id
+
+    def instances(self, state: State) -> list[Instance]:
+        """The instance nodes of an accepted state (goal, body, parts, image-layer regions)."""
+        role, concept, goal_node = self.body_slot()
+        out: list[Instance] = []
+        if goal_node is not None:
+            out.append(
+                Instance(
+                    role="", concept=self.goal, instance_of=self.goal, parent=None, link="goal"
+                )
+            )
+        for level in state.levels:
+            bound = {r: rid for rid, r in level.binding.items()}
+            for node in level.structure.nodes:
+                bindings = [INSERTED] if node.role in level.inserted else []
+                out.append(
+                    Instance(
+                        role=node.role,
+                        concept=node.concept,
+                        instance_of=node.instance_of,
+                        parent=node.parent
+                        if node.parent is not None
+                        else ("" if goal_node is not None else None),
+                        link=node.link if node.link != "goal" else "con-of",
+                        bindings=bindings,
+                    )
+                )
+                if node.role in bound:
+                    real = self.knowledge.realisation(node.concept)
+                    if real is not None:
+                        out.append(
+                            Instance(
+                                role=join(node.role, real.role),
+                                concept=real.concept,
+                                instance_of=real.concept,
+                                parent=node.role,
+                                link="con-of",
+                                bindings=[bound[node.role]],
+                            )
+                        )
+        del role, concept
+        return out
+
+
+def _same_matches(a: tuple[EdgeMeasure, ...], b: tuple[EdgeMeasure, ...]) -> bool:
+    """True if two edge matchings pair the same segments with the same edges."""
+    return [(e.match.segment.id, e.match.parts) for e in a] == [
+        (e.match.segment.id, e.match.parts) for e in b
+    ]
+
+
+class _UnseenError(AidaError):
+    """An inserted part would be visible: the alternative predicts evidence that is missing."""
+
+
+def _ranked_fronts(walls: list[RegionView], evidence: EvidenceView) -> list[RegionView]:
+    """Up to two front candidates: the best by `front_region`, then the next best."""
+    first = front_region(walls, evidence.camera)
+    if first is None:
+        return []
+    rest = [w for w in walls if w.id != first.id and _facing(w, evidence) > 0.0]
+    second = front_region(rest, evidence.camera)
+    return [first] if second is None else [first, second]
+
+
+def _facing(region: RegionView, evidence: EvidenceView) -> float:
+    to_cam = evidence.camera.centre_m - region.centroid_m
+    return float(region.normal @ to_cam) / float(np.linalg.norm(to_cam))
+
+
+def _whole_specs(
+    knowledge: Knowledge,
+    whole: Structure,
+    slot_role: str,
+    index: int,
+    part: Structure,
+) -> tuple[OwnedSpec, ...]:
+    """The whole's constraints on an optional part's filler (``wings.front`` -> ``wings[0].front``).
+
+    A constraint conditional on the filler's concept (``wings_meet`` holds 90 degrees for a
+    RightWing and 135 for a SkewWing) applies only when the part's concept is one of those.
+    """
+    root = whole.nodes[0]
+    fillers = {n.role: n.concept for n in (*whole.nodes, *part.nodes)}
+    out: list[OwnedSpec] = []
+    for spec in knowledge.concept(root.concept).constraints:
+        if spec.measurement or not any(
+            a == slot_role or a.startswith(slot_role + ".") for a in spec.args
+        ):
+            continue
+        ok = True
+        for path, allowed in spec.requires:
+            filler = (
+                part.nodes[0].concept if path == slot_role else fillers.get(join(root.role, path))
+            )
+            if filler is None or not any(knowledge.is_a(filler, a) for a in allowed):
+                ok = False
+        if not ok:
+            continue
+        args = tuple(
+            f"{slot_role}[{index}]{a[len(slot_role) :]}"
+            if a == slot_role or a.startswith(slot_role + ".")
+            else a
+            for a in spec.args
+        )
+        out.append(OwnedSpec(spec, root.role, args))
+    return tuple(out)

@@ -1,0 +1,140 @@
+"""Interpret evidence against a compiled knowledge base: the `Interpretation` and its model."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from aida_kb.errors import InterpretError
+from aida_kb.interpret.adjust import adjust
+from aida_kb.interpret.interpreter import Interpreter, State
+from aida_kb.interpret.knowledge import Knowledge
+from aida_kb.interpret.observe import view_of
+from aida_kb.interpret.problem import Outcome, Solve
+from aida_kb.interpret.result import ConstraintResidual, Interpretation
+from aida_kb.io.evidence import Evidence
+from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
+
+if TYPE_CHECKING:
+    from aida_kb.kb.model import KnowledgeBase
+
+
+def _v3(a: object) -> tuple[float, float, float]:
+    v = np.asarray(a, dtype=np.float64).ravel()
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _cameras(evidence: Evidence) -> list[ModelCamera]:
+    return [
+        ModelCamera(
+            view=v.id,
+            K=v.left.K,
+            R=v.left.R,
+            t=v.left.t,
+            image_width=v.image_width,
+            image_height=v.image_height,
+            cahv=v.left.cahv,
+        )
+        for v in evidence.views
+        if v.frame == "world"
+    ]
+
+
+def _residuals(outcome: Outcome) -> list[ConstraintResidual]:
+    return [
+        ConstraintResidual(
+            label=r.label,
+            kind=r.kind,
+            concept=r.concept,
+            owner=r.owner,
+            parts=list(r.parts),
+            residual=r.residual,
+            unit=r.unit,
+            sigma=r.sigma,
+            normalised_cost=r.normalised,
+            reject_above=r.reject_above,
+            rejected=r.rejected,
+        )
+        for r in outcome.residuals
+    ]
+
+
+def model_of(state: State, evidence: Evidence) -> ReconstructedModel:
+    """The reconstructed model of an accepted state: every part's plane and closed polygon."""
+    parts: list[ModelPart] = []
+    for level in state.levels:
+        for leaf in level.structure.leaves:
+            n, d = level.outcome.planes[leaf.role]
+            poly = level.polygons[leaf.role]
+            parts.append(
+                ModelPart(
+                    role=leaf.role,
+                    concept=leaf.concept,
+                    normal=_v3(n / np.linalg.norm(n)),
+                    offset_m=float(d),
+                    polygon=[_v3(p) for p in poly],
+                )
+            )
+    return ReconstructedModel(parts=parts, cameras=_cameras(evidence))
+
+
+def interpret(
+    kb: KnowledgeBase,
+    evidence: Evidence,
+    *,
+    goal: str = "House",
+    source: str = "",
+    solve: Solve = adjust,
+    progress: Callable[[str], None] | None = None,
+) -> Interpretation:
+    """Interpret `evidence` against `kb` for the goal concept `goal`.
+
+    Returns the interpretation: accepted with instances, model, residuals and trace, or not
+    accepted (no instances, no model) with a message saying why. Raises InterpretError when the
+    goal is not a concept of the knowledge base.
+    """
+    knowledge = Knowledge.from_kb(kb)
+    if goal not in knowledge.concepts:
+        scene = sorted(n for n, c in knowledge.concepts.items() if c.layer == "scene")
+        raise InterpretError(
+            f"goal {goal!r} is not a concept of the knowledge base "
+            f"(scene concepts: {', '.join(scene) or 'none'})"
+        )
+    view = view_of(evidence, source)
+    interpreter = Interpreter(knowledge, view, solve, goal)
+    if progress is not None:
+        progress(f"interpreting {len(view.regions)} regions, {len(view.segments)} segments")
+    state, expanded, goal_id = interpreter.run()
+    trace = list(interpreter.trace.entries)
+    if state is None:
+        reasons = [h for h in trace if h.status == "rejected" and h.id != goal_id]
+        why = reasons[0].reason if reasons else "no alternative was verified"
+        return Interpretation(
+            goal=goal,
+            accepted=False,
+            message=f"no {goal} in the evidence: {why}",
+            trace=trace,
+            expanded=expanded,
+        )
+    residuals = [r for level in state.levels for r in _residuals(level.outcome)]
+    choices = ", ".join(
+        level.structure.describe() for level in state.levels if level.structure.describe()
+    )
+    inserted = sum(len(level.inserted) for level in state.levels)
+    return Interpretation(
+        goal=goal,
+        accepted=True,
+        message=(
+            f"{goal} verified ({choices or 'no alternatives'}); "
+            f"{sum(len(lv.structure.leaves) for lv in state.levels)} planar parts, "
+            f"{inserted} inserted from knowledge; {expanded} hypotheses expanded"
+        ),
+        instances=interpreter.instances(state),
+        model=model_of(state, evidence),
+        residuals=residuals,
+        trace=trace,
+        expanded=expanded,
+        cost=state.cost,
+    )

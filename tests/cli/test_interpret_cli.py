@@ -1,0 +1,56 @@
+"""`aida-kb interpret`: tree output, --explain, -o, the empty result, bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from aida_kb.cli.main import main
+from aida_kb.interpret.result import read_interpretation
+
+ROOT = Path(__file__).resolve().parents[2]
+KB = str(ROOT / "kb" / "buildings.kb")
+FIXTURES = ROOT / "tests" / "fixtures"
+
+
+def test_interpret_prints_tree_and_writes_json(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "interpretation.json"
+    code = main(
+        ["interpret", KB, str(FIXTURES / "house_occluded.json"), "--explain", "-o", str(out)]
+    )
+    text = capsys.readouterr().out
+    assert code == 0
+    assert text.startswith("House verified (body.roof=GableRoof)")
+    assert "└── body: HouseBody  [con-of]" in text
+    assert "back: Wall  <- inserted from knowledge" in text
+    assert "rejected hypotheses:" in text
+    assert "rejected: constraint '" in text  # a rejection names its constraint and cost
+    assert " cost " in text
+    interp = read_interpretation(out)
+    assert interp.accepted
+    assert interp.model is not None
+    assert len(interp.model.parts) == 7
+
+
+def test_no_house_exits_zero_with_a_clear_message(capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["interpret", KB, str(FIXTURES / "no_house.json")])
+    captured = capsys.readouterr()
+    assert code == 0
+    assert captured.out.startswith("no House in the evidence: ")
+    assert "Traceback" not in captured.err
+
+
+def test_bad_evidence_is_a_usage_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "evidence.json"
+    bad.write_text('{"format": "aida-kb-evidence", "views": []}')
+    assert main(["interpret", KB, str(bad)]) == 2
+    assert "evidence.json" in capsys.readouterr().err
+    assert main(["interpret", KB, str(tmp_path / "missing.json")]) == 2
+
+
+def test_unknown_goal_fails(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["interpret", KB, str(FIXTURES / "no_house.json"), "--goal", "Castle"]) == 1
+    assert "goal 'Castle' is not a concept" in capsys.readouterr().err
