@@ -1,0 +1,292 @@
+"""A weighted least-squares problem over planar parts: parameters, constraint blocks, sparsity.
+
+`Problem` holds the parts' initial frames (`aida_kb.geometry.frames.PartFrames`), the
+constraints and which parts are held fixed. `Evaluation` is its compiled form for one set of
+free parts and active constraints: it maps the free parameter vector ``x`` (3 per free part:
+delta m, alpha rad, beta rad, in part order) to the weighted residual vector and its sparse
+analytic Jacobian (scipy CSR), evaluating every constraint kind in one vectorised call.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+
+from aida_kb.constraints.model import (
+    RESIDUAL_SIZE,
+    Constraint,
+    ConstraintBlock,
+    compile_blocks,
+    validate,
+)
+from aida_kb.errors import GeometryError, SolveError
+from aida_kb.geometry.frames import PartFrames
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+Loss = Literal["linear", "soft_l1", "huber"]
+
+MEASUREMENT_KINDS = frozenset({"position", "edge"})
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Parts, constraints and the parts held fixed.
+
+    Attributes
+    ----------
+    frames : the parts' initial local frames (P parts); parameters are relative to them.
+    constraints : the constraints, part indices into ``0..P-1``.
+    fixed_parts : parts whose planes are not moved.
+    names : optional part names (role paths) for messages and reports.
+    """
+
+    frames: PartFrames
+    constraints: tuple[Constraint, ...]
+    fixed_parts: frozenset[int] = frozenset()
+    names: tuple[str, ...] = ()
+    blocks: tuple[ConstraintBlock, ...] = field(default=(), repr=False, compare=False)
+
+    @property
+    def n_parts(self) -> int:
+        """Number of parts P."""
+        return self.frames.n_parts
+
+    def part_name(self, i: int) -> str:
+        """The name of part ``i`` (its role path if given, else ``part i``)."""
+        return self.names[i] if i < len(self.names) else f"part {i}"
+
+    def with_frames(self, frames: PartFrames) -> Problem:
+        """The same problem relative to new initial frames (e.g. `PartFrames.rebased`)."""
+        return Problem(frames, self.constraints, self.fixed_parts, self.names, self.blocks)
+
+    def with_fixed(self, fixed_parts: Iterable[int]) -> Problem:
+        """The same problem with another set of fixed parts."""
+        fixed = _check_parts(fixed_parts, self.n_parts, "fixed part")
+        return Problem(self.frames, self.constraints, fixed, self.names, self.blocks)
+
+
+def _check_parts(parts: Iterable[int], n_parts: int, what: str) -> frozenset[int]:
+    out = set()
+    for p in parts:
+        if not isinstance(p, int | np.integer) or not 0 <= int(p) < n_parts:
+            raise SolveError(f"unknown {what} index {p!r} (the problem has {n_parts} parts)")
+        out.add(int(p))
+    return frozenset(out)
+
+
+def build_problem(
+    normals: npt.ArrayLike,
+    offsets: npt.ArrayLike,
+    constraints: Sequence[Constraint],
+    *,
+    centres: npt.ArrayLike | None = None,
+    fixed_parts: Iterable[int] = (),
+    names: Sequence[str] = (),
+) -> Problem:
+    """Build a problem from initial planes ``n·x = d`` and constraints.
+
+    Parameters
+    ----------
+    normals : (P, 3) world frame (normalised here); offsets : (P,) metres.
+    constraints : the constraints (part indices into the P planes).
+    centres : (P, 3) metres, world frame: each part's centre (projected onto its plane); the
+        default is the foot of the perpendicular from the origin.
+    fixed_parts : indices of parts held fixed.
+    names : optional part names (P of them).
+
+    Raises
+    ------
+    SolveError
+        Non-finite planes, an unknown part index, a bad tolerance or missing evidence.
+    """
+    n = np.asarray(normals, dtype=np.float64)
+    d = np.asarray(offsets, dtype=np.float64)
+    try:
+        frames = PartFrames.from_planes(
+            n, d, None if centres is None else np.asarray(centres, dtype=np.float64)
+        )
+    except GeometryError as exc:
+        raise SolveError(f"initial planes: {exc}") from exc
+    if names and len(names) != frames.n_parts:
+        raise SolveError(f"names: {frames.n_parts} expected, got {len(names)}")
+    fixed = _check_parts(fixed_parts, frames.n_parts, "fixed part")
+    cons = tuple(constraints)
+    blocks = compile_blocks(cons, frames.n_parts)
+    return Problem(frames, cons, fixed, tuple(names), blocks)
+
+
+def _robust(z: FloatArray, loss: Loss) -> tuple[FloatArray, FloatArray]:
+    """rho(z) and rho'(z) of scipy's losses (z = squared scaled residual)."""
+    if loss == "soft_l1":
+        t = np.sqrt(1.0 + z)
+        return 2.0 * z / (t + 1.0), 1.0 / t
+    if loss == "huber":
+        big = z > 1.0
+        rt = np.sqrt(np.where(big, z, 1.0))
+        return np.where(big, 2.0 * rt - 1.0, z), np.where(big, 1.0 / rt, 1.0)
+    return z, np.ones_like(z)
+
+
+class Evaluation:
+    """Residuals and sparse Jacobian of a problem for given free parts and active constraints.
+
+    Parameters
+    ----------
+    problem : the problem.
+    free_parts : (F,) sorted indices of the parts whose parameters are unknowns.
+    active : indices of the constraints taken into account (default all).
+    loss, f_scale : robust loss applied to the whitened residuals of measurement constraints
+        (``f_scale`` in whitened units, i.e. multiples of sigma).
+    """
+
+    def __init__(
+        self,
+        problem: Problem,
+        free_parts: IntArray,
+        active: Sequence[int] | None = None,
+        *,
+        loss: Loss = "linear",
+        f_scale: float = 1.0,
+    ) -> None:
+        self.problem = problem
+        self.free_parts = np.asarray(free_parts, dtype=np.intp)
+        self.loss: Loss = loss
+        self.f_scale = float(f_scale)
+        P = problem.n_parts
+        self.col_of_part = np.full(P, -1, dtype=np.intp)
+        self.col_of_part[self.free_parts] = np.arange(self.free_parts.size)
+        self.n_params = 3 * int(self.free_parts.size)
+        if active is None:
+            blocks = problem.blocks
+        else:
+            keep = np.zeros(len(problem.constraints), dtype=bool)
+            keep[np.asarray(list(active), dtype=np.intp)] = True
+            blocks = tuple(_sub_block(b, keep[b.members]) for b in problem.blocks)
+            blocks = tuple(b for b in blocks if b.size)
+        self.blocks = blocks
+        # residual rows and Jacobian sparsity pattern, block by block
+        self._rows: list[IntArray] = []
+        self._cols: list[IntArray] = []
+        self._masks: list[npt.NDArray[np.bool_]] = []
+        self._row_start: list[int] = []
+        self._k: list[int] = []
+        row = 0
+        for b in blocks:
+            k = RESIDUAL_SIZE[b.kind]
+            M, a = b.idx.shape
+            rows = row + np.arange(M * k, dtype=np.intp).reshape(M, k)
+            cols_part = self.col_of_part[b.idx]  # (M, a)
+            rows_b = np.broadcast_to(rows[:, :, None, None], (M, k, a, 3))
+            cols_b = np.broadcast_to(
+                3 * cols_part[:, None, :, None] + np.arange(3)[None, None, None, :], (M, k, a, 3)
+            )
+            mask = np.broadcast_to(cols_part[:, None, :, None] >= 0, (M, k, a, 3))
+            self._rows.append(rows_b[mask])
+            self._cols.append(cols_b[mask])
+            self._masks.append(mask)
+            self._row_start.append(row)
+            self._k.append(k)
+            row += M * k
+        self.n_residuals = row
+        self.rows = np.concatenate(self._rows) if self._rows else np.zeros(0, dtype=np.intp)
+        self.cols = np.concatenate(self._cols) if self._cols else np.zeros(0, dtype=np.intp)
+        self.base_params = np.zeros((P, 3))
+
+    def params(self, x: FloatArray) -> FloatArray:
+        """All parts' parameters (P, 3): ``x`` for the free parts, the base values elsewhere."""
+        p = self.base_params.copy()
+        p[self.free_parts] = np.asarray(x, dtype=np.float64).reshape(-1, 3)
+        return p
+
+    def x_from_params(self, params: FloatArray) -> FloatArray:
+        """The free parameter vector of full parameters ``params`` (P, 3)."""
+        out: FloatArray = np.asarray(params, dtype=np.float64)[self.free_parts].reshape(-1)
+        return out
+
+    def raw(
+        self, params: FloatArray, *, jacobian: bool
+    ) -> tuple[list[FloatArray], list[FloatArray]]:
+        """Unweighted residuals (M, k) per block and, if asked, Jacobians by the parameters."""
+        frames = self.problem.frames
+        if jacobian:
+            n, d, dn, dd = frames.planes_and_jacobian(params)
+            G = np.concatenate([dn, dd[:, None, :]], axis=1)  # (P, 4, 3)
+        else:
+            n, d = frames.planes(params)
+        rs: list[FloatArray] = []
+        js: list[FloatArray] = []
+        for b in self.blocks:
+            r, J, _ = b.evaluate(n, d)
+            rs.append(r)
+            if jacobian:
+                js.append(np.einsum("mkaf,mafq->mkaq", J, G[b.idx]))
+        return rs, js
+
+    def residuals(self, x: FloatArray) -> FloatArray:
+        """Weighted (and robustified) residual vector, (n_residuals,)."""
+        rs, _ = self.raw(self.params(x), jacobian=False)
+        out = [self._weigh(b, r, None)[0] for b, r in zip(self.blocks, rs, strict=True)]
+        return np.concatenate(out) if out else np.zeros(0)
+
+    def residuals_and_jacobian(self, x: FloatArray) -> tuple[FloatArray, sp.csr_matrix]:
+        """Weighted residual vector and its sparse Jacobian (n_residuals, n_params), CSR."""
+        rs, js = self.raw(self.params(x), jacobian=True)
+        fs, vals = [], []
+        for b, r, J, mask in zip(self.blocks, rs, js, self._masks, strict=True):
+            f, Jw = self._weigh(b, r, J)
+            fs.append(f)
+            assert Jw is not None
+            vals.append(Jw[mask])
+        data = np.concatenate(vals) if vals else np.zeros(0)
+        jac = sp.csr_matrix((data, (self.rows, self.cols)), shape=(self.n_residuals, self.n_params))
+        return (np.concatenate(fs) if fs else np.zeros(0)), jac
+
+    def jacobian(self, x: FloatArray) -> sp.csr_matrix:
+        """The sparse Jacobian alone (CSR)."""
+        return self.residuals_and_jacobian(x)[1]
+
+    def _weigh(
+        self, b: ConstraintBlock, r: FloatArray, J: FloatArray | None
+    ) -> tuple[FloatArray, FloatArray | None]:
+        sw = b.sqrt_weight[:, None]
+        f = sw * r
+        Jw = None if J is None else J * sw[:, :, None, None]
+        if self.loss != "linear" and b.kind in MEASUREMENT_KINDS:
+            fs = self.f_scale
+            z = (f / fs) ** 2
+            rho, drho = _robust(z, self.loss)
+            small = z < 1e-24
+            ratio = np.where(small, 1.0, np.sqrt(rho) / np.sqrt(np.where(small, 1.0, z)))
+            # f~ = sign(f)·fs·sqrt(rho(z)) = f·ratio; df~/df = rho'(z)/ratio
+            deriv = np.where(small, 1.0, drho / ratio)
+            f = f * ratio
+            if Jw is not None:
+                Jw = Jw * deriv[:, :, None, None]
+        return f.reshape(-1), Jw
+
+
+def _sub_block(b: ConstraintBlock, keep: npt.NDArray[np.bool_]) -> ConstraintBlock:
+    return ConstraintBlock(
+        kind=b.kind,
+        members=b.members[keep],
+        idx=b.idx[keep],
+        sqrt_weight=b.sqrt_weight[keep],
+        data={k: v[keep] for k, v in b.data.items()},
+    )
+
+
+def involved_parts(problem: Problem, active: Iterable[int]) -> frozenset[int]:
+    """The parts that the constraints ``active`` relate."""
+    return frozenset(int(p) for i in active for p in problem.constraints[i].parts)
+
+
+def revalidate(problem: Problem) -> None:
+    """Re-check a problem's constraints against its parts (after hand-made changes)."""
+    validate(problem.constraints, problem.n_parts)

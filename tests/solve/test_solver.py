@@ -1,0 +1,224 @@
+"""The solver on the paper-sized synthetic house: restoration, hypotheses, fixed parts, errors."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from aida_kb.constraints.kernels import meeting_angle
+from aida_kb.constraints.model import Constraint, PositionData
+from aida_kb.errors import SolveError
+from aida_kb.solve.problem import Evaluation, build_problem
+from aida_kb.solve.solver import SolveResult, solve
+from aida_kb.solve.synthetic import SyntheticScene, house_row, intersect_planes, perturbed
+
+
+@pytest.fixture(scope="module")
+def house() -> SyntheticScene:
+    # region plane fits good to 0.03 degrees and 1 cm; the start is 3 degrees and 30 cm off
+    return house_row(1, seed=0, evidence_angle_deg=0.03, evidence_offset_m=0.01)
+
+
+def _build(scene: SyntheticScene, constraints: tuple[Constraint, ...] | None = None, **kw: object):
+    n0, d0 = perturbed(scene, seed=1, angle_deg=3.0, offset_m=0.3)
+    return build_problem(
+        n0,
+        d0,
+        scene.constraints if constraints is None else constraints,
+        centres=scene.centres,
+        names=scene.names,
+        **kw,  # type: ignore[arg-type]
+    )
+
+
+def _vertex_error(scene: SyntheticScene, result: SolveResult) -> float:
+    v = intersect_planes(result.normals, result.offsets, scene.vertex_planes)
+    return float(np.max(np.linalg.norm(v - scene.vertices, axis=1)))
+
+
+def _angle_error_deg(scene: SyntheticScene, result: SolveResult) -> float:
+    """Largest error of the angle between any two planes that meet at a vertex."""
+    pairs = {
+        (int(t[i]), int(t[j])) for t in scene.vertex_planes for i, j in ((0, 1), (0, 2), (1, 2))
+    }
+    a, b = np.array(sorted(pairs)).T
+    true = meeting_angle(scene.normals[a], scene.normals[b])[0]
+    got = meeting_angle(result.normals[a], result.normals[b])[0]
+    return float(np.degrees(np.max(np.abs(true - got))))
+
+
+def test_paper_house_has_28_parts_and_51_constraints(house: SyntheticScene) -> None:
+    assert len(house.names) == 28
+    assert len(house.constraints) == 51
+    assert house.vertices.shape[0] >= 30
+
+
+def test_perturbed_house_is_restored(house: SyntheticScene) -> None:
+    problem = _build(house)
+    start = solve(problem, max_iterations=1)  # barely moved: still far from the truth
+    assert _vertex_error(house, start) > 0.02 * house.size
+    result = solve(problem)
+    assert result.success, result.message
+    assert _angle_error_deg(house, result) < 0.1
+    assert _vertex_error(house, result) < 0.01 * house.size
+    assert not result.report.exceeding
+    assert result.cost == pytest.approx(result.report.total_cost)
+
+
+def test_wrong_hypothesis_is_flagged_right_one_is_not(house: SyntheticScene) -> None:
+    label = "angle(h0.body.front, h0.body.wings[0].front)"
+    index = next(i for i, c in enumerate(house.constraints) if c.label == label)
+
+    def with_value(deg: float) -> tuple[Constraint, ...]:
+        c = replace(
+            house.constraints[index],
+            value=math.radians(deg),
+            sigma=math.radians(1.0),
+            reject_above=math.radians(5.0),
+        )
+        return (*house.constraints[:index], c, *house.constraints[index + 1 :])
+
+    right = solve(_build(house, with_value(135.0))).report.by_label(label)
+    wrong = solve(_build(house, with_value(90.0))).report.by_label(label)
+    assert not right.exceeds
+    assert right.normalised_cost < 0.1 * right.threshold
+    assert wrong.exceeds
+    assert wrong.normalised_cost > 20 * wrong.threshold
+    assert math.degrees(wrong.residual) > 20.0
+
+
+def test_fixed_parts_stay_fixed(house: SyntheticScene) -> None:
+    fixed = [house.index("h0.body.front"), house.index("h0.body.roof.front")]
+    problem = _build(house, fixed_parts=fixed)
+    result = solve(problem)
+    n0, d0 = problem.frames.planes(np.zeros((28, 3)))
+    np.testing.assert_array_equal(result.normals[fixed], n0[fixed])
+    np.testing.assert_array_equal(result.offsets[fixed], d0[fixed])
+    moved = np.linalg.norm(result.normals - n0, axis=1)
+    assert np.count_nonzero(moved > 1e-6) >= 20
+
+
+def test_hierarchical_mode_fixes_the_main_parts_first(house: SyntheticScene) -> None:
+    problem = _build(house)
+    main = [
+        i for i, name in enumerate(house.names) if ".wings" not in name and ".oriels" not in name
+    ]
+    result = solve(problem, levels=[main])
+    assert len(main) == 9
+    assert _vertex_error(house, result) < 0.01 * house.size
+    # the main parts of the hierarchical result are those of a solve of the body alone
+    body_only = [i for i, c in enumerate(house.constraints) if set(c.parts) <= set(main)]
+    alone = solve(_build(house, tuple(house.constraints[i] for i in body_only)))
+    np.testing.assert_allclose(result.normals[main], alone.normals[main], atol=1e-7)
+    joint = solve(problem)
+    assert joint.cost <= result.cost + 1e-9
+
+
+def test_cg_reaches_the_same_minimum_on_a_small_problem(house: SyntheticScene) -> None:
+    names = ("front", "left", "right")
+    parts = [house.index(f"h0.body.oriels[0].{r}") for r in names]
+    cons = tuple(
+        replace(c, parts=tuple(parts.index(p) for p in c.parts))
+        for c in house.constraints
+        if set(c.parts) <= set(parts)
+    )
+    assert len(cons) == 5
+    n0, d0 = perturbed(house, seed=2, angle_deg=1.0, offset_m=0.05)
+    problem = build_problem(n0[parts], d0[parts], cons, centres=house.centres[parts])
+    trf = solve(problem)
+    cg = solve(problem, method="cg")
+    assert cg.method == "cg"
+    assert trf.cost <= cg.cost * (1 + 1e-6)
+    assert cg.cost == pytest.approx(trf.cost, rel=1e-3)
+
+
+def test_robust_loss_limits_a_bad_measurement(house: SyntheticScene) -> None:
+    i = house.index("h0.body.oriels[1].front")
+    k = next(j for j, c in enumerate(house.constraints) if c.kind == "position" and c.parts == (i,))
+    c = house.constraints[k]
+    assert c.position is not None
+    turn = np.cross(house.normals[i], [0.0, 1.0, 0.0])
+    bad_n = house.normals[i] + math.tan(math.radians(10.0)) * turn / np.linalg.norm(turn)
+    bad_n /= np.linalg.norm(bad_n)  # a region fit 10 degrees off
+    bad = replace(c, position=replace(c.position, n_init=tuple(float(v) for v in bad_n)))
+    cons = (*house.constraints[:k], bad, *house.constraints[k + 1 :])
+    plain = solve(_build(house, cons))
+    robust = solve(_build(house, cons), loss="soft_l1", f_scale=3.0)
+    front = house.index("h0.body.front")
+
+    def drag(result: SolveResult) -> float:
+        # the outlier drags the body's front through the oriel's parallel constraint
+        cos = float(result.normals[front] @ house.normals[front])
+        return math.degrees(math.acos(min(1.0, cos)))
+
+    assert drag(robust) < 0.5 * drag(plain)
+    assert robust.report.rows[k].exceeds
+    assert not plain.report.rows[k - 1].exceeds
+
+
+def test_sparse_jacobian_matches_finite_differences(house: SyntheticScene) -> None:
+    problem = _build(house, fixed_parts=[0, 5])
+    free = np.array([i for i in range(28) if i not in (0, 5)])
+    for loss in ("linear", "soft_l1", "huber"):
+        ev = Evaluation(problem, free, loss=loss, f_scale=0.5)  # type: ignore[arg-type]
+        x = np.random.default_rng(3).normal(scale=0.05, size=ev.n_params)
+        f, J = ev.residuals_and_jacobian(x)
+        assert J.shape == (f.size, ev.n_params)
+        np.testing.assert_allclose(f, ev.residuals(x))
+        eps = 1e-7
+        cols = np.random.default_rng(4).choice(ev.n_params, size=12, replace=False)
+        for j in cols:
+            dx = np.zeros_like(x)
+            dx[j] = eps
+            num = (ev.residuals(x + dx) - ev.residuals(x - dx)) / (2 * eps)
+            np.testing.assert_allclose(J[:, j].toarray()[:, 0], num, atol=1e-4, rtol=1e-5)
+
+
+def _position(n: tuple[float, float, float] = (0.0, 0.0, 1.0), **kw: float) -> Constraint:
+    return Constraint(
+        kind="position",
+        parts=(0,),
+        sigma=0.01,
+        measurement=True,
+        position=PositionData(n_init=n, c_init=(0.0, 0.0, 5.0), **kw),  # type: ignore[arg-type]
+    )
+
+
+@pytest.mark.parametrize(
+    ("constraint", "message"),
+    [
+        (Constraint(kind="angle", parts=(0, 7), value=1.0, sigma=0.1), "unknown part index 7"),
+        (Constraint(kind="angle", parts=(0, 1), value=math.nan, sigma=0.1), "angle target"),
+        (Constraint(kind="angle", parts=(0, 1), value=1.0, sigma=0.0), "sigma must be"),
+        (Constraint(kind="angle", parts=(0, 1), value=1.0, sigma=math.nan), "sigma must be"),
+        (Constraint(kind="angle", parts=(0, 1), value=1.0), "needs a tolerance"),
+        (Constraint(kind="parallel", parts=(0,), sigma=0.1), "relates 2 parts"),
+        (Constraint(kind="parallel", parts=(1, 1), sigma=0.1), "itself"),
+        (Constraint(kind="position", parts=(0,), sigma=0.1), "region evidence"),
+        (_position(n=(0.0, math.nan, 1.0)), "n_init is not finite"),
+        (_position(n=(0.0, 0.5, 0.5)), "unit vector"),
+        (_position(w_c=0.0), "w_c must be"),
+        (Constraint(kind="edge", parts=(0, 1), sigma=1.0), "image segment"),
+    ],
+)
+def test_degenerate_input_is_a_clear_solve_error(constraint: Constraint, message: str) -> None:
+    n = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    with pytest.raises(SolveError, match=message):
+        build_problem(n, np.ones(3), [constraint])
+
+
+def test_bad_planes_and_options_are_solve_errors() -> None:
+    n = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    good = [Constraint(kind="angle", parts=(0, 1), value=1.0, sigma=0.1)]
+    with pytest.raises(SolveError, match="non-finite"):
+        build_problem(np.array([[0.0, 0.0, 1.0], [np.nan, 0.0, 0.0]]), np.ones(2), good)
+    with pytest.raises(SolveError, match="unknown fixed part index 5"):
+        build_problem(n, np.ones(2), good, fixed_parts=[5])
+    problem = build_problem(n, np.ones(2), good)
+    with pytest.raises(SolveError, match="unknown method"):
+        solve(problem, method="bfgs")  # type: ignore[arg-type]
+    with pytest.raises(SolveError, match="level 0: unknown part index 9"):
+        solve(problem, levels=[[9]])
