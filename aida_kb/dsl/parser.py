@@ -18,7 +18,7 @@ import threading
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path as FsPath
-from typing import Any
+from typing import Any, cast
 
 from lark import Lark, Token, Transformer
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
@@ -115,37 +115,37 @@ class _Builder(Transformer[Token, Any]):
         first: Any = None
         last: Any = None
         for c in ch:
-            if c is not None and not isinstance(c, _Doc | tuple):
+            if c is not None and not isinstance(c, _UNPOSITIONED):
                 first = c
                 break
         for c in reversed(ch):
-            if c is not None and not isinstance(c, _Doc | tuple):
+            if c is not None and not isinstance(c, _UNPOSITIONED):
                 last = c
                 break
         if first is None or last is None:
             return Span.point(self.file, 1 + off, 1)
-        if isinstance(first, Token):
-            line, column = (first.line or 1) + off, first.column or 1
+        if isinstance(first, Token):  # lexer tokens always carry their position
+            line, column = cast(int, first.line) + off, cast(int, first.column)
         else:
-            line, column = first.span.line, first.span.column
+            fs = first.span
+            line, column = fs.line, fs.column
         if isinstance(last, Token):
-            end_line, end_column = (last.end_line or 1) + off, last.end_column or 1
+            end_line, end_column = cast(int, last.end_line) + off, cast(int, last.end_column)
         else:
-            end_line, end_column = last.span.end_line, last.span.end_column
-        return Span(self.file, line, column, end_line, end_column)
+            ls = last.span
+            end_line, end_column = ls.end_line, ls.end_column
+        return _make_span(self.file, line, column, end_line, end_column)
 
     def tspan(self, tok: Token) -> Span:
+        t: Any = tok  # lexer tokens always carry their position
         off = self.line_offset
-        return Span(
-            self.file,
-            (tok.line or 1) + off,
-            tok.column or 1,
-            (tok.end_line or 1) + off,
-            tok.end_column or 1,
-        )
+        return _make_span(self.file, t.line + off, t.column, t.end_line + off, t.end_column)
 
     def name(self, tok: Token) -> ast.Name:
-        return ast.Name(str(tok), self.tspan(tok))
+        t: Any = tok
+        off = self.line_offset
+        span = _make_span(self.file, t.line + off, t.column, t.end_line + off, t.end_column)
+        return _make_name(str(tok), span)
 
     def report(self, code: codes.Code, message: str, span: Span, hint: str | None = None) -> None:
         self.diagnostics.append(Diagnostic(code.code, code.severity, message, span, hint))
@@ -357,7 +357,10 @@ class _Builder(Transformer[Token, Any]):
         return ast.Call(self.name(ch[0]), args, self.span(ch))
 
     def path(self, ch: list[Token]) -> ast.Path:
-        return ast.Path(tuple(self.name(t) for t in _names(ch)), self.span(ch))
+        if len(ch) == 1:
+            name = self.name(ch[0])
+            return _make_path((name,), name.span)
+        return _make_path(tuple(self.name(t) for t in _names(ch)), self.span(ch))
 
     def number(self, ch: list[Token]) -> ast.Number:
         tok = ch[0]
@@ -382,6 +385,48 @@ class _Builder(Transformer[Token, Any]):
 
     def string(self, ch: list[Token]) -> ast.String:
         return ast.String(_unescape(str(ch[0])), self.tspan(ch[0]))
+
+
+def _setter(cls: type, field: str) -> Any:
+    return getattr(cls, field).__set__
+
+
+# Frozen slotted dataclasses are built through their slots' setters: twice as fast as their
+# __init__ (which goes through object.__setattr__), and the parser builds tens of thousands.
+_SPAN_SETTERS = tuple(
+    _setter(Span, f) for f in ("file", "line", "column", "end_line", "end_column")
+)
+_NAME_SETTERS = (_setter(ast.Name, "text"), _setter(ast.Name, "span"))
+_PATH_SETTERS = (_setter(ast.Path, "parts"), _setter(ast.Path, "span"))
+_new = object.__new__
+
+
+def _make_span(file: str, line: int, column: int, end_line: int, end_column: int) -> Span:
+    s: Span = _new(Span)
+    f, li, co, el, ec = _SPAN_SETTERS
+    f(s, file)
+    li(s, line)
+    co(s, column)
+    el(s, end_line)
+    ec(s, end_column)
+    return s
+
+
+def _make_name(text: str, span: Span) -> ast.Name:
+    n: ast.Name = _new(ast.Name)
+    _NAME_SETTERS[0](n, text)
+    _NAME_SETTERS[1](n, span)
+    return n
+
+
+def _make_path(parts: tuple[ast.Name, ...], span: Span) -> ast.Path:
+    p: ast.Path = _new(ast.Path)
+    _PATH_SETTERS[0](p, parts)
+    _PATH_SETTERS[1](p, span)
+    return p
+
+
+_UNPOSITIONED = (_Doc, tuple)
 
 
 def _names(ch: list[Any]) -> list[Token]:
@@ -440,8 +485,8 @@ def parse(text: str, file: str = "<string>") -> ParseResult:
 
 
 def _module_span(text: str, file: str) -> Span:
-    lines = text.split("\n")
-    return Span(file, 1, 1, len(lines), len(lines[-1]) + 1)
+    last_start = text.rfind("\n") + 1
+    return Span(file, 1, 1, text.count("\n") + 1, len(text) - last_start + 1)
 
 
 def _parse_locked(text: str, file: str) -> ParseResult:

@@ -20,6 +20,7 @@ from aida_kb.kb.resolve import VALUE_TYPES, CInfo, PathRes, Slot, Table, diag, d
 __all__ = ["run_checks"]
 
 _EPS = 1e-12
+_KIND_WORDS = {"angle": "an angle", "length": "a length", "image": "in pixels"}
 
 
 # ---- per concept ------------------------------------------------------------------------------
@@ -96,8 +97,7 @@ def _typed_constant(
             return quantity_si(expr), None
         return None, diag(
             codes.UNIT_MISMATCH,
-            f"{what} {expr.text} is {kind if kind != 'image' else 'in pixels'}, "
-            f"but the type is {vtype}",
+            f"{what} {expr.text} is {_KIND_WORDS[kind]}, but the type is {vtype}",
             expr.span,
         )
     if isinstance(expr, ast.Number):
@@ -498,8 +498,13 @@ def check_verifiable(table: Table) -> Iterator[Diagnostic]:
             )
 
 
-def run_checks(table: Table) -> list[Diagnostic]:
-    """Run every check; the diagnostics in the order found (the caller sorts)."""
+def run_checks(table: Table, *, errors_before: bool = False) -> list[Diagnostic]:
+    """Run every check; the diagnostics in the order found (the caller sorts).
+
+    The warnings about the whole net (unused template, unreachable or unverifiable concept)
+    are given only when no error was found (``errors_before``: by the parser or resolution):
+    a broken declaration may be the missing link they would complain about.
+    """
     out: list[Diagnostic] = []
     used: set[str] = set()
     for info in table.concepts.values():
@@ -520,6 +525,8 @@ def run_checks(table: Table) -> list[Diagnostic]:
                 used.add(rel.body.func.text)
     for inst in table.instances.values():
         out.extend(check_instance(table, inst))
+    if errors_before or any(d.is_error for d in out):
+        return out
     out.extend(check_unused_templates(table, used))
     out.extend(check_reachability(table))
     out.extend(check_verifiable(table))

@@ -117,6 +117,7 @@ class Table:
         self._ancestors: dict[str, frozenset[str]] = {}
         self._descendants: dict[str, list[str]] = {}
         self._adjacent: dict[str, frozenset[tuple[str, str]]] = {}
+        self._simple: dict[tuple[str, str], PathRes] = {}
 
     # -- is-a queries
     def ancestors(self, name: str) -> frozenset[str]:
@@ -175,8 +176,22 @@ class Table:
         the path runs through a concept that is itself unknown (reported elsewhere).
         """
         parts = path.parts
-        if len(parts) == 1 and parts[0].text == "self":
-            return PathRes("self", None, owner, ())
+        if len(parts) == 1:  # the common case, cached: a role or attribute of the owner
+            key = (owner, parts[0].text)
+            hit = self._simple.get(key)
+            if hit is not None:
+                return hit
+            if key[1] == "self":
+                hit = PathRes("self", None, owner, ())
+            else:
+                info = self.concepts.get(owner)
+                own = info.slots.get(key[1]) if info is not None else None
+                if own is not None:
+                    target = None if own.kind == "attribute" else own.concept
+                    hit = PathRes(key[1], own, target, ())
+            if hit is not None:
+                self._simple[key] = hit
+                return hit
         cur: str | None = owner
         requires: list[tuple[str, tuple[str, ...]]] = []
         slot: Slot | None = None
@@ -193,7 +208,7 @@ class Table:
             if found is None:
                 found, cands = self._in_specialisations(cur, name.text)
                 if found is None:
-                    return self._unknown_role(cur, name, owner if i == 0 else None)
+                    return self._unknown_role(cur, name)
                 prefix = ".".join(p.text for p in parts[:i])
                 requires.append((prefix, cands))
             slot = found
@@ -213,14 +228,13 @@ class Table:
         )  # drop those that inherit it from another candidate
         return self.concepts[top[0]].slots[member], top
 
-    def _unknown_role(self, concept: str, name: ast.Name, scope: str | None) -> Diagnostic:
+    def _unknown_role(self, concept: str, name: ast.Name) -> Diagnostic:
         members = set(self.concepts[concept].slots)
         for d in self.descendants(concept):
             members |= set(self.concepts[d].slots)
-        where = f"concept {concept}" if scope is None else f"{concept} (the scope here)"
         return diag(
             codes.UNKNOWN_ROLE,
-            f"'{name.text}' is no role or attribute of {where}",
+            f"'{name.text}' is no role or attribute of {concept}",
             name.span,
             did_you_mean(name.text, members),
         )
