@@ -5,7 +5,8 @@ Prints one line of JSON: {"concepts": 10000, "parse_s": ..., "lint_s": ..., "lin
 "build_s": ...}. ``parse_s`` is Lark's LALR parse of the same text with the grammar alone (no
 transformer, a parse tree); ``lint_s`` is what ``aida-kb lint`` does: parse, load, resolve and
 check (every diagnostic), no rendering; ``build_s`` is the further cost of the pydantic model
-(``CompileResult.kb``), which linting does not need. Each figure is the best of several interleaved runs, in CPU seconds (process time).
+(``CompileResult.kb``), which linting does not need. Each figure is the best of several
+interleaved runs, in CPU seconds (process time).
 """
 
 from __future__ import annotations
@@ -98,6 +99,7 @@ def _cpu(fn: Callable[[], object]) -> float:
 def main() -> None:
     text = generate()
     raw = Lark(Path(grammar_path()).read_text(encoding="utf-8"), parser="lalr")
+
     def lint() -> None:
         result = compile_text(text, "generated.kb")
         assert not any(d.is_error for d in result.diagnostics), result.diagnostics[:3]
