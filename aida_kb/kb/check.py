@@ -498,13 +498,8 @@ def check_verifiable(table: Table) -> Iterator[Diagnostic]:
             )
 
 
-def run_checks(table: Table, *, errors_before: bool = False) -> list[Diagnostic]:
-    """Run every check; the diagnostics in the order found (the caller sorts).
-
-    The warnings about the whole net (unused template, unreachable or unverifiable concept)
-    are given only when no error was found (``errors_before``: by the parser or resolution):
-    a broken declaration may be the missing link they would complain about.
-    """
+def run_checks(table: Table) -> list[Diagnostic]:
+    """Run every check; the diagnostics in the order found (the caller sorts)."""
     out: list[Diagnostic] = []
     used: set[str] = set()
     for info in table.concepts.values():
@@ -525,8 +520,6 @@ def run_checks(table: Table, *, errors_before: bool = False) -> list[Diagnostic]
                 used.add(rel.body.func.text)
     for inst in table.instances.values():
         out.extend(check_instance(table, inst))
-    if errors_before or any(d.is_error for d in out):
-        return out
     out.extend(check_unused_templates(table, used))
     out.extend(check_reachability(table))
     out.extend(check_verifiable(table))

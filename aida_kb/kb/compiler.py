@@ -83,7 +83,7 @@ def _compile(loaded: Loaded) -> CompileResult:
     try:
         table, found = resolve(loaded.modules, loaded.broken)
         diags.extend(found)
-        diags.extend(run_checks(table, errors_before=any(d.is_error for d in diags)))
+        diags.extend(run_checks(table))
     except Exception as exc:  # the safety net: compiling must never raise
         file = loaded.modules[0].file if loaded.modules else "<string>"
         diags.append(
