@@ -33,7 +33,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="disparity .npy to write")
     p.add_argument("--max-disp", type=int, default=64, metavar="N", help="disparities 0..N-1 (64)")
     p.add_argument("--min-disp", type=int, default=0, metavar="N", help="smallest disparity (0)")
-    p.add_argument("--window", type=int, default=11, metavar="N", help="odd window size (11)")
+    p.add_argument("--window", type=int, default=15, metavar="N", help="odd window size (15)")
     p.add_argument(
         "--exact",
         action="store_true",

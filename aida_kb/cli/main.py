@@ -27,6 +27,7 @@ COMMANDS: tuple[str, ...] = (
     "schema",
     "demo",
     "synth",
+    "calibrate",
     "disparity",
     "evidence",
     "interpret",

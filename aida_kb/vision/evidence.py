@@ -56,7 +56,7 @@ class VisionParams:
 
     num_disp: int = 64
     min_disp: int = 0
-    window: int = 11
+    window: int = 11  # small enough for narrow faces seen at grazing angles
     min_certainty: float = 0.05
     min_line_px: float = 15.0
     min_region_px: int = 200

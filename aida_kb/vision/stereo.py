@@ -78,7 +78,7 @@ def ncc_disparity(
     *,
     min_disp: int = 0,
     num_disp: int = 64,
-    window: int = 9,
+    window: int = 15,
     lr_tolerance_px: float = 1.0,
     workers: int | None = None,
     exact: bool = False,
@@ -118,6 +118,14 @@ def ncc_disparity(
     if min_disp + window >= W or window > H:
         raise VisionError(f"image of {W}x{H} pixels is too small for the disparity range")
     half = window // 2
+    # search one disparity beyond each end of the range, so that a peak on an end of the
+    # requested range still has two neighbours for the parabola; d = -1 (min_disp 0) is
+    # searched with the right image shifted left by one pixel
+    lo = min_disp - 1
+    shift = 1 if lo < 0 else 0
+    if shift:
+        R = np.concatenate([R[:, 1:], R[:, -1:]], axis=1)
+    lo_int, D_int = lo + shift, num_disp + 2
     bands = [(y0, min(H, y0 + _BAND_ROWS)) for y0 in range(0, H, _BAND_ROWS)]
     out = [np.full((H, W), np.nan, np.float32) for _ in range(4)]
     out[1][:] = 0.0
@@ -125,7 +133,7 @@ def ncc_disparity(
     def job(band: tuple[int, int]) -> None:
         y0, y1 = band
         a, b = max(0, y0 - half), min(H, y1 + half)
-        res = _band(L[a:b], R[a:b], min_disp, num_disp, window, lr_tolerance_px, exact)
+        res = _band(L[a:b], R[a:b], lo_int, D_int, window, lr_tolerance_px, exact)
         for dst, src in zip(out, res, strict=True):
             dst[y0:y1] = src[y0 - a : y1 - a]
 
@@ -136,6 +144,8 @@ def ncc_disparity(
     else:
         with ThreadPoolExecutor(max_workers=n_workers) as pool:
             list(pool.map(job, bands))
+    if shift:
+        out[0] -= np.float32(shift)
     return DisparityMap(disparity=out[0], certainty=out[1], peak=out[2], distinctiveness=out[3])
 
 
@@ -190,35 +200,31 @@ def _band(
     keys[:, :, W:] = invalid
     prod = np.empty((h, W), np.float32)
     mm = np.empty((h, W), np.float32)
+    not_k = ~kmask
     for k in range(D):
         d = min_disp + k
         n = W - d
         keys[k, :, : min(d, W)] = invalid
         if n <= 0:
             continue
+        sl = vol[k, :, d:W]
         if exact:
             p = cv2.multiply(L[:, d:], R[:, :n], dst=prod[:, :n])
             s = cv2.boxFilter(p, cv2.CV_32F, (window, window), borderType=cv2.BORDER_REFLECT_101)
             cv2.multiply(s, A[:, d:], dst=s)
             cv2.multiply(s, B[:, :n], dst=s)
             m = cv2.multiply(P[:, d:], Q[:, :n], dst=mm[:, :n])
-            cv2.addWeighted(s, 1.0, m, -1.0, 2.0, dst=vol[k, :, d:W])
+            cv2.addWeighted(s, 1.0, m, -1.0, 2.0, dst=sl)
         else:
             p = cv2.multiply(Ln[:, d:], Rn[:, :n], dst=prod[:, :n])
             cv2.boxFilter(
-                p,
-                cv2.CV_32F,
-                (window, window),
-                dst=vol[k, :, d:W],
-                borderType=cv2.BORDER_REFLECT_101,
+                p, cv2.CV_32F, (window, window), dst=sl, borderType=cv2.BORDER_REFLECT_101
             )
-    if not exact:
-        np.add(vol, np.float32(2.0), out=vol)
-    np.bitwise_and(keys, ~kmask, out=keys)
-    np.bitwise_or(keys, np.arange(D, dtype=np.int32)[:, None, None], out=keys)
-    keys[:, :, W:] = invalid
-    for k in range(min(D, W - min_disp)):
-        keys[k, :, : min_disp + k] = invalid
+            np.add(sl, np.float32(2.0), out=sl)
+        # pack the disparity index into the low mantissa bits (while the slice is in cache)
+        ks = keys[k, :, d:W]
+        np.bitwise_and(ks, not_k, out=ks)
+        np.bitwise_or(ks, k, out=ks)
 
     def score(key: npt.NDArray[np.int32]) -> F32:
         return np.asarray((key & ~kmask).view(np.float32) - np.float32(2.0), dtype=np.float32)

@@ -25,3 +25,11 @@ def house_640(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("vision") / "house_640"
     render_scene(preset("house", seed=0), out)
     return out
+
+
+@pytest.fixture(scope="session")
+def small_chessboard(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Six 320x240 chessboard pairs seen by a known rig (its calib.yaml is the truth)."""
+    out = tmp_path_factory.mktemp("vision") / "chessboard"
+    render_scene(preset("chessboard", seed=1, views=6, params=SMALL), out)
+    return out
