@@ -16,7 +16,7 @@ term).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -24,7 +24,9 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.constraints import kernels
+from aida_kb.constraints.edge import edge_kernel
 from aida_kb.errors import SolveError
+from aida_kb.geometry.camera import PinholeCamera
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -150,12 +152,6 @@ class Constraint:
         return 1.0 / float(self.sigma) ** 2
 
 
-EdgeEvaluator = Callable[
-    ["ConstraintBlock", FloatArray, FloatArray],
-    tuple[FloatArray, FloatArray, FloatArray | None],
-]
-
-
 @dataclass(frozen=True)
 class ConstraintBlock:
     """All constraints of one kind, as arrays.
@@ -184,14 +180,14 @@ class ConstraintBlock:
         self,
         normals: FloatArray,
         offsets: FloatArray,
-        edge_evaluator: EdgeEvaluator | None = None,
+        cameras: Sequence[PinholeCamera] = (),
     ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
         """Unweighted residuals and Jacobians of the block.
 
         Parameters
         ----------
         normals : (P, 3) unit normals, offsets : (P,) metres: the planes of all parts.
-        edge_evaluator : evaluates "edge" blocks (needs the cameras); see `aida_kb.solve`.
+        cameras : the problem's cameras (for "edge" blocks).
 
         Returns
         -------
@@ -217,9 +213,16 @@ class ConstraintBlock:
                 self.data["scale_shift"],
             )
         elif self.kind == "edge":
-            if edge_evaluator is None:
-                raise SolveError("edge constraints need cameras")
-            return edge_evaluator(self, normals, offsets)
+            return edge_kernel(
+                normals,
+                offsets,
+                self.idx,
+                cameras,
+                self.data["camera"].astype(np.intp),
+                self.data["p1"],
+                self.data["p2"],
+                self.data["px"] > 0.5,
+            )
         else:  # pragma: no cover - compile_blocks only makes the kinds above
             raise SolveError(f"unknown constraint kind {self.kind!r}")
         return r, J, None

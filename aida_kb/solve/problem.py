@@ -10,7 +10,7 @@ analytic Jacobian (scipy CSR), evaluating every constraint kind in one vectorise
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -25,6 +25,7 @@ from aida_kb.constraints.model import (
     validate,
 )
 from aida_kb.errors import GeometryError, SolveError
+from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.frames import PartFrames
 
 FloatArray = npt.NDArray[np.float64]
@@ -45,6 +46,9 @@ class Problem:
     constraints : the constraints, part indices into ``0..P-1``.
     fixed_parts : parts whose planes are not moved.
     names : optional part names (role paths) for messages and reports.
+    cameras : the cameras that edge constraints refer to (by index).
+    free_cameras : cameras whose poses ``[rvec, C]`` are unknowns (viewpoint registration);
+        the others are fixed.
     """
 
     frames: PartFrames
@@ -52,6 +56,8 @@ class Problem:
     fixed_parts: frozenset[int] = frozenset()
     names: tuple[str, ...] = ()
     blocks: tuple[ConstraintBlock, ...] = field(default=(), repr=False, compare=False)
+    cameras: tuple[PinholeCamera, ...] = ()
+    free_cameras: frozenset[int] = frozenset()
 
     @property
     def n_parts(self) -> int:
@@ -64,19 +70,19 @@ class Problem:
 
     def with_frames(self, frames: PartFrames) -> Problem:
         """The same problem relative to new initial frames (e.g. `PartFrames.rebased`)."""
-        return Problem(frames, self.constraints, self.fixed_parts, self.names, self.blocks)
+        return replace(self, frames=frames)
 
     def with_fixed(self, fixed_parts: Iterable[int]) -> Problem:
         """The same problem with another set of fixed parts."""
-        fixed = _check_parts(fixed_parts, self.n_parts, "fixed part")
-        return Problem(self.frames, self.constraints, fixed, self.names, self.blocks)
+        return replace(self, fixed_parts=_check_parts(fixed_parts, self.n_parts, "fixed part"))
 
 
 def _check_parts(parts: Iterable[int], n_parts: int, what: str) -> frozenset[int]:
     out = set()
+    things = "cameras" if "camera" in what else "parts"
     for p in parts:
         if not isinstance(p, int | np.integer) or not 0 <= int(p) < n_parts:
-            raise SolveError(f"unknown {what} index {p!r} (the problem has {n_parts} parts)")
+            raise SolveError(f"unknown {what} index {p!r} (the problem has {n_parts} {things})")
         out.add(int(p))
     return frozenset(out)
 
@@ -89,6 +95,8 @@ def build_problem(
     centres: npt.ArrayLike | None = None,
     fixed_parts: Iterable[int] = (),
     names: Sequence[str] = (),
+    cameras: Sequence[PinholeCamera] = (),
+    free_cameras: Iterable[int] = (),
 ) -> Problem:
     """Build a problem from initial planes ``n·x = d`` and constraints.
 
@@ -100,6 +108,8 @@ def build_problem(
         default is the foot of the perpendicular from the origin.
     fixed_parts : indices of parts held fixed.
     names : optional part names (P of them).
+    cameras : cameras referred to by edge constraints (`aida_kb.geometry.camera`).
+    free_cameras : indices of cameras whose poses are solved for (default: all fixed).
 
     Raises
     ------
@@ -117,9 +127,14 @@ def build_problem(
     if names and len(names) != frames.n_parts:
         raise SolveError(f"names: {frames.n_parts} expected, got {len(names)}")
     fixed = _check_parts(fixed_parts, frames.n_parts, "fixed part")
+    cams = tuple(cameras)
+    for i, cam in enumerate(cams):
+        if not isinstance(cam, PinholeCamera):
+            raise SolveError(f"camera {i}: a PinholeCamera expected, got {type(cam).__name__}")
+    free_cams = _check_parts(free_cameras, len(cams), "free camera")
     cons = tuple(constraints)
-    blocks = compile_blocks(cons, frames.n_parts)
-    return Problem(frames, cons, fixed, tuple(names), blocks)
+    blocks = compile_blocks(cons, frames.n_parts, len(cams))
+    return Problem(frames, cons, fixed, tuple(names), blocks, cams, free_cams)
 
 
 def _robust(z: FloatArray, loss: Loss) -> tuple[FloatArray, FloatArray]:
@@ -137,11 +152,16 @@ def _robust(z: FloatArray, loss: Loss) -> tuple[FloatArray, FloatArray]:
 class Evaluation:
     """Residuals and sparse Jacobian of a problem for given free parts and active constraints.
 
+    The unknowns ``x`` are 3 parameters per free part (delta m, alpha rad, beta rad; in the
+    order of ``free_parts``) followed by 6 per free camera (its pose ``[rvec, C]``, in the order
+    of ``free_cameras``).
+
     Parameters
     ----------
     problem : the problem.
     free_parts : (F,) sorted indices of the parts whose parameters are unknowns.
     active : indices of the constraints taken into account (default all).
+    free_cameras : (G,) indices of the cameras whose poses are unknowns.
     loss, f_scale : robust loss applied to the whitened residuals of measurement constraints
         (``f_scale`` in whitened units, i.e. multiples of sigma).
     """
@@ -152,17 +172,22 @@ class Evaluation:
         free_parts: IntArray,
         active: Sequence[int] | None = None,
         *,
+        free_cameras: IntArray | None = None,
         loss: Loss = "linear",
         f_scale: float = 1.0,
     ) -> None:
         self.problem = problem
         self.free_parts = np.asarray(free_parts, dtype=np.intp)
+        self.free_cameras = np.asarray([] if free_cameras is None else free_cameras, dtype=np.intp)
         self.loss: Loss = loss
         self.f_scale = float(f_scale)
         P = problem.n_parts
         self.col_of_part = np.full(P, -1, dtype=np.intp)
         self.col_of_part[self.free_parts] = np.arange(self.free_parts.size)
-        self.n_params = 3 * int(self.free_parts.size)
+        self.col_of_camera = np.full(len(problem.cameras), -1, dtype=np.intp)
+        self.col_of_camera[self.free_cameras] = np.arange(self.free_cameras.size)
+        self.n_part_params = 3 * int(self.free_parts.size)
+        self.n_params = self.n_part_params + 6 * int(self.free_cameras.size)
         if active is None:
             blocks = problem.blocks
         else:
@@ -171,49 +196,78 @@ class Evaluation:
             blocks = tuple(_sub_block(b, keep[b.members]) for b in problem.blocks)
             blocks = tuple(b for b in blocks if b.size)
         self.blocks = blocks
-        # residual rows and Jacobian sparsity pattern, block by block
-        self._rows: list[IntArray] = []
-        self._cols: list[IntArray] = []
+        # residual rows and the Jacobian's sparsity pattern, block by block
+        rows_all: list[IntArray] = []
+        cols_all: list[IntArray] = []
         self._masks: list[npt.NDArray[np.bool_]] = []
-        self._row_start: list[int] = []
-        self._k: list[int] = []
+        self._cam_masks: list[npt.NDArray[np.bool_] | None] = []
         row = 0
         for b in blocks:
             k = RESIDUAL_SIZE[b.kind]
             M, a = b.idx.shape
             rows = row + np.arange(M * k, dtype=np.intp).reshape(M, k)
             cols_part = self.col_of_part[b.idx]  # (M, a)
-            rows_b = np.broadcast_to(rows[:, :, None, None], (M, k, a, 3))
+            shape = (M, k, a, 3)
+            rows_b = np.broadcast_to(rows[:, :, None, None], shape)
             cols_b = np.broadcast_to(
-                3 * cols_part[:, None, :, None] + np.arange(3)[None, None, None, :], (M, k, a, 3)
+                3 * cols_part[:, None, :, None] + np.arange(3)[None, None, None, :], shape
             )
-            mask = np.broadcast_to(cols_part[:, None, :, None] >= 0, (M, k, a, 3))
-            self._rows.append(rows_b[mask])
-            self._cols.append(cols_b[mask])
+            mask = np.broadcast_to(cols_part[:, None, :, None] >= 0, shape)
+            rows_all.append(rows_b[mask])
+            cols_all.append(cols_b[mask])
             self._masks.append(mask)
-            self._row_start.append(row)
-            self._k.append(k)
+            cam_mask = None
+            if b.kind == "edge" and self.free_cameras.size:
+                cam_col = self.col_of_camera[b.data["camera"].astype(np.intp)]  # (M,)
+                cshape = (M, k, 6)
+                cam_mask = np.broadcast_to(cam_col[:, None, None] >= 0, cshape)
+                ccols = self.n_part_params + 6 * cam_col[:, None, None] + np.arange(6)
+                rows_all.append(np.broadcast_to(rows[:, :, None], cshape)[cam_mask])
+                cols_all.append(np.broadcast_to(ccols, cshape)[cam_mask])
+            self._cam_masks.append(cam_mask)
             row += M * k
         self.n_residuals = row
-        self.rows = np.concatenate(self._rows) if self._rows else np.zeros(0, dtype=np.intp)
-        self.cols = np.concatenate(self._cols) if self._cols else np.zeros(0, dtype=np.intp)
+        self.rows = np.concatenate(rows_all) if rows_all else np.zeros(0, dtype=np.intp)
+        self.cols = np.concatenate(cols_all) if cols_all else np.zeros(0, dtype=np.intp)
         self.base_params = np.zeros((P, 3))
+        self.base_cameras: tuple[PinholeCamera, ...] = problem.cameras
 
     def params(self, x: FloatArray) -> FloatArray:
         """All parts' parameters (P, 3): ``x`` for the free parts, the base values elsewhere."""
         p = self.base_params.copy()
-        p[self.free_parts] = np.asarray(x, dtype=np.float64).reshape(-1, 3)
+        p[self.free_parts] = np.asarray(x[: self.n_part_params], dtype=np.float64).reshape(-1, 3)
         return p
 
-    def x_from_params(self, params: FloatArray) -> FloatArray:
-        """The free parameter vector of full parameters ``params`` (P, 3)."""
-        out: FloatArray = np.asarray(params, dtype=np.float64)[self.free_parts].reshape(-1)
-        return out
+    def cameras(self, x: FloatArray) -> tuple[PinholeCamera, ...]:
+        """All cameras: the free ones at the poses in ``x``, the others as they are."""
+        if not self.free_cameras.size:
+            return self.base_cameras
+        cams = list(self.base_cameras)
+        poses = np.asarray(x[self.n_part_params :], dtype=np.float64).reshape(-1, 6)
+        for c, pose in zip(self.free_cameras, poses, strict=True):
+            try:
+                cams[int(c)] = cams[int(c)].with_pose(pose)
+            except GeometryError as exc:
+                raise SolveError(f"camera {int(c)}: {exc}") from exc
+        return tuple(cams)
+
+    def x_from(self, params: FloatArray, cameras: Sequence[PinholeCamera] = ()) -> FloatArray:
+        """The unknowns ``x`` of full part parameters (P, 3) and (if any are free) cameras."""
+        xp = np.asarray(params, dtype=np.float64)[self.free_parts].reshape(-1)
+        if not self.free_cameras.size:
+            return xp
+        cams = cameras or self.base_cameras
+        xc = np.concatenate([cams[int(c)].pose for c in self.free_cameras])
+        return np.concatenate([xp, xc])
 
     def raw(
-        self, params: FloatArray, *, jacobian: bool
-    ) -> tuple[list[FloatArray], list[FloatArray]]:
-        """Unweighted residuals (M, k) per block and, if asked, Jacobians by the parameters."""
+        self, params: FloatArray, cameras: Sequence[PinholeCamera], *, jacobian: bool
+    ) -> tuple[list[FloatArray], list[FloatArray], list[FloatArray | None]]:
+        """Unweighted residuals (M, k) per block and, if asked, Jacobians by the unknowns.
+
+        Returns residuals, Jacobians by the part parameters (M, k, a, 3) and by the camera
+        pose (M, k, 6; edge blocks only, else None).
+        """
         frames = self.problem.frames
         if jacobian:
             n, d, dn, dd = frames.planes_and_jacobian(params)
@@ -222,28 +276,34 @@ class Evaluation:
             n, d = frames.planes(params)
         rs: list[FloatArray] = []
         js: list[FloatArray] = []
+        jcs: list[FloatArray | None] = []
         for b in self.blocks:
-            r, J, _ = b.evaluate(n, d)
+            r, J, Jc = b.evaluate(n, d, cameras)
             rs.append(r)
             if jacobian:
                 js.append(np.einsum("mkaf,mafq->mkaq", J, G[b.idx]))
-        return rs, js
+                jcs.append(Jc)
+        return rs, js, jcs
 
     def residuals(self, x: FloatArray) -> FloatArray:
         """Weighted (and robustified) residual vector, (n_residuals,)."""
-        rs, _ = self.raw(self.params(x), jacobian=False)
-        out = [self._weigh(b, r, None)[0] for b, r in zip(self.blocks, rs, strict=True)]
+        rs, _, _ = self.raw(self.params(x), self.cameras(x), jacobian=False)
+        out = [self._weigh(b, r)[0].reshape(-1) for b, r in zip(self.blocks, rs, strict=True)]
         return np.concatenate(out) if out else np.zeros(0)
 
     def residuals_and_jacobian(self, x: FloatArray) -> tuple[FloatArray, sp.csr_matrix]:
         """Weighted residual vector and its sparse Jacobian (n_residuals, n_params), CSR."""
-        rs, js = self.raw(self.params(x), jacobian=True)
+        rs, js, jcs = self.raw(self.params(x), self.cameras(x), jacobian=True)
         fs, vals = [], []
-        for b, r, J, mask in zip(self.blocks, rs, js, self._masks, strict=True):
-            f, Jw = self._weigh(b, r, J)
-            fs.append(f)
-            assert Jw is not None
-            vals.append(Jw[mask])
+        for b, r, J, Jc, mask, cmask in zip(
+            self.blocks, rs, js, jcs, self._masks, self._cam_masks, strict=True
+        ):
+            f, scale = self._weigh(b, r)
+            fs.append(f.reshape(-1))
+            vals.append((J * scale[:, :, None, None])[mask])
+            if cmask is not None:
+                assert Jc is not None
+                vals.append((Jc * scale[:, :, None])[cmask])
         data = np.concatenate(vals) if vals else np.zeros(0)
         jac = sp.csr_matrix((data, (self.rows, self.cols)), shape=(self.n_residuals, self.n_params))
         return (np.concatenate(fs) if fs else np.zeros(0)), jac
@@ -252,24 +312,20 @@ class Evaluation:
         """The sparse Jacobian alone (CSR)."""
         return self.residuals_and_jacobian(x)[1]
 
-    def _weigh(
-        self, b: ConstraintBlock, r: FloatArray, J: FloatArray | None
-    ) -> tuple[FloatArray, FloatArray | None]:
-        sw = b.sqrt_weight[:, None]
+    def _weigh(self, b: ConstraintBlock, r: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Weighted, robustified residuals (M, k) and the factor (M, k) for their Jacobian."""
+        sw = np.broadcast_to(b.sqrt_weight[:, None], r.shape)
         f = sw * r
-        Jw = None if J is None else J * sw[:, :, None, None]
-        if self.loss != "linear" and b.kind in MEASUREMENT_KINDS:
-            fs = self.f_scale
-            z = (f / fs) ** 2
-            rho, drho = _robust(z, self.loss)
-            small = z < 1e-24
-            ratio = np.where(small, 1.0, np.sqrt(rho) / np.sqrt(np.where(small, 1.0, z)))
-            # f~ = sign(f)·fs·sqrt(rho(z)) = f·ratio; df~/df = rho'(z)/ratio
-            deriv = np.where(small, 1.0, drho / ratio)
-            f = f * ratio
-            if Jw is not None:
-                Jw = Jw * deriv[:, :, None, None]
-        return f.reshape(-1), Jw
+        if self.loss == "linear" or b.kind not in MEASUREMENT_KINDS:
+            return f, sw
+        fs = self.f_scale
+        z = (f / fs) ** 2
+        rho, drho = _robust(z, self.loss)
+        small = z < 1e-24
+        ratio = np.where(small, 1.0, np.sqrt(rho) / np.sqrt(np.where(small, 1.0, z)))
+        # f~ = sign(f)·fs·sqrt(rho(z)) = f·ratio; df~/df = rho'(z)/ratio
+        deriv = np.where(small, 1.0, drho / ratio)
+        return f * ratio, sw * deriv
 
 
 def _sub_block(b: ConstraintBlock, keep: npt.NDArray[np.bool_]) -> ConstraintBlock:

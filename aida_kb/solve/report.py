@@ -16,6 +16,7 @@ multiplicity ``m_i`` (``w_c`` for a position constraint, else 1) and tolerance `
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,7 @@ import numpy.typing as npt
 
 from aida_kb.constraints.model import CHI2_999, DOF
 from aida_kb.errors import SolveError
+from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.solve.problem import Evaluation, Problem
 
 FloatArray = npt.NDArray[np.float64]
@@ -80,8 +82,11 @@ class ResidualReport:
         return "\n".join(lines)
 
 
-def residual_report(problem: Problem, params: FloatArray) -> ResidualReport:
-    """The report of ``problem`` at part parameters ``params`` (P, 3).
+def residual_report(
+    problem: Problem, params: FloatArray, cameras: Sequence[PinholeCamera] | None = None
+) -> ResidualReport:
+    """The report of ``problem`` at part parameters ``params`` (P, 3) and ``cameras``
+    (default: the problem's cameras).
 
     Raises
     ------
@@ -89,7 +94,8 @@ def residual_report(problem: Problem, params: FloatArray) -> ResidualReport:
         If a residual is not finite (degenerate geometry).
     """
     ev = Evaluation(problem, np.zeros(0, dtype=np.intp))
-    rs, _ = ev.raw(np.asarray(params, dtype=np.float64), jacobian=False)
+    cams = problem.cameras if cameras is None else tuple(cameras)
+    rs, _, _ = ev.raw(np.asarray(params, dtype=np.float64), cams, jacobian=False)
     norms = np.zeros(len(problem.constraints))
     for b, r in zip(ev.blocks, rs, strict=True):
         norms[b.members] = np.linalg.norm(r, axis=1)

@@ -25,6 +25,7 @@ import numpy.typing as npt
 from scipy.optimize import least_squares, minimize
 
 from aida_kb.errors import SolveError
+from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.solve.problem import Evaluation, Loss, Problem
 from aida_kb.solve.report import ResidualReport, residual_report
 
@@ -44,6 +45,7 @@ class SolveResult:
     normals : (P, 3) unit normals, world frame; offsets : (P,) metres; centres : (P, 3) metres.
     report : the residual report at the solution.
     cost : the final eq. 6 cost (sum of the constraint costs, without robust loss).
+    cameras : the problem's cameras, the free ones at their solved poses.
     method : "trf" or "cg"; n_evaluations : residual evaluations (all levels; a numerical
         gradient counts its evaluations); time_s : wall time of the solve, seconds.
     success : whether every level converged; message : the optimiser's last message.
@@ -55,6 +57,7 @@ class SolveResult:
     centres: FloatArray
     report: ResidualReport
     cost: float
+    cameras: tuple[PinholeCamera, ...]
     method: str
     n_evaluations: int
     time_s: float
@@ -126,6 +129,7 @@ def solve(
     start = time.perf_counter()
     stages = _levels(problem, levels)
     params = np.zeros((problem.n_parts, 3))
+    cameras = problem.cameras
     fixed = set(problem.fixed_parts)
     allowed: set[int] = set(fixed)
     n_eval = 0
@@ -137,21 +141,31 @@ def solve(
         active = [i for i, ps in enumerate(constraint_parts) if ps <= allowed]
         involved = {p for i in active for p in constraint_parts[i]}
         free = np.array(sorted((involved & level) - fixed), dtype=np.intp)
-        if free.size and active:
-            ev = Evaluation(problem, free, active, loss=loss, f_scale=f_scale)
+        seen_by = {
+            int(problem.constraints[i].edge.camera)  # type: ignore[union-attr]
+            for i in active
+            if problem.constraints[i].kind == "edge"
+        }
+        free_cams = np.array(sorted(seen_by & problem.free_cameras), dtype=np.intp)
+        if (free.size or free_cams.size) and active:
+            ev = Evaluation(
+                problem, free, active, free_cameras=free_cams, loss=loss, f_scale=f_scale
+            )
             ev.base_params = params
-            x0 = ev.x_from_params(params)
+            ev.base_cameras = cameras
+            x0 = ev.x_from(params, cameras)
             f0 = ev.residuals(x0)
             if not np.all(np.isfinite(f0)):
                 bad = int(np.argmax(~np.isfinite(f0)))
                 raise SolveError(f"residual {bad} is not finite at the start (degenerate planes?)")
             x, nfev, ok, message = _run(ev, x0, method, max_iterations, tolerance)
             params = ev.params(x)
+            cameras = ev.cameras(x)
             n_eval += nfev
             success = success and ok
         fixed |= level
     n, d = problem.frames.planes(params)
-    report = residual_report(problem, params)
+    report = residual_report(problem, params, cameras)
     return SolveResult(
         params=params,
         normals=n,
@@ -159,6 +173,7 @@ def solve(
         centres=problem.frames.centres(params),
         report=report,
         cost=report.total_cost,
+        cameras=cameras,
         method=method,
         n_evaluations=n_eval,
         time_s=time.perf_counter() - start,

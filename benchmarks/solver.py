@@ -1,0 +1,104 @@
+"""Benchmark of the constraint solver (not a test). Prints ONE line of JSON at the end.
+
+1. The paper-sized problem (28 surface elements, 51 constraints; `aida_kb.solve.synthetic`),
+   started 3 degrees / 30 cm off: the default solver (sparse trust-region least squares with
+   the analytic Jacobian) against the paper's method (conjugate gradients with numerical
+   gradients, scipy's defaults): wall time and final cost of each.
+2. The default solver on rows of such houses with about 100, 1,000 and 5,000 parts, and the
+   growth exponent fitted to time ~ parts^k.
+
+BLAS is limited to one thread (set before numpy loads): the problems are sparse and their
+vectors small, and on a shared machine multithreaded BLAS calls on short vectors cost
+milliseconds each. Run: ``.venv/bin/python benchmarks/solver.py``.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import json  # noqa: E402
+import math  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from aida_kb.solve.problem import build_problem  # noqa: E402
+from aida_kb.solve.solver import solve  # noqa: E402
+from aida_kb.solve.synthetic import house_row, intersect_planes, perturbed  # noqa: E402
+
+
+def _problem(n_houses: int):  # type: ignore[no-untyped-def]
+    scene = house_row(n_houses, seed=0)
+    n0, d0 = perturbed(scene, seed=1, angle_deg=3.0, offset_m=0.3)
+    return scene, build_problem(n0, d0, scene.constraints, centres=scene.centres)
+
+
+def _best_of(runs: int, fn):  # type: ignore[no-untyped-def]
+    best, out = math.inf, None
+    for _ in range(runs):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return best, out
+
+
+def main() -> int:
+    scene, problem = _problem(1)
+    t_trf, trf = _best_of(5, lambda: solve(problem))
+    print(
+        f"28 parts, trf: {t_trf:.4f} s, cost {trf.cost:.6f}, {trf.n_evaluations} evaluations",
+        file=sys.stderr,
+    )
+    t_cg, cg = _best_of(1, lambda: solve(problem, method="cg"))
+    print(
+        f"28 parts, cg: {t_cg:.2f} s, cost {cg.cost:.6f}, {cg.n_evaluations} evaluations "
+        f"({cg.message})",
+        file=sys.stderr,
+    )
+    v = intersect_planes(trf.normals, trf.offsets, scene.vertex_planes)
+    vertex_err = float(np.max(np.linalg.norm(v - scene.vertices, axis=1)) / scene.size)
+
+    sizes, times = [], []
+    for target in (100, 1000, 5000):
+        houses = math.ceil(target / 28)
+        _, big = _problem(houses)
+        runs = 3 if target < 5000 else 1
+        t, res = _best_of(runs, lambda big=big: solve(big))
+        sizes.append(big.n_parts)
+        times.append(t)
+        print(
+            f"{big.n_parts} parts: {t:.3f} s, {res.n_evaluations} evaluations, "
+            f"success {res.success}",
+            file=sys.stderr,
+        )
+    slope = float(np.polyfit(np.log(sizes), np.log(times), 1)[0])
+    out = {
+        "benchmark": "solver",
+        "parts": 28,
+        "constraints": len(scene.constraints),
+        "trf_time_s": round(t_trf, 5),
+        "trf_cost": round(trf.cost, 6),
+        "cg_time_s": round(t_cg, 3),
+        "cg_cost": round(cg.cost, 6),
+        "cg_evaluations": cg.n_evaluations,
+        "cg_converged": cg.success,
+        "speedup_vs_cg": round(t_cg / t_trf, 1),
+        "cost_ratio_vs_cg": round(trf.cost / cg.cost, 6),
+        "vertex_error_rel": round(vertex_err, 5),
+        "parts_sizes": sizes,
+        "t_100_s": round(times[0], 4),
+        "t_1000_s": round(times[1], 4),
+        "t_5000_s": round(times[2], 4),
+        "growth_exponent": round(slope, 3),
+        "blas_threads": os.environ.get("OPENBLAS_NUM_THREADS"),
+    }
+    print(json.dumps(out))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,93 @@
+"""The edge constraint (paper eq. 5): zero on the true edge; Jacobians by planes and pose."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from aida_kb.constraints.edge import edge_kernel
+from aida_kb.geometry.camera import PinholeCamera
+
+K = np.array([[800.0, 0.0, 320.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]])
+
+
+def _scene() -> tuple[list[PinholeCamera], np.ndarray, np.ndarray]:
+    # a box corner 20 m ahead: front wall z = 20 (normal -z, towards the camera), a side wall
+    # x = 3 (normal +x) and a roof-like plane; world = camera 0 frame (y down)
+    n = np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -0.8, -0.6]])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    points = np.array([[0.0, 0.0, 20.0], [3.0, 0.0, 20.0], [0.0, -4.0, 20.0]])
+    d = np.einsum("ij,ij->i", n, points)
+    cam0 = PinholeCamera(K, np.eye(3), np.zeros(3), 640, 480)
+    cam1 = PinholeCamera.from_pose(K, [0.02, -0.15, 0.01, -4.0, 0.3, 1.0], 640, 480)
+    return [cam0, cam1], n, d
+
+
+def _segment(cam: PinholeCamera, n: np.ndarray, d: np.ndarray, a: int, b: int) -> np.ndarray:
+    direction = np.cross(n[a], n[b])
+    point = np.linalg.lstsq(np.stack([n[a], n[b]]), np.array([d[a], d[b]]), rcond=None)[0]
+    ends = point + np.array([-1.0, 2.5])[:, None] * direction
+    return cam.project(ends)
+
+
+def _inputs() -> tuple:
+    cams, n, d = _scene()
+    idx = np.array([[0, 1], [0, 2], [0, 1], [1, 2]])
+    camera = np.array([0, 0, 1, 1])
+    segs = [_segment(cams[c], n, d, int(i[0]), int(i[1])) for i, c in zip(idx, camera, strict=True)]
+    p1 = np.array([s[0] for s in segs])
+    p2 = np.array([s[1] for s in segs])
+    return cams, n, d, idx, camera, p1, p2
+
+
+@pytest.mark.parametrize("pixels", [False, True])
+def test_edge_residual_vanishes_on_the_true_edge_and_grows_off_it(pixels: bool) -> None:
+    cams, n, d, idx, camera, p1, p2 = _inputs()
+    px = np.full(4, pixels)
+    r, _, _ = edge_kernel(n, d, idx, cams, camera, p1, p2, px)
+    np.testing.assert_allclose(r, 0.0, atol=1e-8)
+    d2 = d.copy()
+    d2[1] += 0.2  # move the side wall 20 cm: edge (front, side) moves sideways
+    r2, _, _ = edge_kernel(n, d2, idx, cams, camera, p1, p2, px)
+    assert np.all(np.abs(r2[[0, 2]]) > (1.0 if pixels else 0.05))
+    np.testing.assert_allclose(r2[1], 0.0, atol=1e-8)  # edge (front, roof) is unaffected
+
+
+@pytest.mark.parametrize("pixels", [False, True])
+def test_edge_jacobians_match_finite_differences(
+    pixels: bool, plane_derivative: Callable[..., np.ndarray]
+) -> None:
+    cams, n, d, idx, camera, p1, p2 = _inputs()
+    rng = np.random.default_rng(0)
+    n = n + 0.02 * rng.normal(size=n.shape)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    d = d + 0.1 * rng.normal(size=3)
+    px = np.array([pixels, not pixels, pixels, not pixels])
+    _, J, Jc = edge_kernel(n, d, idx, cams, camera, p1, p2, px)
+    eps = 1e-6
+
+    def at(nn: np.ndarray, dd: np.ndarray, cc: list[PinholeCamera]) -> np.ndarray:
+        return edge_kernel(nn, dd, idx, cc, camera, p1, p2, px)[0]
+
+    for p in range(3):
+        for f in range(4):
+            num = plane_derivative(lambda nn, dd: at(nn, dd, cams), n, d, p, f, eps)
+            ana = np.zeros_like(num)
+            for slot in range(2):
+                hit = idx[:, slot] == p
+                ana[hit] += J[hit, :, slot, f]
+            np.testing.assert_allclose(ana, num, atol=1e-5, rtol=1e-5)
+    for c in range(2):
+        pose = cams[c].pose
+        for q in range(6):
+            dp = np.zeros(6)
+            dp[q] = eps
+            plus, minus = list(cams), list(cams)
+            plus[c] = cams[c].with_pose(pose + dp)
+            minus[c] = cams[c].with_pose(pose - dp)
+            num = (at(n, d, plus) - at(n, d, minus)) / (2 * eps)
+            sel = camera == c
+            np.testing.assert_allclose(Jc[sel, :, q], num[sel], atol=1e-4, rtol=1e-5)
+            np.testing.assert_allclose(num[~sel], 0.0, atol=1e-9)
