@@ -6,8 +6,10 @@ from pathlib import Path
 
 import pytest
 
+from aida_kb.cli import _kbfiles
 from aida_kb.cli._kbfiles import packaged_kb
 from aida_kb.cli.main import main
+from aida_kb.errors import FormatError
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -44,3 +46,16 @@ def test_demo_on_a_broken_kb_fails_with_diagnostics(capsys: pytest.CaptureFixtur
     out = capsys.readouterr().out
     assert "error[KB001]" in out
     assert "no net to show" in out
+
+
+def test_packaged_kb_prefers_the_installed_wheel_data(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # An installed wheel has kb/ force-included as aida_kb/_data/kb (pyproject.toml).
+    data = tmp_path / "_data" / "kb"
+    data.mkdir(parents=True)
+    (data / "buildings.kb").write_text("layers scene\n", encoding="utf-8")
+    monkeypatch.setattr(_kbfiles.resources, "files", lambda package: tmp_path)
+    assert packaged_kb("buildings.kb") == data / "buildings.kb"
+    with pytest.raises(FormatError, match="missing from this installation"):
+        packaged_kb("nothing-like-this.kb")
