@@ -147,6 +147,10 @@ UNVERIFIABLE_CONCEPT = register(
     "KB302", _W, "a concept has no part-of/con-of path down to a measured image concept"
 )
 
+INTERNAL_COMPILER_ERROR = register(
+    "KB399", _E, "the compiler failed unexpectedly (a bug in aida-kb: please report it)"
+)
+
 # --- files and imports ---------------------------------------------------------------------
 UNREADABLE_FILE = register(
     "KB900", Severity.ERROR, "a file cannot be read (missing, unreadable, not UTF-8)"

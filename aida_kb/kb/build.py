@@ -8,7 +8,9 @@ tolerances as sigma in SI, weights 1/sigma² unless explicit, thresholds in SI).
 
 from __future__ import annotations
 
-from typing import cast
+from typing import Any, TypeVar, cast
+
+from pydantic import BaseModel
 
 from aida_kb.dsl import ast
 from aida_kb.kb.model import (
@@ -33,6 +35,20 @@ from aida_kb.kb.resolve import VALUE_TYPES, CInfo, PathRes, Table
 
 __all__ = ["build"]
 
+_M = TypeVar("_M", bound=BaseModel)
+_setattr = object.__setattr__
+
+
+def _make(cls: type[_M], **values: Any) -> _M:
+    """A model from checked values, every field given: what ``model_construct`` does, without
+    its per-field loop over defaults and aliases (the build makes tens of thousands)."""
+    m = cls.__new__(cls)
+    _setattr(m, "__dict__", values)
+    _setattr(m, "__pydantic_fields_set__", set(values))
+    _setattr(m, "__pydantic_extra__", None)
+    _setattr(m, "__pydantic_private__", None)
+    return m
+
 
 def _si(expr: ast.Expr | None) -> float | None:
     if isinstance(expr, ast.Quantity) and expr.unit in UNIT_KIND:
@@ -53,7 +69,8 @@ def _attribute(
                 rng = slot.node.range
                 break
     vtype = node.type.text
-    return AttributeModel.model_construct(
+    return _make(
+        AttributeModel,
         name=name,
         type=cast(ValueType, vtype),
         unit=cast(ValueUnit, VALUE_TYPES[vtype]),
@@ -80,7 +97,8 @@ def _specs(
         for i, p in enumerate(prims, 1):
             name = base if len(distinct) <= 1 else f"{base}/{i}"
             out.append(
-                ConstraintSpec.model_construct(
+                _make(
+                    ConstraintSpec,
                     label=name,
                     kind=cast(ConstraintKind, p.kind),
                     args=p.args,
@@ -104,7 +122,8 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
     attributes: dict[str, AttributeModel] = {}
     for key, s in info.slots.items():
         if s.kind == "part":
-            parts[key] = PartModel.model_construct(
+            parts[key] = _make(
+                PartModel,
                 role=key,
                 concept=s.concept or "",
                 min=s.min,
@@ -114,7 +133,8 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
                 span=s.node.span,
             )
         elif s.kind == "con-of":
-            con_ofs[key] = ConOfModel.model_construct(
+            con_ofs[key] = _make(
+                ConOfModel,
                 role=key,
                 concept=s.concept or "",
                 min=s.min,
@@ -133,13 +153,19 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
                 rb.requires if isinstance(rb, PathRes) else ()
             )
             adjacencies.append(
-                AdjacencyModel.model_construct(
-                    a=a.dotted, b=b.dotted, declared_in=owner, span=adj.span, requires=req
+                _make(
+                    AdjacencyModel,
+                    a=a.dotted,
+                    b=b.dotted,
+                    declared_in=owner,
+                    span=adj.span,
+                    requires=req,
                 )
             )
     az = Analyzer(table, cname)
     prims = [(r.label, r.owner, az.rule(r.node)) for r in info.rules]
-    return ConceptModel.model_construct(
+    return _make(
+        ConceptModel,
         name=cname,
         layer=info.layer or "",
         abstract=info.node.abstract,
@@ -157,17 +183,18 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
 
 def _template(t: ast.Template) -> TemplateModel:
     params = tuple(
-        ParamModel.model_construct(name=p.name.text, type=p.type.text, default=_si(p.default))
+        _make(ParamModel, name=p.name.text, type=p.type.text, default=_si(p.default))
         for p in t.params
     )
-    return TemplateModel.model_construct(name=t.name.text, params=params, doc=t.doc, span=t.span)
+    return _make(TemplateModel, name=t.name.text, params=params, doc=t.doc, span=t.span)
 
 
 def _instance(inst: ast.Instance) -> InstanceModel:
     bindings: dict[str, BindingModel] = {}
     for b in inst.bindings:
         items = b.value.items if isinstance(b.value, ast.ListExpr) else (b.value,)
-        bindings[b.role.text] = BindingModel.model_construct(
+        bindings[b.role.text] = _make(
+            BindingModel,
             role=b.role.text,
             instances=tuple(i.dotted for i in items if isinstance(i, ast.Path)),
             evidence=tuple(i.value for i in items if isinstance(i, ast.String)),
@@ -182,7 +209,8 @@ def _instance(inst: ast.Instance) -> InstanceModel:
             ),
             span=b.span,
         )
-    return InstanceModel.model_construct(
+    return _make(
+        InstanceModel,
         name=inst.name.text,
         concept=inst.concept.text,
         doc=inst.doc,
@@ -194,7 +222,8 @@ def _instance(inst: ast.Instance) -> InstanceModel:
 def build(table: Table, files: tuple[str, ...]) -> KnowledgeBase:
     """The `KnowledgeBase` of a checked table (call only when the checks found no error)."""
     concepts = {c: _concept(table, c, table.concepts[c]) for c in table.concepts}
-    return KnowledgeBase.model_construct(
+    return _make(
+        KnowledgeBase,
         layers=tuple(table.layers),
         concepts=concepts,
         templates={n: _template(t) for n, t in table.templates.items()},

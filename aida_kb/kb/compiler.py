@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING
@@ -67,7 +68,16 @@ class CompileResult:
             if self._table is not None:
                 from aida_kb.kb.build import build
 
-                self._kb = build(self._table, self._files)
+                collecting = gc.isenabled()
+                gc.disable()  # the model is a tree: spare the collector's rescans
+                try:
+                    self._kb = build(self._table, self._files)
+                except Exception as exc:  # a bug: report it as a diagnostic, never raise
+                    file = self._files[0] if self._files else "<string>"
+                    self.diagnostics = (*self.diagnostics, _internal(exc, file))
+                finally:
+                    if collecting:
+                        gc.enable()
                 self._table = None
         return self._kb
 
@@ -75,26 +85,33 @@ class CompileResult:
         return f"CompileResult(ok={self.ok}, diagnostics={len(self.diagnostics)})"
 
 
+def _internal(exc: Exception, file: str) -> Diagnostic:
+    return Diagnostic(
+        codes.INTERNAL_COMPILER_ERROR.code,
+        codes.INTERNAL_COMPILER_ERROR.severity,
+        f"internal compiler error: {type(exc).__name__}: {exc}",
+        Span.point(file, 1, 1),
+        "please report this with the file that caused it",
+    )
+
+
 def _compile(loaded: Loaded) -> CompileResult:
     from aida_kb.kb.check import run_checks
     from aida_kb.kb.resolve import resolve
 
     diags = list(loaded.diagnostics)
+    collecting = gc.isenabled()
+    gc.disable()  # no reference cycles are made: spare the collector's rescans
     try:
         table, found = resolve(loaded.modules, loaded.broken)
         diags.extend(found)
         diags.extend(run_checks(table))
     except Exception as exc:  # the safety net: compiling must never raise
-        file = loaded.modules[0].file if loaded.modules else "<string>"
-        diags.append(
-            Diagnostic(
-                codes.INTERNAL_PARSER_ERROR.code,
-                codes.INTERNAL_PARSER_ERROR.severity,
-                f"internal compiler error: {type(exc).__name__}: {exc}",
-                Span.point(file, 1, 1),
-            )
-        )
+        diags.append(_internal(exc, loaded.modules[0].file if loaded.modules else "<string>"))
         return CompileResult(diags, loaded.sources)
+    finally:
+        if collecting:
+            gc.enable()
     files = tuple(m.file for m in loaded.modules)
     return CompileResult(diags, loaded.sources, table, files)
 

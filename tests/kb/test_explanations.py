@@ -8,7 +8,8 @@ from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.explain import explanation
 from aida_kb.kb import compile_text
 
-SEMANTIC = [c for c in sorted(codes.REGISTRY) if "KB100" <= c < "KB900"]
+# KB399 (an internal compiler error) has no known trigger: a bug has none by definition.
+SEMANTIC = [c for c in sorted(codes.REGISTRY) if "KB100" <= c < "KB900" and c != "KB399"]
 
 
 @pytest.mark.parametrize("code", SEMANTIC)
