@@ -33,15 +33,19 @@ WINDOW = 15
 REPEATS = 7
 
 
-def best_time(fn: Callable[[], Any], repeats: int = REPEATS) -> tuple[float, Any]:
-    """Fastest of `repeats` runs (seconds) and the last result."""
-    fn()  # warm-up (allocations, thread pools)
-    best, out = float("inf"), None
+def best_times(fns: dict[str, Callable[[], Any]], repeats: int = REPEATS) -> dict[str, Any]:
+    """Fastest of `repeats` runs (seconds) of each function, runs interleaved round-robin so
+    that a varying machine load hits all of them alike; and each function's last result."""
+    best = {name: float("inf") for name in fns}
+    result: dict[str, Any] = {}
+    for name, fn in fns.items():
+        result[name] = fn()  # warm-up (allocations, thread pools)
     for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - start)
-    return best, out
+        for name, fn in fns.items():
+            start = time.perf_counter()
+            result[name] = fn()
+            best[name] = min(best[name], time.perf_counter() - start)
+    return {"time": best, "result": result}
 
 
 def opencv_disparity(raw: Any) -> np.ndarray:
@@ -97,20 +101,23 @@ def main() -> None:
                 read_image(view.left, grey=True), read_image(view.right, grey=True)
             )
             truth = truth_disparity(scene.truth, view.id, read_labels(view.labels), rect)
-            t_ncc, ncc = best_time(
-                lambda left=left, right=right: ncc_disparity(
-                    left, right, num_disp=NUM_DISP, window=WINDOW
-                )
+            runs = best_times(
+                {
+                    "ncc": lambda left=left, right=right: ncc_disparity(
+                        left, right, num_disp=NUM_DISP, window=WINDOW
+                    ),
+                    "ncc_exact": lambda left=left, right=right: ncc_disparity(
+                        left, right, num_disp=NUM_DISP, window=WINDOW, exact=True
+                    ),
+                    "bm": lambda left=left, right=right: bm.compute(left, right),
+                    "sgbm": lambda left=left, right=right: sgbm.compute(left, right),
+                }
             )
-            t_exact, exact = best_time(
-                lambda left=left, right=right: ncc_disparity(
-                    left, right, num_disp=NUM_DISP, window=WINDOW, exact=True
-                ),
-                repeats=3,
+            t_ncc, t_exact, t_bm, t_sgbm = (
+                runs["time"][k] for k in ("ncc", "ncc_exact", "bm", "sgbm")
             )
-            t_bm, bm_raw = best_time(lambda left=left, right=right: bm.compute(left, right))
-            t_sgbm, sgbm_raw = best_time(
-                lambda left=left, right=right: sgbm.compute(left, right), repeats=3
+            ncc, exact, bm_raw, sgbm_raw = (
+                runs["result"][k] for k in ("ncc", "ncc_exact", "bm", "sgbm")
             )
             scores: dict[str, DisparityScore] = {
                 "ncc": score_disparity(ncc.disparity, truth),

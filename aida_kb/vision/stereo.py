@@ -159,12 +159,18 @@ def _box(img: F32, window: int) -> F32:
 _local = threading.local()
 
 
-def _workspace(shape: tuple[int, int, int]) -> F32:
-    """A per-thread float32 volume, reused across bands (first-touch page faults are costly)."""
-    buf: F32 | None = getattr(_local, "volume", None)
-    if buf is None or buf.shape != shape:
-        buf = np.empty(shape, np.float32)
-        _local.volume = buf
+def _workspace(shape: tuple[int, int, int], min_disp: int) -> F32:
+    """A per-thread zeroed float32 volume, reused across bands of the same shape.
+
+    First-touch page faults of a fresh volume are costly. Entries that the disparity loop
+    never writes (columns left of each slice's disparity, the padding, the sentinel slices)
+    stay 0 = "no score" across bands; the loop overwrites every other entry.
+    """
+    key = (shape, min_disp)
+    if getattr(_local, "key", None) != key:
+        _local.volume = np.zeros(shape, np.float32)
+        _local.key = key
+    buf: F32 = _local.volume
     return buf
 
 
@@ -173,14 +179,15 @@ def _band(
 ) -> tuple[F32, F32, F32, F32]:
     """NCC stereo on one band of rows (with its halo); returns full-band arrays.
 
-    The volume holds NCC + 2 (in [1, 3], positive, so that the IEEE bits of the float32 order
-    like integers) with the disparity index written into the lowest mantissa bits: an int32
-    max over the disparity axis then gives the best score and its index at once.
+    The volume holds the scores as float32 with the disparity index written into the lowest
+    mantissa bits; the IEEE bits of positive floats order like integers, so an int32 max over
+    the disparity axis gives the best positive score and its index at once (a pixel whose
+    scores are all <= 0 gets none, as it should).
     """
     h, W = L.shape
     kbits = max(1, math.ceil(math.log2(D)))
     kmask = np.int32((1 << kbits) - 1)
-    invalid = np.int32(0)  # below every key (keys are bits of positive floats >= 1)
+    invalid = np.int32(0)  # +0.0: below the key of every positive score
 
     muL, muR = _box(L, window), _box(R, window)
     sdL = np.sqrt(np.maximum(_box(L * L, window) - muL * muL, 0.0))
@@ -194,47 +201,47 @@ def _band(
         Ln = ((L - muL) * A).astype(np.float32)
         Rn = ((R - muR) * B).astype(np.float32)
 
+    # slice k + 1 holds disparity index k; slices 0 and D + 1 are empty sentinels, so that the
+    # neighbours k - 1 and k + 1 of any peak can be read without bounds checks
     width = W + min_disp + D  # extra columns keep the right-image strided view in bounds
-    vol = _workspace((D, h, width))
+    vol = _workspace((D + 2, h, width), min_disp)
     keys = vol.view(np.int32)
-    keys[:, :, W:] = invalid
     prod = np.empty((h, W), np.float32)
     mm = np.empty((h, W), np.float32)
     not_k = ~kmask
     for k in range(D):
         d = min_disp + k
         n = W - d
-        keys[k, :, : min(d, W)] = invalid
         if n <= 0:
             continue
-        sl = vol[k, :, d:W]
+        sl = vol[k + 1, :, d:W]
         if exact:
             p = cv2.multiply(L[:, d:], R[:, :n], dst=prod[:, :n])
             s = cv2.boxFilter(p, cv2.CV_32F, (window, window), borderType=cv2.BORDER_REFLECT_101)
             cv2.multiply(s, A[:, d:], dst=s)
             cv2.multiply(s, B[:, :n], dst=s)
             m = cv2.multiply(P[:, d:], Q[:, :n], dst=mm[:, :n])
-            cv2.addWeighted(s, 1.0, m, -1.0, 2.0, dst=sl)
+            cv2.subtract(s, m, dst=sl)
         else:
             p = cv2.multiply(Ln[:, d:], Rn[:, :n], dst=prod[:, :n])
             cv2.boxFilter(
                 p, cv2.CV_32F, (window, window), dst=sl, borderType=cv2.BORDER_REFLECT_101
             )
-            np.add(sl, np.float32(2.0), out=sl)
-        # pack the disparity index into the low mantissa bits (while the slice is in cache)
-        ks = keys[k, :, d:W]
+        # pack the disparity index into the low mantissa bits (while the slice is in cache);
+        # the IEEE bits of positive floats order like integers (negative scores never win)
+        ks = keys[k + 1, :, d:W]
         np.bitwise_and(ks, not_k, out=ks)
         np.bitwise_or(ks, k, out=ks)
 
     def score(key: npt.NDArray[np.int32]) -> F32:
-        return np.asarray((key & ~kmask).view(np.float32) - np.float32(2.0), dtype=np.float32)
+        return np.asarray((key & not_k).view(np.float32), dtype=np.float32)
 
-    inner = keys[:, :, :W]
+    inner = keys[1 : D + 1, :, :W]
     best = inner.max(axis=0)
     # right image: its pixel xr at disparity index k sits at left column xr + min_disp + k
     sD, sY, sX = keys.strides
     right_view = np.lib.stride_tricks.as_strided(
-        keys[:, :, min_disp:], shape=(D, h, W), strides=(sD + sX, sY, sX), writeable=False
+        keys[1:, :, min_disp:], shape=(D, h, W), strides=(sD + sX, sY, sX), writeable=False
     )
     best_r = right_view.max(axis=0)
 
@@ -244,9 +251,9 @@ def _band(
     # flat indices of the neighbours k-1, k+1 in the (D, h, width) volume
     flat = keys.reshape(-1)
     plane = h * width
-    i_best = np.arange(h * width, dtype=np.intp).reshape(h, width)[:, :W] + k_best * plane
-    i_m = np.where(k_best > 0, i_best - plane, i_best)
-    i_p = np.where(k_best < D - 1, i_best + plane, i_best)
+    i_best = np.arange(h * width, dtype=np.intp).reshape(h, width)[:, :W] + (k_best + 1) * plane
+    i_m = i_best - plane
+    i_p = i_best + plane
     s_m = score(flat[i_m])
     s_p = score(flat[i_p])
     # second best at least two disparities away
@@ -266,11 +273,12 @@ def _band(
     d_int = min_disp + k_best
     xs = np.arange(W)[None, :]
     xr = np.clip(xs - d_int, 0, W - 1)
-    k_r = (np.take_along_axis(best_r, xr, axis=1) & kmask).astype(np.intp)
+    rows = (np.arange(h, dtype=np.intp) * W)[:, None]
+    k_r = (best_r.reshape(-1)[rows + xr] & kmask).astype(np.intp)
     consistent = np.abs(k_r - k_best) <= lr_tol
     x_ok = xs - d_int >= 0
 
-    flat_r_at = np.take_along_axis(flatR, xr, axis=1)
+    flat_r_at = flatR.reshape(-1)[rows + xr]
     valid = has & interior & consistent & x_ok & ~flatL & ~flat_r_at & (peak > 0.0)
 
     gx = cv2.Sobel(L, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
