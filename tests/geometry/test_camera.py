@@ -20,7 +20,7 @@ def cameras(draw: st.DrawFn, skew: bool = False) -> PinholeCamera:
     fy = fx * draw(st.floats(0.5, 2.0))
     cx = draw(st.floats(-500.0, 3000.0))
     cy = draw(st.floats(-500.0, 3000.0))
-    s = draw(st.floats(-50.0, 50.0)) if skew else 0.0
+    s = draw(st.one_of(st.just(0.0), st.floats(-50.0, 50.0))) if skew else 0.0
     axis = np.array([draw(st.floats(-1, 1)) for _ in range(3)])
     angle = draw(st.floats(0.0, 3.14))
     rvec = (
@@ -52,27 +52,18 @@ def _close(a: np.ndarray, b: np.ndarray, rel: float = 1e-12) -> None:
 # ---- conversion --------------------------------------------------------------------------
 
 
-@settings(max_examples=150, deadline=None)
-@given(cameras(skew=False))
+@settings(max_examples=120, deadline=None)
+@given(cameras(skew=True))
 def test_pinhole_cahv_pinhole_round_trip(cam: PinholeCamera) -> None:
     back = PinholeCamera.from_cahv(cam.to_cahv(), cam.width, cam.height)
-    _close(back.K, cam.K)
-    assert back.K[0, 1] == pytest.approx(0.0, abs=1e-12 * cam.K[0, 0])
+    _close(back.K, cam.K)  # includes the skew: exactly 0 in half of the cameras
+    assert back.K[0, 1] == pytest.approx(cam.K[0, 1], abs=1e-12 * cam.K[0, 0])
     _close(back.R_cam_world, cam.R_cam_world)
     _close(back.t_cam_world, cam.t_cam_world)
     _close(back.centre, cam.centre)
 
 
-@settings(max_examples=100, deadline=None)
-@given(cameras(skew=True))
-def test_round_trip_with_skew(cam: PinholeCamera) -> None:
-    back = PinholeCamera.from_cahv(cam.to_cahv(), cam.width, cam.height)
-    _close(back.K, cam.K)
-    _close(back.R_cam_world, cam.R_cam_world)
-    _close(back.t_cam_world, cam.t_cam_world)
-
-
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(cameras(skew=True))
 def test_cahv_pinhole_cahv_round_trip(cam: PinholeCamera) -> None:
     cahv = cam.to_cahv()
@@ -135,7 +126,7 @@ def test_camera_is_immutable() -> None:
         cam.width = 3  # type: ignore[misc]
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(cameras())
 def test_pose_round_trip(cam: PinholeCamera) -> None:
     R, t = Rt_from_pose(pose_from_Rt(cam.R_cam_world, cam.t_cam_world))
