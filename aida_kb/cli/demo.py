@@ -1,4 +1,4 @@
-"""`aida-kb demo`: lint and compile the shipped building knowledge and show its net as a tree."""
+"""`aida-kb demo`: the whole pipeline on a rendered house, measured against its ground truth."""
 
 from __future__ import annotations
 
@@ -6,36 +6,43 @@ import argparse
 from typing import Any
 
 EXAMPLE = """\
-what it does (until the vision and interpretation pipeline exists):
-  1. lints kb/buildings.kb (the paper's building domain) and prints any diagnostics;
-  2. compiles it into the semantic net;
-  3. prints the net as a tree from each scene-layer concept down to the image layer:
-     con-of realisations, parts with their cardinalities, is-a alternatives.
+what it does:
+  1. lints and compiles kb/buildings.kb (the paper's building domain) and shows its net;
+  2. renders the `house` preset (two calibrated stereo views of a gable house) into a
+     temporary folder (or --out DIR);
+  3. reconstructs it: evidence (stereo, segmentation, line segments) -> hypothesis-
+     verification interpretation -> closed polyhedral model;
+  4. prints the instance tree, the main angles and the error against the ground truth
+     (read here only, never by the pipeline), and where it wrote the files.
+  It exits 1 when the model misses the targets: angles within 0.5 degrees of the truth and
+  vertices within 2% of the house's size.
 
 examples:
   aida-kb demo
-  aida-kb demo --kb my_buildings.kb
+  aida-kb demo --out out/demo --no-net
   make demo                      # creates .venv first
 """
 
-PIPELINE = """\
-Next, the full pipeline (being built) will:
-  - see: rectify calibrated stereo pairs, match them (NCC disparity with a certainty map),
-    and segment depth into regions of equal orientation and image line segments;
-  - interpret: instantiate this net against that evidence by hypothesis and verification,
-    trying the is-a alternatives above (gable, hip, flat, shed roofs ...);
-  - reconstruct: solve the instantiated constraints as one weighted least-squares problem,
-    reject hypotheses whose constraints do not fit, and export a closed polyhedral model."""
+ANGLE_TARGET_DEG = 0.5
+VERTEX_TARGET = 0.02
+MAIN_ANGLES = (
+    ("body.front", "body.left", "wall corner"),
+    ("body.floor", "body.front", "wall on the floor"),
+    ("body.front", "body.roof.front", "eaves (90 + pitch)"),
+    ("body.roof.front", "body.roof.back", "ridge (180 - 2 pitch)"),
+    ("body.left", "body.roof.front", "gable"),
+)
 
 
 def register(subparsers: Any) -> None:
     """Add the `demo` command."""
     p = subparsers.add_parser(
         "demo",
-        help="lint and compile the building knowledge; show its semantic net",
+        help="reconstruct a rendered house and compare it with the truth",
         description=(
-            "Lint and compile kb/buildings.kb (shipped with aida-kb) and print its semantic "
-            "net as a tree: scene -> 3-D world -> 2-D image."
+            "Compile kb/buildings.kb, render the `house` preset, reconstruct it "
+            "(evidence -> interpretation -> closed model) and report the errors "
+            "against the ground truth."
         ),
         epilog=EXAMPLE,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -44,8 +51,10 @@ def register(subparsers: Any) -> None:
         "--kb",
         metavar="FILE",
         default=None,
-        help="knowledge base to show (default: the shipped buildings.kb)",
+        help="knowledge base (default: the shipped buildings.kb)",
     )
+    p.add_argument("--out", metavar="DIR", default=None, help="folder for the scene and model")
+    p.add_argument("--no-net", action="store_true", help="do not print the semantic net")
     p.set_defaults(run=run)
 
 
@@ -136,51 +145,79 @@ def net_tree(kb: Any, title: str) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Lint and compile the knowledge base; print the diagnostics, the net and what comes next."""
+    """Compile, render, reconstruct, compare; print everything and where the files are."""
+    import tempfile
     from pathlib import Path
 
     from rich.console import Console
 
-    from aida_kb.cli._kbfiles import (
-        EXIT_ERRORS,
-        EXIT_OK,
-        check,
-        display_path,
-        packaged_kb,
-        use_color,
-    )
-    from aida_kb.diagnostics.render import render_summary, render_text
-    from aida_kb.kb import build_net
+    from aida_kb.cli._kbfiles import EXIT_ERRORS, EXIT_OK, display_path, packaged_kb
+    from aida_kb.cli.interpret import load_kb
+    from aida_kb.interpret.evaluate import compare_with_truth
+    from aida_kb.interpret.pipeline import reconstruct_scene
+    from aida_kb.interpret.report import explanation, instance_tree
+    from aida_kb.io.scene import read_scene
+    from aida_kb.synth.scenes import preset, render_scene
 
     path = Path(args.kb) if args.kb else packaged_kb("buildings.kb")
+    root = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="aida-kb-demo-"))
     console = Console(highlight=False)
     console.width = max(console.width, 100)
-    console.rule("[bold]aida-kb demo[/bold]: the building knowledge of the paper")
-    console.print(f"1. lint {display_path(path)}")
-    result = check(path)
-    color = use_color(console.file)
-    if result.diagnostics:
-        print(render_text(result.diagnostics, result.sources, color=color))
-    print("   " + render_summary(result.diagnostics, len(result.sources), color=color))
-    kb = result.kb
-    if kb is None:
-        console.print("[red]the knowledge base has errors; no net to show[/red]")
-        return EXIT_ERRORS
-    net = build_net(kb)
-    kinds: dict[str, int] = {}
-    for _, _, data in net.edges(data=True):
-        kind = str(data.get("kind"))
-        kinds[kind] = kinds.get(kind, 0) + 1
-    links = ", ".join(f"{v} {k}" for k, v in sorted(kinds.items()))
-    n_constraints = sum(
-        1 for c in kb.concepts.values() for spec in c.constraints if spec.concept == c.name
-    )
-    console.print("2. compile it into the semantic net")
+    console.rule("[bold]aida-kb demo[/bold]: a house from two stereo views, as in the paper")
+    console.print(f"1. compile {display_path(path)}")
+    kb = load_kb(str(path))
     console.print(f"   {len(kb.concepts)} concepts in layers {' > '.join(kb.layers)}")
-    console.print(f"   links: {links}")
-    console.print(f"   {len(kb.templates)} templates, {n_constraints} primitive constraints")
-    console.print("3. the net, from the scene layer down to the image layer:")
-    console.print(net_tree(kb, f"[bold]{display_path(path)}[/bold]"))
-    console.print()
-    print(PIPELINE)
-    return EXIT_OK
+    if not args.no_net:
+        console.print(net_tree(kb, f"[bold]{display_path(path)}[/bold]"))
+    scene_dir, out_dir = root / "scene", root / "model"
+    with console.status("2. rendering the house preset (two stereo views) ..."):
+        render_scene(preset("house"), scene_dir)
+    console.print(f"2. rendered the house preset into {scene_dir}")
+    with console.status("3. reconstructing ...") as status:
+
+        def stage(view: str, name: str) -> None:
+            where = f"view {view}: " if view != "-" else ""
+            status.update(f"3. reconstructing: {where}{name}")
+
+        result = reconstruct_scene(kb, scene_dir, out_dir, stage=stage)
+    interp = result.interpretation
+    console.print(f"3. reconstructed: {interp.message}")
+    for line in instance_tree(interp):
+        console.print("   " + line, markup=False)
+    rejected = explanation(interp)
+    if rejected:
+        console.print(f"   {len(rejected)} hypotheses rejected, e.g.:", markup=False)
+        for line in rejected[:3]:
+            console.print("     " + line, markup=False)
+    for file in result.files:
+        console.print(f"   wrote {file}")
+    truth = read_scene(scene_dir).truth
+    if interp.model is None or truth is None:
+        console.print("[red]no house reconstructed; nothing to compare[/red]")
+        return EXIT_ERRORS
+    comparison = compare_with_truth(interp.model, truth)
+    console.print("4. against the ground truth (truth.json, read only here):")
+    found = {(a.a, a.b): a for a in comparison.angles}
+    found.update({(a.b, a.a): a for a in comparison.angles})
+    for a, b, what in MAIN_ANGLES:
+        angle = found.get((a, b))
+        if angle is not None:
+            console.print(
+                f"   {what:<20} {a} / {b}: {angle.model_deg:8.3f} deg "
+                f"(truth {angle.truth_deg:.3f}, error {angle.error_deg:.3f})"
+            )
+    ok_angles = comparison.max_angle_error_deg <= ANGLE_TARGET_DEG
+    ok_vertices = comparison.max_vertex_error_rel <= VERTEX_TARGET and not comparison.missing
+    console.print(
+        f"   largest angle error over {len(comparison.angles)} adjacent pairs: "
+        f"{comparison.max_angle_error_deg:.3f} deg (target {ANGLE_TARGET_DEG}) "
+        + ("[green]ok[/green]" if ok_angles else "[red]missed[/red]")
+    )
+    console.print(
+        f"   largest vertex error: {comparison.max_vertex_error_m:.3f} m = "
+        f"{100 * comparison.max_vertex_error_rel:.2f}% of the house's size "
+        f"{comparison.size_m:.1f} m (target {100 * VERTEX_TARGET:g}%) "
+        + ("[green]ok[/green]" if ok_vertices else "[red]missed[/red]")
+    )
+    console.print(f"files: scene {scene_dir}, model {out_dir}")
+    return EXIT_OK if ok_angles and ok_vertices else EXIT_ERRORS

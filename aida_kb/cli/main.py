@@ -31,6 +31,7 @@ COMMANDS: tuple[str, ...] = (
     "disparity",
     "evidence",
     "interpret",
+    "reconstruct",
 )
 
 EXIT_OK = 0

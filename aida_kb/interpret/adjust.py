@@ -13,7 +13,7 @@ knowledge gives a weight only):
 - symmetry (a, b, c, d): angle(a, b) - angle(c, d) (rad);
 - position (eq. 4, px): the plane's distance from the region's centroid c_init, as the
   change of stereo disparity f·B·dist/z² it causes (f·dist/z across the image when the
-  baseline B is unknown), and its tilt against n_init, two degrees counting as one pixel;
+  baseline B is unknown), and its tilt against n_init, one degree counting as one pixel;
   both scaled by sqrt(mean certainty) so that certain regions hold harder (w_c);
 - edge (eq. 5, px): the distances of a segment's two ends from the projected edge line.
 
@@ -38,7 +38,7 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 DEFAULT_REJECT_SIGMAS = 5.0
-TILT_PX_PER_RAD = math.degrees(1.0) / 2.0  # the position constraint: 2 degrees of tilt = 1 px
+TILT_PX_PER_RAD = math.degrees(1.0)  # the position constraint counts 1 degree of tilt as 1 px
 PRIOR_SIGMA = 1e3  # a very weak pull of each parameter to its start (removes gauge freedom)
 MAX_EVALUATIONS = 60  # a hypothesis that needs more is wrong; its residuals will say so
 
@@ -206,7 +206,15 @@ class Adjustment:
             self.pos_sqrt_c = np.sqrt(np.clip(certainty, 1e-6, 1.0))
         edges = self.problem.edges
         if edges:
-            rows = [self._row(e.spec, e.owner, e.match.parts, "px") for e in edges]
+            # one constraint per model edge: its segments (fragments of one image contour)
+            # share one row of the report, whose residual is the RMS over all their ends
+            by_edge: dict[tuple[str, tuple[str, str]], int] = {}
+            rows = []
+            for e in edges:
+                key = (str(e.spec.label), e.match.parts)
+                if key not in by_edge:
+                    by_edge[key] = self._row(e.spec, e.owner, e.match.parts, "px")
+                rows.append(by_edge[key])
             scales = [_sigma_scale(e.spec)[1] for e in edges]
             groups.append(
                 _Group(
@@ -311,10 +319,16 @@ class Adjustment:
         count = 0
         for g, r in zip(self.groups, comps, strict=True):
             rms = _magnitude(g.kind, r)
+            # rows shared by several items (the fragments of an edge): RMS over the items
+            sums: dict[int, list[float]] = {}
             for k, row in enumerate(g.rows):
+                sums.setdefault(row, [0.0, 0.0, float(g.scale[k])])
+                sums[row][0] += float(rms[k]) ** 2
+                sums[row][1] += 1.0
+            for row, (total, items, scale) in sums.items():
                 label, kind, concept, owner, parts, unit, sigma, reject = self.labels[row]
-                value = float(rms[k])
-                normalised = value / sigma if sigma else value * float(g.scale[k])
+                value = math.sqrt(total / items)
+                normalised = value / sigma if sigma else value * scale
                 if reject is not None:
                     rejected = value > float(reject)
                 else:

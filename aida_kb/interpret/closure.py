@@ -85,3 +85,32 @@ def polygon_area(poly: FloatArray) -> float:
         return 0.0
     cross = np.cross(poly - poly[0], np.roll(poly, -1, axis=0) - poly[0])
     return 0.5 * float(np.linalg.norm(cross.sum(axis=0)))
+
+
+def inside_face(face: FloatArray, point_m: FloatArray, margin: float = 0.0) -> bool:
+    """True if `point_m` (3,), projected onto a convex face's plane, lies inside the face.
+
+    The face (N, 3) is a convex polygon; `margin` widens it by that fraction of its size
+    (the diagonal of its bounding box) on every side.
+    """
+    centre = face.mean(axis=0)
+    normal = np.cross(face[1] - face[0], face[2] - face[0])
+    for i in range(3, len(face)):
+        if np.linalg.norm(normal) > 1e-12:
+            break
+        normal = np.cross(face[1] - face[0], face[i] - face[0])
+    normal = normal / max(float(np.linalg.norm(normal)), 1e-12)
+    p = point_m - float((point_m - centre) @ normal) * normal
+    size = float(np.linalg.norm(face.max(axis=0) - face.min(axis=0)))
+    slack = margin * size
+    for a, b in zip(face, np.roll(face, -1, axis=0), strict=True):
+        edge = b - a
+        outward = np.cross(edge, normal)
+        if float(np.linalg.norm(outward)) < 1e-12:
+            continue
+        outward = outward / float(np.linalg.norm(outward))
+        if float(np.dot(outward, centre - a)) > 0:
+            outward = -outward
+        if float(np.dot(outward, p - a)) > slack:
+            return False
+    return True

@@ -79,6 +79,7 @@ def match_segments(
     planes: Mapping[str, tuple[FloatArray, float]],
     adjacency: Mapping[str, frozenset[str]],
     cameras: Mapping[str, CameraView],
+    max_distance_px: float = MAX_DISTANCE_PX,
 ) -> list[EdgeMatch]:
     """Explain segments as edges between adjacent parts.
 
@@ -89,6 +90,7 @@ def match_segments(
     planes : role path -> (unit normal (3,), offset d in metres), world frame, current values
     adjacency : role path -> the role paths of the parts it meets
     cameras : view id -> camera
+    max_distance_px : the largest mean distance of a segment's ends from its edge's line
 
     Returns
     -------
@@ -117,7 +119,7 @@ def match_segments(
             if not line.any():
                 continue
             distance, angle = _fit(seg, line)
-            if angle > MAX_ANGLE_DEG or distance > MAX_DISTANCE_PX:
+            if angle > MAX_ANGLE_DEG or distance > max_distance_px:
                 continue
             if best is None or distance < best[0]:
                 best = (distance, (a, b))

@@ -26,7 +26,8 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.errors import AidaError, GeometryError, InterpretError
-from aida_kb.interpret.closure import convex_faces, polygon_area
+from aida_kb.interpret.adjust import DEFAULT_REJECT_SIGMAS
+from aida_kb.interpret.closure import convex_faces, inside_face, polygon_area
 from aida_kb.interpret.edges import match_segments
 from aida_kb.interpret.hypotheses import (
     DEFAULT_PITCH_DEG,
@@ -55,6 +56,10 @@ FloatArray = npt.NDArray[np.float64]
 UNEXPLAINED_PENALTY = 4.0  # cost of leaving all evidence weight unexplained
 MAX_ASSIGNMENTS = 6  # alternatives of region assignment tried per structure and frame
 MIN_WALL_WEIGHT_FRACTION = 0.02  # a region lighter than this fraction of the total is clutter
+# segments are matched to the initial model within the first distance, then re-matched to
+# the adjusted model within the next (outliers of the first matching drop out)
+MATCH_DISTANCES_PX = (25.0, 8.0)
+MAX_MEAN_COST = 1.0  # an adjustment whose constraints miss by more than sigma on average fails
 SEGMENT_PENALTY = 4.0  # cost of leaving every segment of the bound regions unexplained
 MIN_FACE_FRACTION = 0.01  # a face smaller than this fraction of the largest one is missing
 
@@ -149,6 +154,7 @@ class Interpreter:
 
     def __post_init__(self) -> None:
         camera = self.evidence.camera
+        self._last_problem = Problem((), (), (), ())
         self.regions = [
             r for r in self.evidence.regions.values() if r.view == self.evidence.reference_view
         ]
@@ -287,17 +293,29 @@ class Interpreter:
                 continue
             worst = outcome.worst_rejected()
             if worst is not None:
+                limit = (
+                    f"{worst.reject_above:.3g} {worst.unit}"
+                    if worst.reject_above is not None
+                    else f"{DEFAULT_REJECT_SIGMAS:g} sigma"
+                )
                 last_reason = (
-                    f"{worst.kind} residual {worst.residual:.3g} {worst.unit} above "
-                    f"{worst.reject_above} (parts {', '.join(worst.parts)})",
+                    f"{worst.kind} residual {worst.residual:.3g} {worst.unit} above {limit} "
+                    f"(parts {', '.join(worst.parts)})",
                     worst.label,
                     worst.normalised,
                 )
+                continue
+            if outcome.cost > MAX_MEAN_COST:
+                last_reason = self._blame(outcome)
                 continue
             try:
                 polygons = self._close(structure, outcome, fixed)
             except GeometryError as exc:
                 last_reason = (f"its planes do not close a solid: {exc}", None, None)
+                continue
+            outside = self._outside(binding, polygons)
+            if outside:
+                last_reason = (outside, None, None)
                 continue
             misfit = outcome.cost + SEGMENT_PENALTY * loose
             level = Level(hid, structure, binding, inserted, outcome, frame, polygons, misfit)
@@ -391,7 +409,9 @@ class Interpreter:
             planes.append(PlaneInit(role, "", n, d, fixed=True))
         known = {p.role for p in planes}
         internal = tuple(
-            o for o in (*structure.constraints, *extra) if all(p in known for p in o.parts())
+            o
+            for o in (*structure.constraints, *extra, *self._tilts(structure, known))
+            if all(p in known for p in o.parts())
         )
         position_spec = self.knowledge.measurement("Region", "position")
         positions = tuple(
@@ -413,13 +433,14 @@ class Interpreter:
         current = {p.role: (p.normal, p.offset_m) for p in planes}
         outcome: Outcome | None = None
         edges: tuple[EdgeMeasure, ...] = ()
-        for _ in range(2):
-            rematched = self._edges(structure, binding, current, adj)
+        for distance_px in MATCH_DISTANCES_PX:
+            rematched = self._edges(structure, binding, current, adj, distance_px)
             if outcome is not None and _same_matches(rematched, edges):
                 break
             edges = rematched
             problem = Problem(tuple(planes), internal, positions, edges)
             outcome = self.solve(problem)
+            self._last_problem = problem
             current = dict(outcome.planes)
             planes = [
                 replace(p, normal=current[p.role][0], offset_m=current[p.role][1]) for p in planes
@@ -432,6 +453,89 @@ class Interpreter:
         total = sum(s.length_px for s in bordering)
         loose = sum(s.length_px for s in bordering if s.id not in matched)
         return outcome, tuple(inserted), loose / total if total > 0 else 0.0
+
+    def _blame(self, outcome: Outcome) -> tuple[str, str | None, float | None]:
+        """The internal constraint that makes an inconsistent adjustment inconsistent.
+
+        No single constraint is over its threshold, but together they do not fit (mean
+        squared normalised residual above MAX_MEAN_COST): the least-squares compromise has
+        spread the contradiction. Each internal constraint is left out in turn; the one
+        whose removal lowers the cost most is blamed, with its normalised cost in the full
+        adjustment.
+        """
+        problem = self._last_problem
+        labels = sorted({(o.spec.label, o.owner) for o in problem.internal})
+        best: tuple[float, str] | None = None
+        for label, owner in labels:
+            rest = tuple(o for o in problem.internal if (o.spec.label, o.owner) != (label, owner))
+            try:
+                cost = self.solve(replace(problem, internal=rest)).cost
+            except AidaError:
+                continue
+            if best is None or cost < best[0]:
+                best = (cost, label)
+        head = (
+            f"its constraints contradict each other (mean squared normalised residual "
+            f"{outcome.cost:.3g} > {MAX_MEAN_COST:g})"
+        )
+        if best is None:
+            return head, None, None
+        normalised = max(
+            (r.normalised for r in outcome.residuals if r.label == best[1]), default=0.0
+        )
+        return f"{head}; without {best[1]!r} it would be {best[0]:.3g}", best[1], normalised
+
+    def _tilts(self, structure: Structure, known: set[str]) -> tuple[OwnedSpec, ...]:
+        """Soft constraints from the walls' `tilt` attribute: the angle to the floor.
+
+        ``attribute tilt: angle in [85 deg, 95 deg] = 90 deg`` says a wall meets the ground
+        at 90 degrees, give or take 5: each wall gets angle(wall, floor) == 90 deg with sigma a
+        quarter of the range, rejected outside the range. The floor is the structure's own,
+        else its whole's.
+        """
+        floors = [r for r in known if r.rsplit(".", 1)[-1] == "floor"]
+        own = join(structure.root, "floor")
+        floor = own if own in known else (sorted(floors)[0] if floors else None)
+        if floor is None:
+            return ()
+        out: list[OwnedSpec] = []
+        for leaf in structure.leaves:
+            attr = self.knowledge.concept(leaf.concept).attributes.get("tilt")
+            if attr is None or attr.value is None or attr.low is None or attr.high is None:
+                continue
+            half = (attr.high - attr.low) / 2.0
+            if half <= 0:
+                continue
+            sigma = half / 2.0
+            spec = AttributeSpec(
+                label=f"{leaf.concept}.tilt",
+                kind="angle",
+                args=(leaf.role, floor),
+                value=attr.value,
+                unit="rad",
+                sigma=sigma,
+                weight=1.0 / sigma**2,
+                reject_above=half,
+                measurement=False,
+                concept=leaf.concept,
+            )
+            out.append(OwnedSpec(spec, ""))
+        return tuple(out)
+
+    def _outside(self, binding: dict[str, str], polygons: dict[str, FloatArray]) -> str:
+        """Why a bound region does not lie on its part's closed face ('' if all do).
+
+        A region is the visible part of a face: its centroid, projected onto the face's
+        plane, must fall inside the face (with a margin of a tenth of the face's size).
+        """
+        for rid, role in sorted(binding.items()):
+            face = polygons.get(role)
+            if face is None or len(face) < 3:
+                continue
+            centroid = self.evidence.regions[rid].centroid_m
+            if not inside_face(face, centroid, margin=0.1):
+                return f"region {rid} lies outside the face of {role} in the closed model"
+        return ""
 
     def _close(
         self,
@@ -464,11 +568,14 @@ class Interpreter:
         binding: dict[str, str],
         planes: dict[str, tuple[FloatArray, float]],
         adjacency: dict[str, frozenset[str]],
+        max_distance_px: float,
     ) -> tuple[EdgeMeasure, ...]:
         contour_spec = self.knowledge.measurement("Contour", "edge")
         declared = self._declared_edges(structure)
         segs = [s for s in self.segments if any(r in binding for r in s.regions)]
-        matches = match_segments(segs, binding, planes, adjacency, self.evidence.cameras)
+        matches = match_segments(
+            segs, binding, planes, adjacency, self.evidence.cameras, max_distance_px
+        )
         out: list[EdgeMeasure] = []
         for m in matches:
             spec, owner = declared.get(m.parts, (contour_spec, m.segment.id))
@@ -573,6 +680,22 @@ class Interpreter:
                         )
         del role, concept
         return out
+
+
+@dataclass(frozen=True)
+class AttributeSpec:
+    """A constraint the interpreter derives from an attribute (the fields of a ConstraintSpec)."""
+
+    label: str
+    kind: str
+    args: tuple[str, ...]
+    value: float
+    unit: str
+    sigma: float
+    weight: float
+    reject_above: float
+    measurement: bool
+    concept: str
 
 
 def _same_matches(a: tuple[EdgeMeasure, ...], b: tuple[EdgeMeasure, ...]) -> bool:

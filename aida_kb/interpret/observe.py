@@ -222,11 +222,34 @@ def estimate_up(
     return result
 
 
+BOUNDARY_TOLERANCE_PX = 4.0
+
+
+def _along(ends_px: FloatArray, polygon_px: FloatArray) -> bool:
+    """True if both ends of a segment lie within BOUNDARY_TOLERANCE_PX of a closed polygon.
+
+    Segments inside a region (window frames, texture) are not its boundary and cannot be the
+    edges of its part; only those along the region's contour are kept.
+    """
+    a = polygon_px
+    b = np.roll(polygon_px, -1, axis=0)
+    ab = b - a
+    length2 = np.maximum(np.sum(ab * ab, axis=1), 1e-12)
+    for p in ends_px:
+        t = np.clip(np.sum((p - a) * ab, axis=1) / length2, 0.0, 1.0)
+        closest = a + t[:, None] * ab
+        if float(np.min(np.linalg.norm(closest - p, axis=1))) > BOUNDARY_TOLERANCE_PX:
+            return False
+    return True
+
+
 def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
     """The numpy view of an evidence file: the views whose 3-D quantities are in the world frame.
 
     Views in their own camera frame (pose not yet registered) are left out. Region ids become
-    "VIEW/REGION", segment ids "VIEW/lSEGMENT".
+    "VIEW/REGION", segment ids "VIEW/lSEGMENT". Where the evidence gives a region's contour,
+    a segment borders that region only if it runs along the contour (`_along`); segments
+    that border no region are left out.
     """
     cameras: dict[str, CameraView] = {}
     regions: dict[str, RegionView] = {}
@@ -254,15 +277,18 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
                 float(r.pixel_count),
                 float(r.rms_m),
             )
+        outlines: dict[int, list[FloatArray]] = {}
+        for c in v.contours:
+            outlines.setdefault(c.region, []).append(np.array(c.points, dtype=np.float64))
         for s in v.lines:
-            segments.append(
-                SegmentView(
-                    f"{v.id}/l{s.id}",
-                    v.id,
-                    np.array([s.p1, s.p2], dtype=np.float64),
-                    tuple(f"{v.id}/{r}" for r in s.regions),
-                )
+            ends = np.array([s.p1, s.p2], dtype=np.float64)
+            borders = tuple(
+                f"{v.id}/{r}"
+                for r in s.regions
+                if r not in outlines or any(_along(ends, poly) for poly in outlines[r])
             )
+            if borders:
+                segments.append(SegmentView(f"{v.id}/l{s.id}", v.id, ends, borders))
     reference = evidence.views[0].id if evidence.views else "00"
     if reference not in cameras:
         raise InterpretError(

@@ -110,7 +110,12 @@ def interpret(
     trace = list(interpreter.trace.entries)
     if state is None:
         reasons = [h for h in trace if h.status == "rejected" and h.id != goal_id]
-        why = reasons[0].reason if reasons else "no alternative was verified"
+        # a rejection by a named constraint says most; else the first one
+        named = [h for h in reasons if h.constraint is not None]
+        first = (named or reasons)[:1]
+        why = first[0].reason if first else "no alternative was verified"
+        if first and first[0].constraint is not None:
+            why = f"constraint {first[0].constraint!r} (cost {first[0].cost:.3g}): {why}"
         return Interpretation(
             goal=goal,
             accepted=False,

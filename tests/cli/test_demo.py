@@ -1,7 +1,8 @@
-"""`aida-kb demo`: lints the shipped knowledge and prints its net as a tree."""
+"""`aida-kb demo`: the whole pipeline on the rendered house, against its ground truth."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -10,6 +11,8 @@ from aida_kb.cli import _kbfiles
 from aida_kb.cli._kbfiles import packaged_kb
 from aida_kb.cli.main import main
 from aida_kb.errors import FormatError
+from aida_kb.interpret.result import read_interpretation
+from aida_kb.io.model import read_model
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -22,30 +25,37 @@ def test_packaged_kb_finds_the_source_checkout() -> None:
     )
 
 
-def test_demo_prints_the_net_from_house_down_to_the_image_layer(
-    capsys: pytest.CaptureFixture[str],
+@pytest.mark.slow
+def test_demo_reconstructs_the_house_within_the_targets(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main(["demo"]) == 0
+    assert main(["demo", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     lines = out.splitlines()
+    # the net, from the scene layer down to the image layer
     house = next(i for i, line in enumerate(lines) if "House" in line and "(scene)" in line)
-    body = next(i for i, line in enumerate(lines) if "con-of body: HouseBody" in line)
-    walls = next(i for i, line in enumerate(lines) if "part front, back, left, right: Wall" in line)
     region = next(i for i, line in enumerate(lines) if "con-of region: Region" in line)
-    assert house < body < walls < region
-    assert "(image)" in lines[region]
-    assert "[0..*]" in out  # cardinalities are shown
-    assert "is-a alternatives of" in out
-    assert "no problems in 1 file" in out
-    assert "interpret" in out  # says what the later pipeline will do
+    assert house < region
+    assert "House verified (body.roof=GableRoof)" in out
+    assert "back: Wall  <- inserted from knowledge" in out
+    angle = re.search(r"largest angle error over \d+ adjacent pairs: ([0-9.]+) deg", out)
+    vertex = re.search(r"largest vertex error: [0-9.]+ m = ([0-9.]+)% of", out)
+    assert angle is not None
+    assert vertex is not None
+    assert float(angle.group(1)) <= 0.5
+    assert float(vertex.group(1)) <= 2.0
+    model = read_model(tmp_path / "model" / "model.json")
+    assert len(model.parts) == 7
+    assert read_interpretation(tmp_path / "model" / "interpretation.json").accepted
+    assert (tmp_path / "model" / "model.obj").read_text().count("\nf ") == 7
 
 
 def test_demo_on_a_broken_kb_fails_with_diagnostics(capsys: pytest.CaptureFixture[str]) -> None:
     broken = ROOT / "kb" / "examples" / "broken_syntax.kb"
-    assert main(["demo", "--kb", str(broken)]) == 1
-    out = capsys.readouterr().out
-    assert "error[KB001]" in out
-    assert "no net to show" in out
+    assert main(["demo", "--kb", str(broken), "--no-net"]) == 1
+    err = capsys.readouterr().err
+    assert "error[KB001]" in err
+    assert "the knowledge base has errors" in err
 
 
 def test_packaged_kb_prefers_the_installed_wheel_data(

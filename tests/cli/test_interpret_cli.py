@@ -27,12 +27,27 @@ def test_interpret_prints_tree_and_writes_json(
     assert "└── body: HouseBody  [con-of]" in text
     assert "back: Wall  <- inserted from knowledge" in text
     assert "rejected hypotheses:" in text
-    assert "rejected: constraint '" in text  # a rejection names its constraint and cost
-    assert " cost " in text
+    assert "[body.roof=HipRoof; front=00/1]" in text
     interp = read_interpretation(out)
     assert interp.accepted
     assert interp.model is not None
     assert len(interp.model.parts) == 7
+
+
+def test_explain_names_the_rejecting_constraint_and_its_cost(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code = main(["interpret", KB, str(FIXTURES / "house_asymmetric_roof.json"), "--explain"])
+    text = capsys.readouterr().out
+    assert code == 0
+    assert text.startswith("no House in the evidence: constraint 'slopes' (cost ")
+    line = next(
+        x
+        for x in text.splitlines()
+        if "[body.roof=GableRoof; front=00/1]" in x and x.startswith("  #")
+    )
+    assert "rejected: constraint 'slopes' cost " in line
+    assert "(normalised)" in line
 
 
 def test_no_house_exits_zero_with_a_clear_message(capsys: pytest.CaptureFixture[str]) -> None:

@@ -1,0 +1,74 @@
+"""The whole pipeline on a scene directory: evidence -> interpretation -> model files."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from aida_kb.interpret.result import Interpretation, write_interpretation
+from aida_kb.interpret.run import interpret
+from aida_kb.io.evidence import Evidence, write_evidence
+from aida_kb.io.model import write_model, write_obj
+from aida_kb.io.scene import read_scene
+
+if TYPE_CHECKING:
+    from aida_kb.kb.model import KnowledgeBase
+
+OUTPUT_FILES = ("evidence.json", "interpretation.json", "model.json", "model.obj")
+
+
+@dataclass(frozen=True)
+class Reconstruction:
+    """What `reconstruct_scene` produced and where it wrote it."""
+
+    evidence: Evidence
+    interpretation: Interpretation
+    files: tuple[Path, ...]
+
+
+def reconstruct_scene(
+    kb: KnowledgeBase,
+    scene_dir: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    *,
+    goal: str = "House",
+    views: Sequence[str] | None = None,
+    stage: Callable[[str, str], None] | None = None,
+) -> Reconstruction:
+    """Evidence of a scene's views, their interpretation, and the model; write the files.
+
+    The files (`OUTPUT_FILES`; model.json and model.obj only when the goal was found) are
+    written to a temporary folder beside `out_dir` and moved into place together, so that
+    a failed run leaves no half-written output. The scene's truth.json is never read.
+    """
+    from aida_kb.vision.evidence import scene_evidence
+
+    scene = read_scene(scene_dir, with_truth=False)
+    evidence, _ = scene_evidence(scene, views=views, stage=stage)
+    if stage is not None:
+        stage("-", "interpretation")
+    interp = interpret(kb, evidence, goal=goal, source=str(Path(scene_dir) / "evidence"))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=".reconstruct-", dir=out))
+    try:
+        write_evidence(work / "evidence.json", evidence)
+        write_interpretation(work / "interpretation.json", interp)
+        names = ["evidence.json", "interpretation.json"]
+        if interp.model is not None:
+            write_model(work / "model.json", interp.model)
+            write_obj(work / "model.obj", interp.model)
+            names += ["model.json", "model.obj"]
+        for stale in OUTPUT_FILES:
+            if stale not in names and (out / stale).exists():
+                (out / stale).unlink()
+        for name in names:
+            os.replace(work / name, out / name)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return Reconstruction(evidence, interp, tuple(out / n for n in names))
