@@ -17,7 +17,6 @@ import itertools
 import re
 import threading
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path as FsPath
 from typing import Any, cast
 
@@ -51,6 +50,8 @@ class ParseResult:
 
 def grammar_path() -> FsPath:
     """The grammar file: inside the installed wheel, else the repository's ``grammars/``."""
+    from importlib import resources
+
     packaged = resources.files("aida_kb").joinpath("_data", "grammars", "kb.lark")
     if packaged.is_file():
         return FsPath(str(packaged))
@@ -58,28 +59,36 @@ def grammar_path() -> FsPath:
 
 
 # ---- building the AST ---------------------------------------------------------------------------
-@dataclass(frozen=True, slots=True)
 class _Doc:
-    text: str | None
+    __slots__ = ("text",)
+
+    def __init__(self, text: str | None) -> None:
+        self.text = text
 
 
-@dataclass(frozen=True, slots=True)
 class _InLayer:
-    name: ast.Name
-    span: Span
+    __slots__ = ("name", "span")
+
+    def __init__(self, name: ast.Name, span: Span) -> None:
+        self.name = name
+        self.span = span
 
 
-@dataclass(frozen=True, slots=True)
 class _IsA:
-    names: tuple[ast.Name, ...]
-    span: Span
+    __slots__ = ("names", "span")
+
+    def __init__(self, names: tuple[ast.Name, ...], span: Span) -> None:
+        self.names = names
+        self.span = span
 
 
-@dataclass(frozen=True, slots=True)
 class _Qualifier:
-    kind: str
-    value: ast.Expr
-    span: Span
+    __slots__ = ("kind", "span", "value")
+
+    def __init__(self, kind: str, value: ast.Expr, span: Span) -> None:
+        self.kind = kind
+        self.value = value
+        self.span = span
 
 
 _ESCAPE = re.compile(r"\\(.)")

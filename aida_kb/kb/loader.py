@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
@@ -19,14 +18,22 @@ from aida_kb.dsl import ast, parse
 __all__ = ["Loaded", "load_path", "load_text"]
 
 
-@dataclass(slots=True)
 class Loaded:
     """Every module of a knowledge base, in load order (root first), and what loading found."""
 
-    modules: list[ast.Module] = field(default_factory=list)
-    sources: dict[str, str] = field(default_factory=dict)
-    diagnostics: list[Diagnostic] = field(default_factory=list)
-    broken: set[str] = field(default_factory=set)
+    __slots__ = ("broken", "diagnostics", "modules", "sources")
+
+    def __init__(
+        self,
+        modules: list[ast.Module] | None = None,
+        sources: dict[str, str] | None = None,
+        diagnostics: list[Diagnostic] | None = None,
+        broken: set[str] | None = None,
+    ) -> None:
+        self.modules: list[ast.Module] = list() if modules is None else modules
+        self.sources: dict[str, str] = dict() if sources is None else sources
+        self.diagnostics: list[Diagnostic] = list() if diagnostics is None else diagnostics
+        self.broken: set[str] = set() if broken is None else broken
 
 
 def _diag(code: codes.Code, message: str, span: Span, hint: str | None = None) -> Diagnostic:

@@ -12,7 +12,6 @@ per value, conditional on the filler's concept (`Prim.requires`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
@@ -40,7 +39,12 @@ SCALE: dict[str, float] = {
     "px": 1.0,
 }
 _SI = {"angle": "rad", "length": "m", "image": "px", "number": ""}
-_KIND_WORDS = {"angle": "an angle", "length": "a length", "image": "pixels", "number": "a number"}
+_KIND_WORDS = {
+    "angle": "an angle",
+    "length": "a length",
+    "image": "an image distance (px)",
+    "number": "a number",
+}
 _EXAMPLE = {"angle": "90 deg", "length": "2 m", "image": "1 px", "number": "2"}
 PRIMITIVES = ("angle", "parallel", "edge", "position")
 _MEASUREMENTS = ("position", "edge")
@@ -51,47 +55,84 @@ def quantity_si(q: ast.Quantity) -> float:
     return q.value * SCALE.get(q.unit, 1.0)
 
 
-@dataclass(frozen=True, slots=True)
 class Ref:
     """A role path argument: ``front``, ``roof.front``, ``self``."""
 
-    dotted: str
-    concept: str | None
-    requires: Requires
+    __slots__ = ("concept", "dotted", "requires")
+
+    def __init__(self, dotted: str, concept: str | None, requires: Requires) -> None:
+        self.dotted = dotted
+        self.concept = concept
+        self.requires = requires
 
 
-@dataclass(frozen=True, slots=True)
 class Val:
     """A value argument: its alternatives (SI value, conditions) and its kind."""
 
-    alts: tuple[tuple[float, Requires], ...]
-    kind: str
+    __slots__ = ("alts", "kind")
+
+    def __init__(self, alts: tuple[tuple[float, Requires], ...], kind: str) -> None:
+        self.alts = alts
+        self.kind = kind
 
 
 Arg = Ref | Val
 
 
-@dataclass(frozen=True, slots=True)
 class Prim:
     """One primitive relation, expanded and in SI units."""
 
-    kind: str
-    args: tuple[str, ...]
-    value: float | None
-    unit: str
-    sigma: float | None
-    weight: float
-    reject_above: float | None
-    measurement: bool
-    requires: Requires
-    span: Span
+    __slots__ = (
+        "args",
+        "kind",
+        "measurement",
+        "reject_above",
+        "requires",
+        "sigma",
+        "span",
+        "unit",
+        "value",
+        "weight",
+    )
+
+    def __init__(
+        self,
+        kind: str,
+        args: tuple[str, ...],
+        value: float | None,
+        unit: str,
+        sigma: float | None,
+        weight: float,
+        reject_above: float | None,
+        measurement: bool,
+        requires: Requires,
+        span: Span,
+    ) -> None:
+        self.kind = kind
+        self.args = args
+        self.value = value
+        self.unit = unit
+        self.sigma = sigma
+        self.weight = weight
+        self.reject_above = reject_above
+        self.measurement = measurement
+        self.requires = requires
+        self.span = span
 
 
-@dataclass(frozen=True, slots=True)
 class _Quals:
-    tolerance: Val | None
-    weight: float | None
-    reject: tuple[float, bool] | None  # (value, is a multiple of sigma)
+    __slots__ = ("reject", "tolerance", "weight")
+
+    def __init__(
+        self, tolerance: Val | None, weight: float | None, reject: tuple[float, bool] | None
+    ) -> None:
+        self.tolerance = tolerance
+        self.weight = weight
+        self.reject = reject
+
+
+#: Enclosing template uses, innermost first: (the use, its scope, where to report).
+_Outer = tuple[tuple[ast.Relation, dict[str, "Arg"], Span | None], ...]
 
 
 def _merge_requires(*groups: Requires) -> Requires:
@@ -130,7 +171,7 @@ class Analyzer:
     # -- entry points
     def rule(self, node: ast.Constraint | ast.Measure) -> list[Prim]:
         """The primitives of a ``constraint`` or ``measure``; checks the measurement kind."""
-        prims = self.relation(node.relation, {}, None)
+        prims = self.relation(node.relation, {})
         measuring = isinstance(node, ast.Measure)
         for p in prims:
             if p.measurement != measuring:
@@ -155,11 +196,12 @@ class Analyzer:
                 known = ptype if ptype in self.table.concepts else None
                 env[p.name.text] = Ref(p.name.text, known, ())
         for rel in template.body:
-            self.relation(rel, env, None)
+            self.relation(rel, env)
 
     # -- relations
-    def relation(self, rel: ast.Relation, env: dict[str, Arg], outer: _Quals | None) -> list[Prim]:
-        """Expand one relation; ``outer`` are the qualifiers of an enclosing template use."""
+    def relation(self, rel: ast.Relation, env: dict[str, Arg], outer: _Outer = ()) -> list[Prim]:
+        """Expand one relation; ``outer`` are the enclosing template uses, innermost first:
+        their qualifiers override the relation's own (the outermost wins)."""
         body = rel.body
         if isinstance(body, ast.Call) and body.func.text not in PRIMITIVES:
             template = self.table.templates.get(body.func.text)
@@ -174,13 +216,12 @@ class Analyzer:
                 )
                 return []
             self.used.add(template.name.text)
-            quals = self.qualifiers(rel, env, "angle", outer)
-            return self.use(body, template, env, quals)
+            return self.use(body, template, env, ((rel, env, self._site), *outer))
         kind, args, value = self.shape(body, env)
         if kind is None:
             return []
         quals = self.qualifiers(rel, env, _tolerance_kind(kind), outer)
-        return self.prims(kind, args, value, quals, rel.span)
+        return self.prims(kind, args, value, quals, self._site or rel.span)
 
     def shape(
         self, body: ast.Call | ast.Comparison, env: dict[str, Arg]
@@ -482,9 +523,10 @@ class Analyzer:
 
     # -- qualifiers
     def qualifiers(
-        self, rel: ast.Relation, env: dict[str, Arg], tol_kind: str, outer: _Quals | None
+        self, rel: ast.Relation, env: dict[str, Arg], tol_kind: str, outer: _Outer = ()
     ) -> _Quals:
-        """The relation's tolerance, weight and threshold; an outer use's override them."""
+        """The relation's tolerance, weight and threshold; the enclosing uses' override them,
+        each read in the unit of this relation and reported at its own place."""
         tol = weight = None
         reject: tuple[float, bool] | None = None
         if rel.tolerance is not None:
@@ -500,10 +542,15 @@ class Analyzer:
                     weight = None
         if rel.reject is not None:
             reject = self.threshold(rel.reject, tol_kind, env)
-        if outer is not None:
-            tol = outer.tolerance or tol
-            weight = outer.weight if outer.weight is not None else weight
-            reject = outer.reject or reject
+        for use_rel, use_env, use_site in outer:
+            saved, self._site = self._site, use_site
+            try:
+                over = self.qualifiers(use_rel, use_env, tol_kind)
+            finally:
+                self._site = saved
+            tol = over.tolerance or tol
+            weight = over.weight if over.weight is not None else weight
+            reject = over.reject or reject
         return _Quals(tol, weight, reject)
 
     def tolerance(self, expr: ast.Expr, kind: str, env: dict[str, Arg]) -> Val | None:
@@ -537,7 +584,7 @@ class Analyzer:
 
     # -- template uses
     def use(
-        self, call: ast.Call, template: ast.Template, env: dict[str, Arg], quals: _Quals
+        self, call: ast.Call, template: ast.Template, env: dict[str, Arg], outer: _Outer
     ) -> list[Prim]:
         """Bind a template's parameters to the use's arguments and expand its body."""
         params = template.params
@@ -587,7 +634,7 @@ class Analyzer:
         try:
             prims: list[Prim] = []
             for rel in template.body:
-                prims.extend(self.relation(rel, bound, quals))
+                prims.extend(self.relation(rel, bound, outer))
             return prims
         finally:
             self._depth -= 1

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
 
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
@@ -56,51 +55,81 @@ def did_you_mean(word: str, choices: Iterable[str]) -> str | None:
     return f"did you mean '{close[0]}'?" if close else None
 
 
-@dataclass(slots=True)
 class Slot:
     """A named member of a concept: a part role, a con-of role or an attribute."""
 
-    kind: str  # "part" | "con-of" | "attribute"
-    name: ast.Name
-    node: ast.Part | ast.ConOf | ast.Attribute
-    owner: str
-    concept: str | None  # the concept filling a role (None for attributes, unknown concepts)
-    min: int
-    max: int | None
-    optional: bool
+    __slots__ = ("concept", "kind", "max", "min", "name", "node", "optional", "owner")
+
+    def __init__(
+        self,
+        kind: str,
+        name: ast.Name,
+        node: ast.Part | ast.ConOf | ast.Attribute,
+        owner: str,
+        concept: str | None,
+        min: int,
+        max: int | None,
+        optional: bool,
+    ) -> None:
+        self.kind = kind
+        self.name = name
+        self.node = node
+        self.owner = owner
+        self.concept = concept
+        self.min = min
+        self.max = max
+        self.optional = optional
 
 
-@dataclass(slots=True)
 class Rule:
     """A constraint or measure as a concept holds it: the declaration and its owner."""
 
-    node: ast.Constraint | ast.Measure
-    owner: str
-    label: str | None
+    __slots__ = ("label", "node", "owner")
+
+    def __init__(self, node: ast.Constraint | ast.Measure, owner: str, label: str | None) -> None:
+        self.node = node
+        self.owner = owner
+        self.label = label
 
 
-@dataclass(slots=True)
 class CInfo:
     """What resolution knows of one concept."""
 
-    node: ast.Concept
-    parents: list[str]  # known, acyclic parents
-    layer: str | None = None
-    slots: dict[str, Slot] = field(default_factory=dict)
-    adjacency: list[tuple[ast.Adjacency, str]] = field(default_factory=list)
-    rules: list[Rule] = field(default_factory=list)
-    children: list[str] = field(default_factory=list)
-    own_slots: bool = False  # declares a part, con-of or attribute of its own
+    __slots__ = ("adjacency", "children", "layer", "node", "own_slots", "parents", "rules", "slots")
+
+    def __init__(
+        self,
+        node: ast.Concept,
+        parents: list[str],
+        layer: str | None = None,
+        slots: dict[str, Slot] | None = None,
+        adjacency: list[tuple[ast.Adjacency, str]] | None = None,
+        rules: list[Rule] | None = None,
+        children: list[str] | None = None,
+        own_slots: bool = False,
+    ) -> None:
+        self.node = node
+        self.parents = parents
+        self.layer = layer
+        self.slots: dict[str, Slot] = dict() if slots is None else slots
+        self.adjacency: list[tuple[ast.Adjacency, str]] = list() if adjacency is None else adjacency
+        self.rules: list[Rule] = list() if rules is None else rules
+        self.children: list[str] = list() if children is None else children
+        self.own_slots = own_slots
 
 
-@dataclass(frozen=True, slots=True)
 class PathRes:
     """A resolved role path: the slot it ends on (None for ``self``) and its conditions."""
 
-    dotted: str
-    slot: Slot | None
-    concept: str | None  # the concept the path denotes (the filler's, or the owner for self)
-    requires: Requires
+    __slots__ = ("concept", "dotted", "requires", "slot")
+
+    def __init__(
+        self, dotted: str, slot: Slot | None, concept: str | None, requires: Requires
+    ) -> None:
+        self.dotted = dotted
+        self.slot = slot
+        self.concept = concept
+        self.requires = requires
 
 
 class Table:

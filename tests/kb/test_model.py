@@ -223,3 +223,20 @@ def test_errors_mean_no_model() -> None:
     assert result.kb is None
     assert result.errors
     assert result.sources == {"e.kb": "layers a > b\nconcept X in c { }"}
+
+
+def test_use_site_qualifiers_override_the_body_in_its_unit() -> None:
+    text = (
+        "layers scene > world > image\n"
+        "template m(p: R) { position(p) +- 1 px }\n"
+        "concept R in image { measure m(self) +- 3 px reject above 2 }\n"
+        "concept Q is-a R { measure m(self) +- 3 deg }\n"
+    )
+    result = compile_text(text, "u.kb")
+    bad = [(d.code, d.span.line, d.span.column) for d in result.diagnostics if d.is_error]
+    assert bad == [("KB132", 4, 39)]
+    result = compile_text(text.rsplit("concept Q", 1)[0], "u.kb")
+    assert result.kb is not None
+    (spec,) = result.kb.concepts["R"].constraints
+    assert (spec.sigma, spec.reject_above, spec.unit) == (3.0, 6.0, "px")
+    assert (spec.span.line, spec.span.column) == (3, 30)  # the use, not the template body
