@@ -82,6 +82,7 @@ def ncc_disparity(
     lr_tolerance_px: float = 1.0,
     workers: int | None = None,
     exact: bool = False,
+    adaptive_range: bool = True,
 ) -> DisparityMap:
     """Dense disparity of a rectified pair by zero-mean NCC, with a certainty map.
 
@@ -117,36 +118,109 @@ def ncc_disparity(
     H, W = L.shape
     if min_disp + window >= W or window > H:
         raise VisionError(f"image of {W}x{H} pixels is too small for the disparity range")
+    n_workers = workers if workers is not None else (os.cpu_count() or 1)
+    return _ncc(L, R, min_disp, num_disp, window, lr_tolerance_px, exact, adaptive_range, n_workers)
+
+
+def _ncc(
+    L: F32,
+    R: F32,
+    min_disp: int,
+    num_disp: int,
+    window: int,
+    lr_tol: float,
+    exact: bool,
+    adaptive: bool,
+    workers: int,
+) -> DisparityMap:
+    """`ncc_disparity` on validated float images (grey levels - 128)."""
+    H, W = L.shape
     half = window // 2
+    bands = [(y0, min(H, y0 + _BAND_ROWS)) for y0 in range(0, H, _BAND_ROWS)]
+    hi_all = min_disp + num_disp - 1
+    ranges = {band: (min_disp, hi_all) for band in bands}
+    if adaptive and num_disp >= 16 and min(H, W) >= 8 * window:
+        ranges = _band_ranges(L, R, bands, min_disp, num_disp, window, workers)
     # search one disparity beyond each end of the range, so that a peak on an end of the
     # requested range still has two neighbours for the parabola; d = -1 (min_disp 0) is
     # searched with the right image shifted left by one pixel
-    lo = min_disp - 1
-    shift = 1 if lo < 0 else 0
+    shift = 1 if min_disp == 0 else 0
     if shift:
         R = np.concatenate([R[:, 1:], R[:, -1:]], axis=1)
-    lo_int, D_int = lo + shift, num_disp + 2
-    bands = [(y0, min(H, y0 + _BAND_ROWS)) for y0 in range(0, H, _BAND_ROWS)]
     out = [np.full((H, W), np.nan, np.float32) for _ in range(4)]
     out[1][:] = 0.0
 
     def job(band: tuple[int, int]) -> None:
         y0, y1 = band
+        lo, hi = ranges[band]
         a, b = max(0, y0 - half), min(H, y1 + half)
-        res = _band(L[a:b], R[a:b], lo_int, D_int, window, lr_tolerance_px, exact)
+        res = _band(L[a:b], R[a:b], lo - 1 + shift, hi - lo + 3, window, lr_tol, exact)
         for dst, src in zip(out, res, strict=True):
             dst[y0:y1] = src[y0 - a : y1 - a]
 
-    n_workers = workers if workers is not None else (os.cpu_count() or 1)
-    if n_workers <= 1:
+    if workers <= 1:
         for band in bands:
             job(band)
     else:
-        with ThreadPoolExecutor(max_workers=n_workers) as pool:
+        with ThreadPoolExecutor(max_workers=workers) as pool:
             list(pool.map(job, bands))
     if shift:
         out[0] -= np.float32(shift)
     return DisparityMap(disparity=out[0], certainty=out[1], peak=out[2], distinctiveness=out[3])
+
+
+RANGE_MARGIN_PX = 3  # widening of each band's disparity range found at half resolution
+RANGE_QUANTILE = 0.002  # coarse disparities below / above these quantiles are outliers
+
+
+def _band_ranges(
+    L: F32,
+    R: F32,
+    bands: list[tuple[int, int]],
+    min_disp: int,
+    num_disp: int,
+    window: int,
+    workers: int,
+) -> dict[tuple[int, int], tuple[int, int]]:
+    """Each band's disparity range (inclusive), from a half-resolution NCC pass.
+
+    The range spans the certain coarse disparities of the band's rows (and a few rows
+    around) between the RANGE_QUANTILE quantiles, doubled, widened by RANGE_MARGIN_PX, clipped
+    to the requested range. A band with too few certain coarse pixels keeps the full range.
+    Pixels whose disparity falls outside their band's range get none (their peak lies on the
+    end of the range searched), never a wrong one from this restriction.
+    """
+    hi_all = min_disp + num_disp - 1
+    Ls = np.asarray(cv2.pyrDown(L), np.float32)
+    Rs = np.asarray(cv2.pyrDown(R), np.float32)
+    coarse = _ncc(
+        Ls,
+        Rs,
+        min_disp // 2,
+        (num_disp + 1) // 2 + 1,
+        max(5, (window // 2) | 1),
+        1.0,
+        False,
+        False,
+        workers,
+    )
+    cd = coarse.disparity
+    ok = (coarse.certainty > 0.1) & ~np.isnan(cd)
+    hs = cd.shape[0]
+    ranges = {}
+    for y0, y1 in bands:
+        r0, r1 = max(0, y0 // 2 - 2), min(hs, (y1 + 1) // 2 + 2)
+        vals = cd[r0:r1][ok[r0:r1]]
+        if vals.size < 20:
+            ranges[(y0, y1)] = (min_disp, hi_all)
+            continue
+        v_lo, v_hi = np.quantile(vals, [RANGE_QUANTILE, 1.0 - RANGE_QUANTILE])
+        lo = max(min_disp, int(np.floor(2.0 * float(v_lo))) - RANGE_MARGIN_PX)
+        hi = min(hi_all, int(np.ceil(2.0 * float(v_hi))) + RANGE_MARGIN_PX)
+        if hi - lo < 2:
+            lo, hi = max(min_disp, lo - 1), min(hi_all, hi + 1)
+        ranges[(y0, y1)] = (lo, hi)
+    return ranges
 
 
 def _box(img: F32, window: int) -> F32:
@@ -159,19 +233,15 @@ def _box(img: F32, window: int) -> F32:
 _local = threading.local()
 
 
-def _workspace(shape: tuple[int, int, int], min_disp: int) -> F32:
-    """A per-thread zeroed float32 volume, reused across bands of the same shape.
-
-    First-touch page faults of a fresh volume are costly. Entries that the disparity loop
-    never writes (columns left of each slice's disparity, the padding, the sentinel slices)
-    stay 0 = "no score" across bands; the loop overwrites every other entry.
-    """
-    key = (shape, min_disp)
-    if getattr(_local, "key", None) != key:
-        _local.volume = np.zeros(shape, np.float32)
-        _local.key = key
-    buf: F32 = _local.volume
-    return buf
+def _workspace(shape: tuple[int, int, int]) -> F32:
+    """A contiguous float32 volume of `shape` on a per-thread buffer reused across bands
+    (first-touch page faults of fresh memory are costly). Its content is undefined."""
+    size = shape[0] * shape[1] * shape[2]
+    buf: F32 | None = getattr(_local, "buffer", None)
+    if buf is None or buf.size < size:
+        buf = np.empty(max(size, int(1.25 * size)), np.float32)
+        _local.buffer = buf
+    return buf[:size].reshape(shape)
 
 
 def _band(
@@ -204,14 +274,18 @@ def _band(
     # slice k + 1 holds disparity index k; slices 0 and D + 1 are empty sentinels, so that the
     # neighbours k - 1 and k + 1 of any peak can be read without bounds checks
     width = W + min_disp + D  # extra columns keep the right-image strided view in bounds
-    vol = _workspace((D + 2, h, width), min_disp)
+    vol = _workspace((D + 2, h, width))
     keys = vol.view(np.int32)
+    keys[0] = invalid
+    keys[D + 1] = invalid
+    keys[:, :, W:] = invalid
     prod = np.empty((h, W), np.float32)
     mm = np.empty((h, W), np.float32)
     not_k = ~kmask
     for k in range(D):
         d = min_disp + k
         n = W - d
+        keys[k + 1, :, : min(d, W)] = invalid
         if n <= 0:
             continue
         sl = vol[k + 1, :, d:W]
