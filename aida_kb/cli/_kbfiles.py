@@ -42,9 +42,14 @@ def packaged_kb(name: str = "buildings.kb") -> Path:
 def display_path(path: Path) -> str:
     """`path` relative to the working directory when it lies below it, else as given."""
     try:
-        return str(path.resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
+        return os.path.relpath(os.path.realpath(path)) if _below_cwd(path) else str(path)
+    except ValueError:  # another drive (Windows)
         return str(path)
+
+
+def _below_cwd(path: Path) -> bool:
+    cwd = os.path.realpath(os.getcwd())
+    return os.path.commonpath([cwd, os.path.realpath(path)]) == cwd
 
 
 def collect_kb_files(paths: Sequence[str]) -> tuple[list[Path], list[str]]:
@@ -56,10 +61,10 @@ def collect_kb_files(paths: Sequence[str]) -> tuple[list[Path], list[str]]:
     """
     files: list[Path] = []
     problems: list[str] = []
-    seen: set[Path] = set()
+    seen: set[str] = set()
 
     def add(p: Path) -> None:
-        key = p.resolve()
+        key = os.path.realpath(p)  # never raises, not even on a symlink loop
         if key not in seen:
             seen.add(key)
             files.append(p)

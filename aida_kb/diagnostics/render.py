@@ -24,6 +24,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from aida_kb.diagnostics.core import Diagnostic, Severity, Span
 
 __all__ = [
+    "MAX_LINE",
     "TAB_SIZE",
     "diagnostic_to_json",
     "render_json",
@@ -32,6 +33,8 @@ __all__ = [
 ]
 
 TAB_SIZE = 4
+#: Source lines longer than this many characters are shown as a window around the span.
+MAX_LINE = 120
 
 _RESET = "\x1b[0m"
 _BOLD = "\x1b[1m"
@@ -81,6 +84,24 @@ def _underline_cells(line: str, start_col: int, end_col: int | None) -> tuple[in
     return first, max(last - first, 1)
 
 
+def _crop(text: str, start: int, end: int | None) -> tuple[str, int, int | None]:
+    """Cut a line longer than `MAX_LINE` characters to a window around its span.
+
+    Returns the shown text (``...`` marks what was cut) and the span's columns in it.
+    """
+    if len(text) <= MAX_LINE:
+        return text, start, end
+    first = max(0, min(start - 1 - MAX_LINE // 3, len(text) - MAX_LINE))
+    last = first + MAX_LINE
+    head = "..." if first > 0 else ""
+    tail = "..." if last < len(text) else ""
+    shift = len(head) - first
+    new_end = None if end is None else min(end, last + 1) + shift
+    if new_end is None and tail:
+        new_end = last + 1 + shift
+    return head + text[first:last] + tail, start + shift, new_end
+
+
 def _source_lines(sources: Mapping[str, str], file: str) -> list[str] | None:
     text = sources.get(file)
     if text is None:
@@ -103,15 +124,16 @@ def _snippet(
         if index == 1 and number > span.line + 1:
             out.append(paint(_GUTTER, "..."))
         text = lines[number - 1].rstrip("\r")
-        out.append(paint(_GUTTER, f"{number:>{gutter}} |") + (" " + _display(text) if text else ""))
         if len(numbers) == 1:
-            end_col = span.end_column if span.end_line == span.line else None
-            first, count = _underline_cells(text, span.column, end_col)
+            start: int = span.column
+            end: int | None = span.end_column if span.end_line == span.line else None
         elif index == 0:
-            first, count = _underline_cells(text, span.column, None)
+            start, end = span.column, None
         else:
-            indent = len(text) - len(text.lstrip())
-            first, count = _underline_cells(text, indent + 1, span.end_column)
+            start, end = len(text) - len(text.lstrip()) + 1, span.end_column
+        text, start, end = _crop(text, start, end)
+        out.append(paint(_GUTTER, f"{number:>{gutter}} |") + (" " + _display(text) if text else ""))
+        first, count = _underline_cells(text, start, end)
         out.append(paint(_GUTTER, f"{pad} |") + " " + " " * first + paint(style, mark * count))
     return out
 

@@ -196,3 +196,15 @@ def test_a_file_imported_by_two_linted_files_reports_once(
     unknown = [d for d in data if d["code"] == "KB101"]
     assert len(unknown) == 1
     assert unknown[0]["file"].endswith("lib.kb")
+
+
+def test_a_symlink_loop_is_reported_not_a_crash(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "good.kb").write_text(BUILDINGS.read_text(encoding="utf-8"), encoding="utf-8")
+    (tmp_path / "loop.kb").symlink_to(tmp_path / "loop.kb")
+    code, out, err = _run(["lint", str(tmp_path)], capsys)
+    assert code == 2
+    assert "loop.kb: cannot read" in err
+    assert "internal error" not in err
+    assert "no problems in 1 file" in out

@@ -6,6 +6,7 @@ import json
 
 from aida_kb.diagnostics.core import Diagnostic, Severity, Span
 from aida_kb.diagnostics.render import (
+    MAX_LINE,
     diagnostic_to_json,
     render_json,
     render_summary,
@@ -133,3 +134,22 @@ def test_json_has_exactly_the_contract_keys_and_one_based_positions() -> None:
     ]
     assert data[1]["severity"] == "warning"
     assert json.loads(render_json([])) == []
+
+
+def test_long_lines_are_cropped_around_the_span() -> None:
+    line = "x" * 300 + "target" + "y" * 300
+    diag = Diagnostic("KB001", Severity.ERROR, "m", Span("l.kb", 1, 301, 1, 307))
+    lines = render_text([diag], {"l.kb": line}).splitlines()
+    shown, marks = lines[2], lines[3]
+    assert len(shown) <= len("1 | ") + MAX_LINE + 6
+    assert shown.startswith("1 | ...x")
+    assert shown.endswith("y...")
+    assert shown[marks.index("^") : marks.rindex("^") + 1] == "target"
+
+
+def test_short_lines_are_not_cropped() -> None:
+    line = "a" * MAX_LINE
+    diag = Diagnostic("KB001", Severity.ERROR, "m", Span("s.kb", 1, MAX_LINE, 1, MAX_LINE + 1))
+    lines = render_text([diag], {"s.kb": line}).splitlines()
+    assert lines[2] == "1 | " + line
+    assert lines[3] == "  | " + " " * (MAX_LINE - 1) + "^"
