@@ -32,6 +32,7 @@ from aida_kb.interpret.edges import match_segments
 from aida_kb.interpret.hypotheses import (
     DEFAULT_PITCH_DEG,
     Frame,
+    PlanarPart,
     candidates,
     faces_camera,
     front_region,
@@ -397,6 +398,9 @@ class Interpreter:
                 d = support_offset(n, points)
             else:
                 d = float(n @ self.evidence.camera.centre_m) - 10.0
+            mirrored = self._mirrored_back(structure, leaf, frame, role_to_region)
+            if mirrored is not None:
+                d = max(d, mirrored)
             centre = points.mean(axis=0) if len(points) else self.evidence.camera.centre_m
             on_plane = centre + (d - float(n @ centre)) * n
             if faces_camera(n, on_plane, self.evidence.camera):
@@ -484,6 +488,32 @@ class Interpreter:
             (r.normalised for r in outcome.residuals if r.label == best[1]), default=0.0
         )
         return f"{head}; without {best[1]!r} it would be {best[0]:.3g}", best[1], normalised
+
+    def _mirrored_back(
+        self,
+        structure: Structure,
+        leaf: PlanarPart,
+        frame: Frame,
+        seen: dict[str, RegionView],
+    ) -> float | None:
+        """The offset of a hidden back wall by the symmetry of a gable: the ridge in the middle.
+
+        When the front wall and the front roof plane are seen, the ridge is the seen roof's
+        edge farthest from the front wall (its least extent along the front direction), and
+        the back wall lies as far behind the ridge as the front wall lies in front of it.
+        None when that does not apply (not a back wall, or those parts not seen).
+        """
+        if leaf.name != "back" or leaf.pitched or leaf.role != join(structure.root, "back"):
+            return None
+        front = seen.get(join(structure.root, "front"))
+        roof = seen.get(join(structure.root, "roof.front"))
+        if front is None or roof is None:
+            return None
+        along = self.evidence.points_on(roof.id) @ frame.front
+        if len(along) < 2:
+            return None
+        ridge = float(along.min())
+        return float(frame.front @ front.centroid_m) - 2.0 * ridge
 
     def _tilts(self, structure: Structure, known: set[str]) -> tuple[OwnedSpec, ...]:
         """Soft constraints from the walls' `tilt` attribute: the angle to the floor.
