@@ -143,3 +143,26 @@ def test_rendered_house_against_truth(small_house: Path) -> None:
     assert best.bad1 < 0.03
     assert best.bad2 < 0.01
     assert best.mean_abs_px < 0.25
+
+
+def test_adaptive_range_agrees_with_the_full_search(small_house: Path) -> None:
+    scene = read_scene(small_house)
+    assert scene.truth is not None
+    view = scene.views[0]
+    assert view.labels is not None
+    rect = stereo_rectification(scene.calib)
+    left, right = rect.rectify(read_image(view.left, grey=True), read_image(view.right, grey=True))
+    full = ncc_disparity(left, right, num_disp=32, window=11, adaptive_range=False)
+    fast = ncc_disparity(left, right, num_disp=32, window=11, adaptive_range=True)
+    both = ~np.isnan(full.disparity) & ~np.isnan(fast.disparity)
+    assert both.sum() > 0.9 * np.count_nonzero(~np.isnan(full.disparity))
+    differ = both & (np.abs(full.disparity - fast.disparity) > 1.0)
+    assert differ.sum() < 0.02 * both.sum()
+    truth = truth_disparity(scene.truth, view.id, read_labels(view.labels), rect)
+    s_fast, s_full = score_disparity(fast.disparity, truth), score_disparity(full.disparity, truth)
+    assert s_fast.density >= s_full.density - 0.01
+    assert s_fast.bad2 <= s_full.bad2 + 0.005
+    # where they differ, the restricted search is right more often than the full one
+    err_full = np.abs(full.disparity - truth)[differ & ~np.isnan(truth)]
+    err_fast = np.abs(fast.disparity - truth)[differ & ~np.isnan(truth)]
+    assert np.mean(err_fast < 1.0) > np.mean(err_full < 1.0)
