@@ -184,11 +184,17 @@ def plane_basis(normal: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     -------
     u, v : (3,) arrays
     """
-    n = np.asarray(normal, dtype=np.float64)
-    e = np.zeros(3)
-    e[int(np.argmin(np.abs(n)))] = 1.0
-    u = e - (e @ n) * n
-    u /= np.linalg.norm(u)
+    u, v = plane_bases(np.asarray(normal, dtype=np.float64)[None])
+    return u[0], v[0]
+
+
+def plane_bases(normals: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """`plane_basis` for F unit normals (F, 3) at once: u, v as (F, 3) arrays."""
+    n = np.asarray(normals, dtype=np.float64)
+    e = np.zeros_like(n)
+    e[np.arange(n.shape[0]), np.argmin(np.abs(n), axis=1)] = 1.0
+    u = e - np.einsum("fj,fj->f", e, n)[:, None] * n
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
     return u, np.cross(n, u)
 
 
@@ -251,7 +257,14 @@ def self_intersections(points: npt.ArrayLike, tol: float = 0.0) -> list[tuple[in
     i, j = np.triu_indices(k, 2)
     keep = ~((i == 0) & (j == k - 1))
     i, j = i[keep], j[keep]
-    a1, b1, a2, b2 = a[i], b[i], a[j], b[j]
+    hit = np.flatnonzero(segments_touch(a[i], b[i], a[j], b[j], tol))
+    return [(int(i[h]), int(j[h])) for h in hit]
+
+
+def segments_touch(
+    a1: FloatArray, b1: FloatArray, a2: FloatArray, b2: FloatArray, tol: float = 0.0
+) -> npt.NDArray[np.bool_]:
+    """(P,) bool: whether 2-D segments a1-b1 and a2-b2 (each (P, 2)) cross or come within `tol`."""
 
     def cross(o: FloatArray, s: FloatArray, t: FloatArray) -> FloatArray:
         r: FloatArray = (s[:, 0] - o[:, 0]) * (t[:, 1] - o[:, 1]) - (s[:, 1] - o[:, 1]) * (
@@ -269,8 +282,8 @@ def self_intersections(points: npt.ArrayLike, tol: float = 0.0) -> list[tuple[in
         | (_point_segment_distance(a1, a2, b2) <= tol)
         | (_point_segment_distance(b1, a2, b2) <= tol)
     )
-    hit = np.flatnonzero(proper | close)
-    return [(int(i[h]), int(j[h])) for h in hit]
+    out: npt.NDArray[np.bool_] = proper | close
+    return out
 
 
 def _point_segment_distance(p: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:

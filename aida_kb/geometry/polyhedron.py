@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -44,10 +45,9 @@ from aida_kb.geometry.polygon import (
     DEFAULT_MAX_CONDITION,
     intersect_planes,
     intersect_planes_with_jacobians,
+    plane_bases,
     polygon_area,
-    polygon_centroid,
-    self_intersections,
-    to_plane_2d,
+    segments_touch,
 )
 
 FloatArray = npt.NDArray[np.float64]
@@ -244,6 +244,46 @@ def _vertices(
     return X, residual
 
 
+class _Corners(NamedTuple):
+    """Index arrays over all corners of all faces (faces one after another), per topology."""
+
+    vertex: IntArray  # (C,) the vertex at each corner
+    face: IntArray  # (C,) the face it belongs to
+    next: IntArray  # (C,) the following corner of the same face
+    start: IntArray  # (F,) the first corner of each face
+    edge_face: IntArray  # (C,) the face across the edge from corner c to corner next[c]
+    pair_i: IntArray  # (P,) first edges (by start corner) of non-adjacent edge pairs of a face
+    pair_j: IntArray  # (P,) second edges
+
+
+@lru_cache(maxsize=512)
+def _corners(
+    rings: tuple[tuple[int, ...], ...], face_vertices: tuple[tuple[int, ...], ...]
+) -> _Corners:
+    sizes = np.array([len(r) for r in rings], dtype=np.int64)
+    start = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    face = np.repeat(np.arange(len(rings), dtype=np.int64), sizes)
+    local = np.arange(int(sizes.sum()), dtype=np.int64) - start[face]
+    nxt = start[face] + (local + 1) % sizes[face]
+    vertex = np.array([v for fv in face_vertices for v in fv], dtype=np.int64)
+    edge_face = np.array([r[(i + 1) % len(r)] for r in rings for i in range(len(r))], np.int64)
+    pi, pj = [], []
+    for f, k in enumerate(sizes.tolist()):
+        i, j = np.triu_indices(k, 2)
+        keep = ~((i == 0) & (j == k - 1))
+        pi.append(start[f] + i[keep])
+        pj.append(start[f] + j[keep])
+    return _Corners(
+        vertex,
+        face,
+        nxt,
+        start,
+        edge_face,
+        np.concatenate(pi).astype(np.int64),
+        np.concatenate(pj).astype(np.int64),
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class Polyhedron:
     """A closed polyhedron: named faces (planes), their neighbour rings and shared vertices.
@@ -399,38 +439,48 @@ class Polyhedron:
         return float(np.max(np.ptp(self.vertices, axis=0)))
 
     def _validate(self) -> None:
-        tol = RELATIVE_TOLERANCE * max(self.size, 1e-300)
-        for f, name in enumerate(self.names):
-            P = self.polygon(f)
-            ring = self.rings[f]
-            k = len(ring)
-            lengths = np.linalg.norm(P - np.roll(P, 1, axis=0), axis=1)  # edge i ends at vertex i
-            short = np.flatnonzero(lengths <= tol)
-            if short.size:
-                g = self.names[ring[int(short[0])]]
-                raise GeometryError(
-                    f"face {name}: its edge with {g} has zero length "
-                    f"({lengths[short[0]]:.3g} m); the faces around it do not form a polygon"
-                )
-            area = polygon_area(P, self.normals[f])
-            if not area > tol * self.size:
-                around = ", ".join(self.names[g] for g in ring)
-                raise GeometryError(
-                    f"face {name}: its polygon (neighbours {around}) "
-                    f"runs clockwise about its normal (area {area:.6g} m²): the planes cross "
-                    "over, or the normal points into the solid"
-                )
-            crossings = self_intersections(to_plane_2d(P, self.normals[f]), tol)
-            if crossings:
-                i, j = crossings[0]
-                a, b = self.names[ring[(i + 1) % k]], self.names[ring[(j + 1) % k]]
-                raise GeometryError(
-                    f"face {name}: its polygon intersects itself (its edges with {a} and {b} cross)"
-                )
-        if not self.volume() > 0:
+        c = _corners(self.rings, self.face_vertices)
+        size = self.size
+        tol = RELATIVE_TOLERANCE * max(size, 1e-300)
+        P = self.vertices[c.vertex]
+        Q = P[c.next]
+        lengths = np.linalg.norm(Q - P, axis=1)
+        short = np.flatnonzero(lengths <= tol)
+        if short.size:
+            e = int(short[0])
             raise GeometryError(
-                f"the solid encloses a non-positive volume ({self.volume():.6g} m³)"
+                f"face {self.names[c.face[e]]}: its edge with {self.names[c.edge_face[e]]} has "
+                f"zero length ({lengths[e]:.3g} m); the faces around it do not form a polygon"
             )
+        u, v = plane_bases(self.normals)
+        p2 = np.stack([np.einsum("cj,cj->c", P, u[c.face]), np.einsum("cj,cj->c", P, v[c.face])], 1)
+        i, j = c.pair_i, c.pair_j
+        hits = np.flatnonzero(segments_touch(p2[i], p2[c.next[i]], p2[j], p2[c.next[j]], tol))
+        if hits.size:
+            e1, e2 = int(i[hits[0]]), int(j[hits[0]])
+            a, b = self.names[c.edge_face[e1]], self.names[c.edge_face[e2]]
+            raise GeometryError(
+                f"face {self.names[c.face[e1]]}: its polygon intersects itself (its edges with "
+                f"{a} and {b} cross)"
+            )
+        areas = self._areas(P, Q, c)
+        flat = np.flatnonzero(~(areas > tol * size))
+        if flat.size:
+            f = int(flat[0])
+            around = ", ".join(self.names[g] for g in self.rings[f])
+            raise GeometryError(
+                f"face {self.names[f]}: its polygon (neighbours {around}) runs clockwise about "
+                f"its normal (area {areas[f]:.6g} m²): the planes cross over, or the normal "
+                "points into the solid"
+            )
+        volume = float(areas @ self.offsets) / 3.0
+        if not volume > 0:
+            raise GeometryError(f"the solid encloses a non-positive volume ({volume:.6g} m³)")
+
+    def _areas(self, P: FloatArray, Q: FloatArray, c: _Corners) -> FloatArray:
+        twice = np.einsum("cj,cj->c", np.cross(P, Q), self.normals[c.face])
+        areas: FloatArray = 0.5 * np.add.reduceat(twice, c.start)
+        return areas
 
     # ---- topology -----------------------------------------------------------------------
 
@@ -451,14 +501,10 @@ class Polyhedron:
 
         The vertex pair runs counter-clockwise along the first face.
         """
-        vs, fs = [], []
-        for f, ring in enumerate(self.rings):
-            fv = self.face_vertices[f]
-            for i, g in enumerate(ring):
-                if f < g:
-                    vs.append((fv[i - 1], fv[i]))
-                    fs.append((f, g))
-        return np.array(vs, dtype=np.int64), np.array(fs, dtype=np.int64)
+        c = _corners(self.rings, self.face_vertices)
+        keep = c.face < c.edge_face
+        vs = np.stack([c.vertex[keep], c.vertex[c.next[keep]]], axis=1)
+        return vs, np.stack([c.face[keep], c.edge_face[keep]], axis=1)
 
     @property
     def euler_characteristic(self) -> int:
@@ -479,15 +525,24 @@ class Polyhedron:
 
     def face_areas(self) -> FloatArray:
         """(F,) areas, m²."""
-        return np.array(
-            [polygon_area(self.polygon(f), self.normals[f]) for f in range(len(self.names))]
-        )
+        c = _corners(self.rings, self.face_vertices)
+        P = self.vertices[c.vertex]
+        return self._areas(P, P[c.next], c)
 
     def face_centroids(self) -> FloatArray:
         """(F, 3) area centroids of the faces, metres."""
-        return np.array(
-            [polygon_centroid(self.polygon(f), self.normals[f]) for f in range(len(self.names))]
+        c = _corners(self.rings, self.face_vertices)
+        P = self.vertices[c.vertex]
+        counts = np.diff(np.append(c.start, len(c.face)))
+        o = np.add.reduceat(P, c.start, axis=0) / counts[:, None]
+        a = P - o[c.face]
+        b = a[c.next]
+        w = np.einsum("cj,cj->c", np.cross(a, b), self.normals[c.face])
+        total = np.add.reduceat(w, c.start)
+        centroids: FloatArray = o + np.add.reduceat(w[:, None] * (a + b), c.start, axis=0) / (
+            3.0 * total[:, None]
         )
+        return centroids
 
     def volume(self) -> float:
         """Enclosed volume, m³ (divergence theorem: sum of area times offset over 3)."""

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from aida_kb.errors import GeometryError
-from aida_kb.geometry.polygon import intersect_planes
+from aida_kb.geometry.polygon import intersect_planes, polygon_centroid
 from aida_kb.geometry.polyhedron import Polyhedron
 from aida_kb.geometry.rotation import rotation_from_rvec
 from aida_kb.synth import buildings
@@ -124,7 +124,9 @@ def test_l_shaped_house_is_closed_and_not_convex() -> None:
     assert (len(poly.vertices), poly.edges[0].shape[0]) == (12, 18)
     for name, P in poly.polygons().items():
         assert _same_cycle(P, faces[name]) < 1e-12, name
-    np.testing.assert_allclose(poly.face_areas()[poly.face_index("body.roof.top")], 64.0)
+    top = poly.face_index("body.roof.top")
+    np.testing.assert_allclose(poly.face_areas()[top], 64.0)
+    np.testing.assert_allclose(poly.face_centroids()[top], [3.875, 6.0, 3.875], atol=1e-14)
 
 
 def _bay_house(pitch_deg: float = 35.0) -> Faces:
@@ -190,6 +192,10 @@ def test_house_with_an_oriel_is_closed_and_not_convex() -> None:
     assert poly.volume() == pytest.approx(12 * 10 * 6 + 0.5 * 10 * ridge * 12 + 4 * 1.5 * 6)
     for name, P in poly.polygons().items():
         assert _same_cycle(P, faces[name]) < 1e-9, name
+    for f, centroid in enumerate(poly.face_centroids()):
+        np.testing.assert_allclose(
+            centroid, polygon_centroid(poly.polygon(f), poly.normals[f]), atol=1e-12
+        )
     four = [c for c in poly.vertex_faces if len(c) == 4]
     assert len(four) == 2  # the bay's top corners on the eaves line
     assert float(np.max(poly.vertex_residuals)) < 1e-12
