@@ -519,9 +519,9 @@ class Interpreter:
         """Soft constraints from the walls' `tilt` attribute: the angle to the floor.
 
         ``attribute tilt: angle in [85 deg, 95 deg] = 90 deg`` says a wall meets the ground
-        at 90 degrees, give or take 5: each wall gets angle(wall, floor) == 90 deg with sigma a
-        quarter of the range, rejected outside the range. The floor is the structure's own,
-        else its whole's.
+        at 90 degrees, give or take 5: each wall gets angle(wall, floor) == 90 deg, rejected
+        outside the range, whose half-width is taken as DEFAULT_REJECT_SIGMAS sigma (1 degree
+        here). The floor is the structure's own, else its whole's.
         """
         floors = [r for r in known if r.rsplit(".", 1)[-1] == "floor"]
         own = join(structure.root, "floor")
@@ -536,7 +536,7 @@ class Interpreter:
             half = (attr.high - attr.low) / 2.0
             if half <= 0:
                 continue
-            sigma = half / 2.0
+            sigma = half / DEFAULT_REJECT_SIGMAS
             spec = AttributeSpec(
                 label=f"{leaf.concept}.tilt",
                 kind="angle",
