@@ -41,7 +41,9 @@ def register(subparsers: Any) -> None:
         help="auto: labels.png where present (default); labels: require it; orientation: "
         "always segment planar regions of equal orientation from the depth",
     )
-    p.add_argument("--max-disp", type=int, default=64, metavar="N", help="disparities 0..N-1")
+    p.add_argument(
+        "--max-disp", type=int, default=128, metavar="N", help="disparities 0..N-1 (128)"
+    )
     p.add_argument("--window", type=int, default=11, metavar="N", help="NCC window (odd, 11)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(run=run)

@@ -54,7 +54,7 @@ MIN_FIT_SAMPLES = 30
 class VisionParams:
     """Parameters of the pipeline (defaults suit 640x480 building pairs)."""
 
-    num_disp: int = 64
+    num_disp: int = 128  # cheap with the adaptive range: only a half-resolution pass sees it all
     min_disp: int = 0
     window: int = 11  # small enough for narrow faces seen at grazing angles
     min_certainty: float = 0.05
@@ -186,6 +186,8 @@ def _plane_regions(
             fit = fit_disparity_plane(u, v, dd, cert)
             n_rect, D = fit.plane(f, cx, cy, B)
         except VisionError:
+            continue
+        if np.count_nonzero(fit.inliers) < MIN_FIT_SAMPLES:
             continue
         w = fit.weights
         rays_rect = np.stack([(u - cx) / f, (v - cy) / rect.P1[1, 1], np.ones_like(u)], axis=1)

@@ -106,14 +106,20 @@ def plane_depth(rays: F64, n: F64, D: float) -> F64:
     return np.asarray(s, np.float64)
 
 
+GRAZING_COS = 0.05  # rays closer than ~3 degrees to the plane: footprint unbounded, left out
+
+
 def pixel_areas_m2(rays: F64, n: F64, D: float, fx: float, fy: float) -> F64:
     """Area (m²) of the plane seen through each pixel (rays with z = 1, undistorted).
 
     A pixel's footprint on the plane n·x = D is z² / (fx·fy·|n·r|), z the depth along the ray
     r = (x, y, 1): the area of the projection of a 1/fx by 1/fy patch of the normalised image.
+    NaN for rays within ~3 degrees of the plane (|n·r|/|r| < GRAZING_COS) or hitting it behind
+    the camera.
     """
     denom = np.abs(rays @ n)
+    cos = denom / np.linalg.norm(rays, axis=-1)
     z = plane_depth(rays, n, D)
     with np.errstate(divide="ignore", invalid="ignore"):
-        area = np.where(denom > 1e-12, z * z / (fx * fy * denom), np.nan)
+        area = np.where((cos > GRAZING_COS) & (z > 0), z * z / (fx * fy * denom), np.nan)
     return np.asarray(area, np.float64)
