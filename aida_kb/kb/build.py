@@ -149,9 +149,9 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
     for adj, owner in info.adjacency:
         for a, b in adj.edges:
             ra, rb = table.resolve_path(cname, a), table.resolve_path(cname, b)
-            req = (ra.requires if isinstance(ra, PathRes) else ()) + (
-                rb.requires if isinstance(rb, PathRes) else ()
-            )
+            if not (isinstance(ra, PathRes) and isinstance(rb, PathRes)):
+                continue  # a conditional pair that a narrowed role rules out
+            req = ra.requires + rb.requires
             adjacencies.append(
                 _make(
                     AdjacencyModel,
@@ -163,7 +163,7 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
                 )
             )
     az = Analyzer(table, cname)
-    prims = [(r.label, r.owner, az.rule(r.node)) for r in info.rules]
+    prims = [(r.label, r.owner, az.rule(r.node, inherited=r.owner != cname)) for r in info.rules]
     return _make(
         ConceptModel,
         name=cname,

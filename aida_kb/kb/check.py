@@ -202,7 +202,7 @@ def check_rules(table: Table, info: CInfo, used: set[str]) -> Iterator[Diagnosti
     az = Analyzer(table, cname)
     for rule in info.rules:
         if rule.owner == cname or info.own_slots:
-            az.rule(rule.node)
+            az.rule(rule.node, inherited=rule.owner != cname)
     used |= az.used
     yield from az.diagnostics
 

@@ -169,9 +169,18 @@ class Analyzer:
             )
 
     # -- entry points
-    def rule(self, node: ast.Constraint | ast.Measure) -> list[Prim]:
-        """The primitives of a ``constraint`` or ``measure``; checks the measurement kind."""
+    def rule(self, node: ast.Constraint | ast.Measure, *, inherited: bool = False) -> list[Prim]:
+        """The primitives of a ``constraint`` or ``measure``; checks the measurement kind.
+
+        An ``inherited`` rule whose path no longer resolves (a conditional path such as
+        ``roof.front`` in a specialisation that narrows ``roof`` to a ``FlatRoof``) does not
+        apply to this concept: it gives no primitive and no error.
+        """
+        mark = len(self.diagnostics)
         prims = self.relation(node.relation, {})
+        if inherited and any(d.code == codes.UNKNOWN_ROLE.code for d in self.diagnostics[mark:]):
+            del self.diagnostics[mark:]
+            return []
         measuring = isinstance(node, ast.Measure)
         for p in prims:
             if p.measurement != measuring:

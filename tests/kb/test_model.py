@@ -240,3 +240,21 @@ def test_use_site_qualifiers_override_the_body_in_its_unit() -> None:
     (spec,) = result.kb.concepts["R"].constraints
     assert (spec.sigma, spec.reject_above, spec.unit) == (3.0, 6.0, "px")
     assert (spec.span.line, spec.span.column) == (3, 30)  # the use, not the template body
+
+
+def test_narrowing_a_role_drops_the_conditional_members_that_no_longer_apply() -> None:
+    text = (ROOT / "kb" / "buildings.kb").read_text(encoding="utf-8") + (
+        "concept FlatHouseBody is-a HouseBody { part roof: FlatRoof }\n"
+        "concept FlatHouse in scene { con-of body: FlatHouseBody }\n"
+    )
+    result = compile_text(text, "flat.kb")
+    assert result.diagnostics == (), result.diagnostics
+    assert result.kb is not None
+    flat = result.kb.concepts["FlatHouseBody"]
+    labels = {s.label: s for s in flat.constraints}
+    assert "eaves" not in labels
+    assert "slopes" not in labels
+    assert labels["top_left"].requires == ()  # roof.top is now a member of the role's concept
+    assert labels["corner_fl"].concept == "HouseBody"
+    assert not any(a.b == "roof.front" for a in flat.adjacencies)
+    assert any(a.b == "roof.top" for a in flat.adjacencies)
