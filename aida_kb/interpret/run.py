@@ -116,6 +116,8 @@ def interpret(
         why = first[0].reason if first else "no alternative was verified"
         if first and first[0].constraint is not None:
             why = f"constraint {first[0].constraint!r} (cost {first[0].cost:.3g}): {why}"
+        if len(reasons) > 1:
+            why = f"{len(reasons)} alternatives rejected, e.g. {why}"
         return Interpretation(
             goal=goal,
             accepted=False,

@@ -92,7 +92,8 @@ def test_asymmetric_roof_is_rejected_with_constraint_and_cost(interpreted: Get) 
     assert gable[0].cost > 1.0
     assert "contradict each other" in gable[0].reason
     assert "without 'slopes'" in gable[0].reason
-    assert interp.message.startswith("no House in the evidence: constraint 'slopes'")
+    assert interp.message.startswith("no House in the evidence: ")
+    assert "alternatives rejected, e.g. constraint 'slopes' (cost " in interp.message
     text = "\n".join(explanation(interp))
     assert f"constraint '{gable[0].constraint}' cost" in text
 
