@@ -378,16 +378,23 @@ class PinholeCamera:
         x, y = Xc[:, 0] / z, Xc[:, 1] / z
         pixels = np.stack([fx * x + s * y + cx, fy * y + cy], axis=1)
         inv_z = 1.0 / z
-        J = np.zeros((Pw.shape[0], 2, 3))  # d pixels / d x_cam
-        J[:, 0, 0] = fx * inv_z
-        J[:, 0, 1] = s * inv_z
-        J[:, 0, 2] = -(fx * x + s * y) * inv_z
-        J[:, 1, 1] = fy * inv_z
-        J[:, 1, 2] = -fy * y * inv_z
-        d_points = J @ R
-        # d x_cam / d rvec_i = dR_i (P - C): (N, 3, 3) with the last axis i
-        dXc_drvec = np.einsum("jki,nk->nji", dR, D)
-        d_pose = np.concatenate([J @ dXc_drvec, -d_points], axis=2)
+        # d pixels / d x_cam = [[j00, j01, j02], [0, j11, j12]] per point
+        j00, j01, j02 = fx * inv_z, s * inv_z, -(fx * x + s * y) * inv_z
+        j11, j12 = fy * inv_z, -fy * y * inv_z
+        n = Pw.shape[0]
+        # d x_cam / d rvec_i = dR_i (P - C): (N, 3, 3) with the last axis i (no BLAS: tiny K)
+        dXc_drvec = (
+            D[:, 0, None, None] * dR[:, 0, :]
+            + D[:, 1, None, None] * dR[:, 1, :]
+            + D[:, 2, None, None] * dR[:, 2, :]
+        )
+        # [R | dXc/drvec] stacked along the last axis: (N, 3, 6), then J applied row-wise
+        M = np.concatenate([np.broadcast_to(R, (n, 3, 3)), dXc_drvec], axis=2)
+        JM = np.empty((n, 2, 6))
+        JM[:, 0] = j00[:, None] * M[:, 0] + j01[:, None] * M[:, 1] + j02[:, None] * M[:, 2]
+        JM[:, 1] = j11[:, None] * M[:, 1] + j12[:, None] * M[:, 2]
+        d_points = JM[:, :, :3].copy()
+        d_pose = np.concatenate([JM[:, :, 3:], -d_points], axis=2)
         return Projection(pixels, d_points, d_pose)
 
     def unproject(self, pixels: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
