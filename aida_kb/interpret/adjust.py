@@ -193,7 +193,7 @@ class Adjustment:
             self.pos_zz = np.array([1.0 if c.baseline_m > 0 else 0.0 for c in cams])
             z = np.array(
                 [
-                    float((c.R_cam_world @ m.region.centroid_m + c.t_cam_world)[2])
+                    float(c.pinhole.depth(m.region.centroid_m[None, :])[0])
                     for c, m in zip(cams, pos, strict=True)
                 ]
             )
@@ -228,12 +228,7 @@ class Adjustment:
                     rows,
                 )
             )
-            self.edge_P = np.array(
-                [
-                    e.camera.K @ np.column_stack([e.camera.R_cam_world, e.camera.t_cam_world])
-                    for e in edges
-                ]
-            )
+            self.edge_P = np.array([e.camera.P for e in edges])
             self.edge_ends = np.array(
                 [np.column_stack([e.match.segment.ends_px, np.ones(2)]) for e in edges]
             )

@@ -49,7 +49,7 @@ def plane_line(
 
 def image_line(camera: CameraView, point_m: FloatArray, direction: FloatArray) -> FloatArray:
     """Homogeneous image line (3,), normalised so that (a, b) is a unit vector, or zeros."""
-    P = camera.K @ np.column_stack([camera.R_cam_world, camera.t_cam_world])
+    P = camera.P
     x1 = P @ np.append(point_m, 1.0)
     x2 = P @ np.append(direction, 0.0)  # the vanishing point of the line
     line = np.cross(x1, x2)

@@ -20,11 +20,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
 
 from aida_kb.errors import InterpretError
+from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.evidence import Evidence
 
 FloatArray = npt.NDArray[np.float64]
@@ -42,27 +44,26 @@ class CameraView:
     height_px: int
     baseline_m: float = 0.0  # distance to the stereo partner's centre (0: unknown)
 
+    @cached_property
+    def pinhole(self) -> PinholeCamera:
+        """The same camera as `aida_kb.geometry.camera.PinholeCamera`."""
+        return PinholeCamera(
+            self.K, self.R_cam_world, self.t_cam_world, self.width_px, self.height_px
+        )
+
     @property
     def centre_m(self) -> FloatArray:
         """Camera centre in the world frame, metres, (3,)."""
-        return -self.R_cam_world.T @ self.t_cam_world
+        return self.pinhole.centre
+
+    @property
+    def P(self) -> FloatArray:
+        """The 3x4 projection matrix K [R | t]."""
+        return self.pinhole.P
 
     def rays_world(self, pixels: FloatArray) -> FloatArray:
         """Unit viewing directions in the world frame, (N, 3), of pixels (N, 2)."""
-        pix = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-        homog = np.column_stack([pix, np.ones(len(pix))])
-        dirs_cam = np.linalg.solve(self.K, homog.T).T
-        dirs = dirs_cam @ self.R_cam_world  # R^T applied to each row
-        out: FloatArray = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
-        return out
-
-    def project(self, points_world_m: FloatArray) -> FloatArray:
-        """Pixel coordinates (N, 2) of world points (N, 3) (no lens distortion)."""
-        pts = np.asarray(points_world_m, dtype=np.float64).reshape(-1, 3)
-        cam = pts @ self.R_cam_world.T + self.t_cam_world
-        uvw = cam @ self.K.T
-        out: FloatArray = uvw[:, :2] / uvw[:, 2:3]
-        return out
+        return self.pinhole.unproject(np.asarray(pixels, dtype=np.float64).reshape(-1, 2))[1]
 
 
 @dataclass(frozen=True)

@@ -48,7 +48,7 @@ CAMERA = CameraView("00", np.diag([800.0, 800.0, 1.0]), np.eye(3), np.zeros(3), 
 
 
 def _region(rid: str, normal: np.ndarray, centroid: np.ndarray) -> RegionView:
-    return RegionView(rid, "00", normal, centroid, 9000.0, 10000.0, 0.01)
+    return RegionView(rid, "00", normal, np.asarray(centroid, float), 9000.0, 10000.0, 0.01)
 
 
 def test_perpendicular_walls_meet_the_regions_halfway() -> None:
