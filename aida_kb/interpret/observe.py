@@ -226,6 +226,21 @@ def estimate_up(
 BOUNDARY_TOLERANCE_PX = 4.0
 
 
+def _undistorted(pixels: FloatArray, K: FloatArray, D: FloatArray) -> FloatArray:
+    """Pixels of the original (distorted) image moved to where the pinhole camera sees them.
+
+    Evidence pixels are in the original image; the interpreter's cameras are pinhole cameras
+    (K, R, t). With no distortion (D empty or zero) the pixels are returned unchanged.
+    """
+    if D.size == 0 or not np.any(D):
+        return pixels
+    import cv2
+
+    out = cv2.undistortPoints(pixels.reshape(-1, 1, 2), K, D, P=K)
+    result: FloatArray = np.asarray(out, dtype=np.float64).reshape(-1, 2)
+    return result
+
+
 def _along(ends_px: FloatArray, polygon_px: FloatArray) -> bool:
     """True if both ends of a segment lie within BOUNDARY_TOLERANCE_PX of a closed polygon.
 
@@ -247,7 +262,8 @@ def _along(ends_px: FloatArray, polygon_px: FloatArray) -> bool:
 def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
     """The numpy view of an evidence file: the views whose 3-D quantities are in the world frame.
 
-    Views in their own camera frame (pose not yet registered) are left out. Region ids become
+    Views in their own camera frame (pose not yet registered) are left out. Segment and
+    contour pixels are undistorted with the left camera's D. Region ids become
     "VIEW/REGION", segment ids "VIEW/lSEGMENT". Where the evidence gives a region's contour,
     a segment borders that region only if it runs along the contour (`_along`); segments
     that border no region are left out.
@@ -278,11 +294,14 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
                 float(r.pixel_count),
                 float(r.rms_m),
             )
+        K = np.array(v.left.K, dtype=np.float64)
+        D = np.array(v.left.D, dtype=np.float64)
         outlines: dict[int, list[FloatArray]] = {}
         for c in v.contours:
-            outlines.setdefault(c.region, []).append(np.array(c.points, dtype=np.float64))
+            outline = _undistorted(np.array(c.points, dtype=np.float64), K, D)
+            outlines.setdefault(c.region, []).append(outline)
         for s in v.lines:
-            ends = np.array([s.p1, s.p2], dtype=np.float64)
+            ends = _undistorted(np.array([s.p1, s.p2], dtype=np.float64), K, D)
             borders = tuple(
                 f"{v.id}/{r}"
                 for r in s.regions
