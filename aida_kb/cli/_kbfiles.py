@@ -8,7 +8,6 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Sequence
-from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -30,6 +29,8 @@ def packaged_kb(name: str = "buildings.kb") -> Path:
     name : str
         Path relative to the ``kb`` directory, e.g. ``"buildings.kb"``.
     """
+    from importlib import resources  # here: lint and validate never need it
+
     packaged = resources.files("aida_kb").joinpath("_data", "kb", name)
     if packaged.is_file():
         return Path(str(packaged))

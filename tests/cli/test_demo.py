@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
+import importlib.resources
 import re
 from pathlib import Path
 
 import pytest
 
-from aida_kb.cli import _kbfiles
 from aida_kb.cli._kbfiles import packaged_kb
 from aida_kb.cli.main import main
 from aida_kb.errors import FormatError
@@ -65,7 +65,7 @@ def test_packaged_kb_prefers_the_installed_wheel_data(
     data = tmp_path / "_data" / "kb"
     data.mkdir(parents=True)
     (data / "buildings.kb").write_text("layers scene\n", encoding="utf-8")
-    monkeypatch.setattr(_kbfiles.resources, "files", lambda package: tmp_path)
+    monkeypatch.setattr(importlib.resources, "files", lambda package: tmp_path)
     assert packaged_kb("buildings.kb") == data / "buildings.kb"
     with pytest.raises(FormatError, match="missing from this installation"):
         packaged_kb("nothing-like-this.kb")
