@@ -9,6 +9,7 @@ EXAMPLE = """\
 examples:
   aida-kb explain KB003
   aida-kb explain kb3          # the same code
+  aida-kb explain KB120 --color never > KB120.md
   aida-kb explain --list       # every code with its one-line summary
 """
 
@@ -27,6 +28,12 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("code", nargs="?", metavar="CODE", help="the code, e.g. KB003")
     p.add_argument("--list", action="store_true", help="list every code and its summary")
+    p.add_argument(
+        "--color",
+        choices=("auto", "always", "never"),
+        default="auto",
+        help="format the Markdown for the terminal (auto: on a terminal, unless NO_COLOR is set)",
+    )
     p.set_defaults(run=run)
 
 
@@ -34,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     """Print the explanation; exit 2 for an unknown code."""
     import sys
 
-    from aida_kb.cli._kbfiles import EXIT_OK, EXIT_USAGE, print_error
+    from aida_kb.cli._kbfiles import EXIT_OK, EXIT_USAGE, print_error, use_color
     from aida_kb.diagnostics import codes
     from aida_kb.diagnostics.explain import explanation
 
@@ -54,5 +61,11 @@ def run(args: argparse.Namespace) -> int:
             "('aida-kb explain --list' shows them all)"
         )
         return EXIT_USAGE
-    sys.stdout.write(found.text if found.text.endswith("\n") else found.text + "\n")
+    if use_color(sys.stdout, args.color):
+        from rich.console import Console
+        from rich.markdown import Markdown
+
+        Console(force_terminal=True).print(Markdown(found.text))
+    else:  # the Markdown as written: for pipes, files and NO_COLOR
+        sys.stdout.write(found.text if found.text.endswith("\n") else found.text + "\n")
     return EXIT_OK

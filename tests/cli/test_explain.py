@@ -32,3 +32,12 @@ def test_list_shows_every_code(capsys: pytest.CaptureFixture[str]) -> None:
 def test_no_code_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["explain"]) == 2
     assert "give a CODE" in capsys.readouterr().err
+
+
+def test_on_a_terminal_the_markdown_is_formatted(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["explain", "KB003", "--color", "always"]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b[" in out
+    assert "KB003: unknown unit" in out
+    assert "# KB003" not in out  # the heading is formatted, not shown as Markdown
+    assert "85 dg" in out
