@@ -463,21 +463,42 @@ class Interpreter:
 
         No single constraint is over its threshold, but together they do not fit (mean
         squared normalised residual above MAX_MEAN_COST): the least-squares compromise has
-        spread the contradiction. Each internal constraint is left out in turn; the one
-        whose removal lowers the cost most is blamed, with its normalised cost in the full
-        adjustment.
+        spread the contradiction. Each internal constraint, and each region's position
+        constraint, is left out in turn; the one whose removal lowers the cost most is blamed,
+        with its normalised cost in the full adjustment.
         """
         problem = self._last_problem
         labels = sorted({(o.spec.label, o.owner) for o in problem.internal})
-        best: tuple[float, str] | None = None
-        for label, owner in labels:
-            rest = tuple(o for o in problem.internal if (o.spec.label, o.owner) != (label, owner))
+        trials: list[tuple[str, str, Problem]] = [
+            (
+                label,
+                label,
+                replace(
+                    problem,
+                    internal=tuple(
+                        o for o in problem.internal if (o.spec.label, o.owner) != (label, owner)
+                    ),
+                ),
+            )
+            for label, owner in labels
+        ]
+        # the evidence can be at fault too: a region whose plane fit is off
+        trials += [
+            (
+                str(m.spec.label),
+                f"{m.spec.label} of {m.role} (region {m.region.id})",
+                replace(problem, positions=tuple(p for p in problem.positions if p is not m)),
+            )
+            for m in problem.positions
+        ]
+        best: tuple[float, str, str] | None = None
+        for label, name, trial in trials:
             try:
-                cost = self.solve(replace(problem, internal=rest)).cost
+                cost = self.solve(trial).cost
             except AidaError:
                 continue
             if best is None or cost < best[0]:
-                best = (cost, label)
+                best = (cost, label, name)
         head = (
             f"its constraints contradict each other (mean squared normalised residual "
             f"{outcome.cost:.3g} > {MAX_MEAN_COST:g})"
@@ -487,7 +508,7 @@ class Interpreter:
         normalised = max(
             (r.normalised for r in outcome.residuals if r.label == best[1]), default=0.0
         )
-        return f"{head}; without {best[1]!r} it would be {best[0]:.3g}", best[1], normalised
+        return f"{head}; without {best[2]!r} it would be {best[0]:.3g}", best[1], normalised
 
     def _mirrored_back(
         self,
