@@ -93,7 +93,12 @@ def generate(concepts: int = CONCEPTS) -> str:
 
 
 def _cpu(fn: Callable[[], object]) -> float:
-    """CPU seconds of one call (process time: fairer than wall time on a busy machine)."""
+    """CPU seconds of one call (process time: fairer than wall time on a busy machine).
+
+    The garbage left by the previous call is collected first, outside the timing, so that no
+    call pays for another's.
+    """
+    gc.collect()
     start = time.process_time()
     fn()
     return time.process_time() - start

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import gc
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
 from aida_kb.diagnostics import codes
@@ -68,21 +69,30 @@ class CompileResult:
             if self._table is not None:
                 from aida_kb.kb.build import build
 
-                collecting = gc.isenabled()
-                gc.disable()  # the model is a tree: spare the collector's rescans
                 try:
-                    self._kb = build(self._table, self._files)
+                    with _no_cyclic_gc():
+                        self._kb = build(self._table, self._files)
                 except Exception as exc:  # a bug: report it as a diagnostic, never raise
                     file = self._files[0] if self._files else "<string>"
                     self.diagnostics = (*self.diagnostics, _internal(exc, file))
-                finally:
-                    if collecting:
-                        gc.enable()
                 self._table = None
         return self._kb
 
     def __repr__(self) -> str:
         return f"CompileResult(ok={self.ok}, diagnostics={len(self.diagnostics)})"
+
+
+@contextmanager
+def _no_cyclic_gc() -> Iterator[None]:
+    """Compile with Python's cyclic garbage collector off: the compiler makes trees and tables
+    without reference cycles, and the collector would only rescan them, again and again."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if collecting:
+            gc.enable()
 
 
 def _internal(exc: Exception, file: str) -> Diagnostic:
@@ -100,8 +110,6 @@ def _compile(loaded: Loaded) -> CompileResult:
     from aida_kb.kb.resolve import resolve
 
     diags = list(loaded.diagnostics)
-    collecting = gc.isenabled()
-    gc.disable()  # no reference cycles are made: spare the collector's rescans
     try:
         table, found = resolve(loaded.modules, loaded.broken)
         diags.extend(found)
@@ -109,9 +117,6 @@ def _compile(loaded: Loaded) -> CompileResult:
     except Exception as exc:  # the safety net: compiling must never raise
         diags.append(_internal(exc, loaded.modules[0].file if loaded.modules else "<string>"))
         return CompileResult(diags, loaded.sources)
-    finally:
-        if collecting:
-            gc.enable()
     files = tuple(m.file for m in loaded.modules)
     return CompileResult(diags, loaded.sources, table, files)
 
@@ -135,7 +140,8 @@ def compile_text(
     CompileResult
         Never raises on bad input: every problem is a diagnostic.
     """
-    return _compile(load_text(text, file, tuple(search_paths)))
+    with _no_cyclic_gc():
+        return _compile(load_text(text, file, tuple(search_paths)))
 
 
 def compile_path(
@@ -155,4 +161,5 @@ def compile_path(
     CompileResult
         Never raises on bad input: every problem is a diagnostic.
     """
-    return _compile(load_path(os.fspath(path), tuple(search_paths)))
+    with _no_cyclic_gc():
+        return _compile(load_path(os.fspath(path), tuple(search_paths)))

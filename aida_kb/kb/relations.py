@@ -156,7 +156,7 @@ class Analyzer:
         self.template = template
         self.diagnostics: list[Diagnostic] = []
         self._site: Span | None = None  # a template use being expanded: report only here
-        self._depth = 0
+        self._expanding: list[str] = []  # the templates being expanded, outermost first
         self.used: set[str] = set()  # the templates used
 
     def report(self, d: Diagnostic, *, use_dependent: bool = False) -> None:
@@ -196,6 +196,7 @@ class Analyzer:
 
     def template_body(self, template: ast.Template) -> None:
         """Check a template's body once, its parameters standing for themselves."""
+        self._expanding = [template.name.text]
         env: dict[str, Arg] = {}
         for p in template.params:
             ptype = p.type.text
@@ -634,19 +635,32 @@ class Analyzer:
                 ok = False
             else:
                 bound[p.name.text] = v
-        if not ok or self._depth > 16:
+        if not ok:
+            return []
+        name = template.name.text
+        if name in self._expanding:
+            chain = " uses ".join([*self._expanding[self._expanding.index(name) :], name])
+            self.report(
+                diag(
+                    codes.MALFORMED_RELATION,
+                    f"template {name} uses itself: {chain}",
+                    call.func.span,
+                    "a template's body is made of primitives and other templates, without cycles",
+                ),
+                use_dependent=True,
+            )
             return []
         outer_site = self._site
         if self._site is None:
             self._site = call.span
-        self._depth += 1
+        self._expanding.append(name)
         try:
             prims: list[Prim] = []
             for rel in template.body:
                 prims.extend(self.relation(rel, bound, outer))
             return prims
         finally:
-            self._depth -= 1
+            self._expanding.pop()
             self._site = outer_site
 
     def fits(self, ref: Ref, ptype: str, span: Span, p: ast.Param, t: ast.Template) -> bool:

@@ -250,6 +250,14 @@ CASES = [
         13,
     ),
     (
+        "template-uses-itself",
+        H + "template t(a: W) { t(a) }\nconcept W in world { }\n"
+        "concept A in world { part f: W\n constraint t(f) }",
+        "KB135",
+        2,
+        20,
+    ),
+    (
         "malformed-arity",
         H + "concept W in world { }\nconcept A in world { part f, l: W\n constraint parallel(f) }",
         "KB135",
