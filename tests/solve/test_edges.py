@@ -74,7 +74,9 @@ def test_viewpoint_registration_recovers_the_pose(scene: SyntheticScene) -> None
         free_cameras=[1],
     )
     result = solve(problem)
-    np.testing.assert_array_equal(result.normals, scene.normals)
+    # the model is held fixed: no part parameter moves, the planes stay as given (to rounding)
+    np.testing.assert_array_equal(result.params, 0.0)
+    np.testing.assert_allclose(result.normals, scene.normals, rtol=0, atol=1e-12)
     pose = result.cameras[1].pose
     assert np.max(np.abs(pose[:3] - cam1.pose[:3])) < math.radians(0.05)
     assert np.max(np.abs(pose[3:] - cam1.pose[3:])) < 0.05
