@@ -26,8 +26,9 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedTok
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
 from aida_kb.dsl import ast
+from aida_kb.dsl.lexer import install as install_fast_lexer
 
-__all__ = ["ParseResult", "grammar_path", "parse"]
+__all__ = ["ParseResult", "grammar_path", "make_lark", "parse"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -449,18 +450,30 @@ _builder = _Builder()
 _lark: Lark | None = None
 
 
+def make_lark(transformer: Transformer[Token, Any] | None = None) -> Lark:
+    """Lark's LALR parser with the contextual lexer for the grammar, as aida-kb configures it.
+
+    Every token is kept and absent optional parts are ``None`` placeholders (the builder's
+    callbacks rely on both). With ``transformer`` the parse builds its results inline; the
+    parser is then cached on disk by Lark. The lexer is Lark's own: `parse` drives it with
+    `aida_kb.dsl.lexer.FastContextualLexer`.
+    """
+    return Lark(
+        grammar_path().read_text(encoding="utf-8"),
+        parser="lalr",
+        lexer="contextual",
+        maybe_placeholders=True,
+        keep_all_tokens=True,
+        cache=transformer is not None,
+        transformer=transformer,
+    )
+
+
 def _parser() -> Lark:
     global _lark
     if _lark is None:
-        _lark = Lark(
-            grammar_path().read_text(encoding="utf-8"),
-            parser="lalr",
-            lexer="contextual",
-            maybe_placeholders=True,
-            keep_all_tokens=True,
-            cache=True,
-            transformer=_builder,
-        )
+        _lark = make_lark(_builder)
+        install_fast_lexer(_lark)
     return _lark
 
 

@@ -1,0 +1,131 @@
+"""A faster driver for Lark's contextual lexer: the same tokens, one tight loop.
+
+Lark's `ContextualLexer` keeps one scanner (a compiled alternation of the terminals the parser
+accepts) per LALR state and goes through several layers of calls per token. `FastContextualLexer`
+wraps a built contextual lexer and runs the very same per-state scanners and keyword callbacks
+in one loop with local variables. Every token it yields equals the one Lark's lexer would
+yield: type, value, start and end position, line and column. Where the text does not match
+(a syntax error), it hands the rest of the text to the wrapped lexer, so that the errors are
+Lark's own.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from lark import Lark, Token
+from lark.lexer import ContextualLexer, LexerState
+
+__all__ = ["FastContextualLexer", "install"]
+
+_Match = Callable[[str, int, int], Any]
+_str_new = str.__new__
+
+
+def _matcher(mres: list[Any]) -> _Match:
+    """One match function over a scanner's compiled patterns (usually just one)."""
+    if len(mres) == 1:
+        return mres[0].match  # type: ignore[no-any-return]
+
+    def match(text: str, pos: int, end: int) -> Any:
+        for mre in mres:
+            m = mre.match(text, pos, end)
+            if m:
+                return m
+        return None
+
+    return match
+
+
+class FastContextualLexer:
+    """Lark's contextual lexer, driven by one loop (see the module docstring).
+
+    Parameters
+    ----------
+    inner : lark.lexer.ContextualLexer
+        The contextual lexer Lark built for the grammar; its scanners and callbacks are reused,
+        and it takes over at a syntax error.
+    """
+
+    def __init__(self, inner: ContextualLexer) -> None:
+        self.inner = inner
+        by_lexer: dict[int, tuple[_Match, dict[str, Any], frozenset[str]]] = {}
+        self.states: dict[int, tuple[_Match, dict[str, Any], frozenset[str]]] = {}
+        ignore: frozenset[str] = frozenset()
+        for state, lexer in inner.lexers.items():
+            entry = by_lexer.get(id(lexer))
+            if entry is None:
+                scanner = lexer.scanner  # type: ignore[attr-defined]  # builds the callbacks
+                entry = (
+                    _matcher(scanner._mres),
+                    dict(lexer.callback),  # type: ignore[attr-defined]
+                    frozenset(lexer.newline_types),  # type: ignore[attr-defined]
+                )
+                by_lexer[id(lexer)] = entry
+                ignore = frozenset(lexer.ignore_types)  # type: ignore[attr-defined]
+            self.states[state] = entry
+        self.ignore = ignore
+
+    def lex(self, lexer_state: LexerState, parser_state: Any) -> Iterator[Token]:
+        """The tokens of ``lexer_state``'s text, each in the parser's current context."""
+        states = self.states
+        ignore = self.ignore
+        text_slice = lexer_state.text
+        text: str = text_slice.text
+        end = text_slice.end
+        ctr = lexer_state.line_ctr
+        pos = ctr.char_pos
+        line = ctr.line
+        line_start = ctr.line_start_pos
+        stack = parser_state.state_stack
+        new = _str_new
+        while pos < end:
+            match, callbacks, newline_types = states[stack[-1]]
+            m = match(text, pos, end)
+            if m is None:  # a syntax error: let Lark's own lexer raise it
+                ctr.char_pos, ctr.line, ctr.line_start_pos = pos, line, line_start
+                ctr.column = pos - line_start + 1
+                yield from self.inner.lex(lexer_state, parser_state)
+                return
+            value: str = m.group()
+            type_: str = m.lastgroup
+            start, start_line, start_column = pos, line, pos - line_start + 1
+            pos = m.end()
+            if type_ in newline_types:
+                newlines = value.count("\n")
+                if newlines:
+                    line += newlines
+                    line_start = start + value.rindex("\n") + 1
+            if type_ in ignore and type_ not in callbacks:
+                continue
+            tok: Any = new(Token, value)
+            tok.type = type_
+            tok.value = value
+            tok.start_pos = start
+            tok.line = start_line
+            tok.column = start_column
+            tok.end_line = line
+            tok.end_column = pos - line_start + 1
+            tok.end_pos = pos
+            callback = callbacks.get(type_)
+            if callback is not None:
+                tok = callback(tok)
+            if type_ in ignore:
+                continue
+            lexer_state.last_token = tok
+            ctr.char_pos, ctr.line, ctr.line_start_pos = pos, line, line_start
+            ctr.column = pos - line_start + 1
+            yield tok
+        ctr.char_pos, ctr.line, ctr.line_start_pos = pos, line, line_start
+        ctr.column = pos - line_start + 1
+
+
+def install(lark: Lark) -> bool:
+    """Drive ``lark``'s contextual lexer with `FastContextualLexer`; False when it has none."""
+    frontend: Any = lark.parser
+    inner = getattr(frontend, "lexer", None)
+    if not isinstance(inner, ContextualLexer):
+        return False
+    frontend.lexer = FastContextualLexer(inner)
+    return True
