@@ -84,6 +84,10 @@ class PositionData:
         the constraint's unit is "px".
     radius_m : the region's radius in metres (a tilt by theta moves its rim by
         ``radius_m · theta``); needed only when the unit is "px".
+    shift_px_per_m : unit "px" only: pixels per metre of shift along the normal, in place of
+        ``px_per_m`` (e.g. the change of stereo disparity, ``f·B/z²`` per metre of depth).
+    tilt_px_per_rad : unit "px" only: pixels per radian of tilt, in place of
+        ``px_per_m · radius_m``.
     """
 
     n_init: tuple[float, float, float]
@@ -92,6 +96,8 @@ class PositionData:
     w_n: float = 1.0
     px_per_m: float | None = None
     radius_m: float | None = None
+    shift_px_per_m: float | None = None
+    tilt_px_per_rad: float | None = None
 
 
 @dataclass(frozen=True)
@@ -289,9 +295,13 @@ def validate(constraints: Sequence[Constraint], n_parts: int, n_cameras: int = 0
             _vector(where, "c_init", pos.c_init, 3)
             _finite_positive(where, "w_c", pos.w_c, optional=False)
             _finite_positive(where, "w_n", pos.w_n, optional=False)
+            _finite_positive(where, "shift_px_per_m", pos.shift_px_per_m)
+            _finite_positive(where, "tilt_px_per_rad", pos.tilt_px_per_rad)
             if c.unit == "px":
-                _finite_positive(where, "px_per_m (unit px)", pos.px_per_m, optional=False)
-                _finite_positive(where, "radius_m (unit px)", pos.radius_m, optional=False)
+                if pos.shift_px_per_m is None or pos.tilt_px_per_rad is None:
+                    _finite_positive(where, "px_per_m (unit px)", pos.px_per_m, optional=False)
+                if pos.tilt_px_per_rad is None:
+                    _finite_positive(where, "radius_m (unit px)", pos.radius_m, optional=False)
         if c.kind == "edge":
             e = c.edge
             if e is None:
@@ -346,9 +356,13 @@ def compile_blocks(
             px = np.array([c.unit == "px" for c in cs])
             ppm = np.array([p.px_per_m or 1.0 for p in pos if p])
             rad = np.array([p.radius_m or 1.0 for p in pos if p])
+            shift = np.array([p.shift_px_per_m or q for p, q in zip(pos, ppm, strict=True) if p])
+            tilt = np.array(
+                [p.tilt_px_per_rad or q * r for p, q, r in zip(pos, ppm, rad, strict=True) if p]
+            )
             w_n = np.array([p.w_n for p in pos if p])
-            data["scale_angle"] = np.where(px, ppm * rad, 1.0)
-            data["scale_shift"] = np.where(px, ppm, np.sqrt(w_n))
+            data["scale_angle"] = np.where(px, tilt, 1.0)
+            data["scale_shift"] = np.where(px, shift, np.sqrt(w_n))
         elif kind == "edge":
             eds = [c.edge for c in cs]
             data["camera"] = np.array([e.camera for e in eds if e], dtype=np.float64)

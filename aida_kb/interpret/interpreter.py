@@ -5,14 +5,15 @@ world-layer realisation (HouseBody), along part-of into sub-hypotheses for the o
 parts, and along is-a into the alternatives of abstract parts (a roof: gable, hip, flat,
 shed). Planar parts are matched to evidence regions (orientation and slope ranges in the
 instance frame, see `hypotheses`); parts the reference camera cannot see are inserted from
-the knowledge. Each alternative is verified by one adjustment (`problem.Problem`): if a
-constraint's residual exceeds its rejection threshold, or a part that the camera should see
-has no evidence, the alternative is rejected and the search goes on with the others.
+the knowledge. Each alternative is verified by one adjustment with the project's solver
+(`verify`, `aida_kb.solve`): if a constraint's normalised cost in the residual report exceeds
+its threshold, or a part that the camera should see has no evidence, the alternative is
+rejected and the search goes on with the others.
 
 Hierarchy (paper §5): the main body (obligatory parts) is verified first; then optional
 parts (wings, oriels) are hypothesised one at a time from the regions the body does not
 explain, adjusted with the body's planes fixed. The search is `search.best_first` over these
-levels: its cost is the adjustment's mean squared normalised residual plus a penalty for
+levels: its cost is the residual report's reduced normalised cost plus a penalty for
 evidence left unexplained; it is deterministic and counts the hypotheses it expands.
 """
 
@@ -20,15 +21,13 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from aida_kb.errors import AidaError, GeometryError, InterpretError
-from aida_kb.interpret.adjust import DEFAULT_REJECT_SIGMAS
 from aida_kb.interpret.closure import convex_faces, inside_face, polygon_area
-from aida_kb.interpret.edges import match_segments
+from aida_kb.interpret.edges import EdgeMatch, match_segments
 from aida_kb.interpret.hypotheses import (
     DEFAULT_PITCH_DEG,
     Frame,
@@ -39,18 +38,21 @@ from aida_kb.interpret.hypotheses import (
     predicted_normal,
     support_offset,
 )
-from aida_kb.interpret.knowledge import Knowledge, Node, OwnedSpec, Structure, join
+from aida_kb.interpret.knowledge import Knowledge, Node, Structure, join
 from aida_kb.interpret.observe import EvidenceView, RegionView, estimate_up, slope_deg
-from aida_kb.interpret.problem import (
-    EdgeMeasure,
-    Outcome,
-    PlaneInit,
-    PositionMeasure,
-    Problem,
-    Solve,
-)
 from aida_kb.interpret.result import INSERTED, HypothesisTrace, Instance
 from aida_kb.interpret.search import best_first
+from aida_kb.interpret.verify import (
+    EdgeEvidence,
+    Outcome,
+    PlaneInit,
+    Residual,
+    Verification,
+    build_verification,
+    position_data,
+    tilt_constraints,
+    verify,
+)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -148,14 +150,15 @@ class Interpreter:
 
     knowledge: Knowledge
     evidence: EvidenceView
-    solve: Solve
     goal: str = "House"
     trace: Trace = field(default_factory=Trace)
     messages: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         camera = self.evidence.camera
-        self._last_problem = Problem((), (), (), ())
+        self._last: Verification | None = None
+        self._views = sorted(self.evidence.cameras)
+        self._pinholes = tuple(self.evidence.cameras[v].pinhole for v in self._views)
         self.regions = [
             r for r in self.evidence.regions.values() if r.view == self.evidence.reference_view
         ]
@@ -204,7 +207,7 @@ class Interpreter:
     def verify_body(self, pending: Pending, parent: int) -> tuple[Level, float] | None:
         """Verify one alternative of the main body; its level and cost, or None if rejected."""
         frame = Frame.from_front(pending.front.normal, self.up)
-        level = self._try(pending.structure, frame, parent, {}, (), forced={"front": pending.front})
+        level = self._try(pending.structure, frame, parent, {}, {}, forced={"front": pending.front})
         if level is None:
             return None
         return level, level.misfit + self._unexplained([level])
@@ -220,6 +223,7 @@ class Interpreter:
         if not walls:
             return []
         fixed_planes = {k: v for lv in state.levels for k, v in lv.outcome.planes.items()}
+        choices = {r: c for lv in state.levels for r, c in lv.structure.choices}
         out: list[tuple[Level, float]] = []
         for slot in self.knowledge.concept(concept).slots:
             if slot.link != "part-of" or slot.obligatory:
@@ -233,7 +237,6 @@ class Interpreter:
                 continue
             sub_role = f"{join(role, slot.role)}[{count}]"
             for structure in self.knowledge.structures(slot.concept, sub_role, role, "part-of"):
-                extra = _whole_specs(self.knowledge, body.structure, slot.role, count, structure)
                 for front in _ranked_fronts(walls, self.evidence):
                     frame = Frame.from_front(front.normal, self.up)
                     level = self._try(
@@ -241,7 +244,7 @@ class Interpreter:
                         frame,
                         parent,
                         fixed_planes,
-                        extra,
+                        choices,
                         forced={"front": front},
                         exclude=used,
                         body_frame=body.frame,
@@ -266,7 +269,7 @@ class Interpreter:
         frame: Frame,
         parent: int,
         fixed: dict[str, tuple[FloatArray, float]],
-        extra: tuple[OwnedSpec, ...],
+        choices: dict[str, str],
         *,
         forced: dict[str, RegionView],
         exclude: set[str] | frozenset[str] = frozenset(),
@@ -285,7 +288,7 @@ class Interpreter:
         last_reason: tuple[str, str | None, float | None] = ("no assignment verified", None, None)
         for binding in assignments:
             try:
-                outcome, inserted, loose = self._adjust(structure, frame, binding, fixed, extra)
+                outcome, inserted, loose = self._adjust(structure, frame, binding, fixed, choices)
             except _UnseenError as exc:
                 last_reason = (str(exc), None, None)
                 continue
@@ -293,21 +296,16 @@ class Interpreter:
                 last_reason = (f"adjustment failed: {exc}", None, None)
                 continue
             worst = outcome.worst_rejected()
-            if worst is not None:
-                limit = (
-                    f"{worst.reject_above:.3g} {worst.unit}"
-                    if worst.reject_above is not None
-                    else f"{DEFAULT_REJECT_SIGMAS:g} sigma"
-                )
-                last_reason = (
-                    f"{worst.kind} residual {worst.residual:.3g} {worst.unit} above {limit} "
-                    f"(parts {', '.join(worst.parts)})",
-                    worst.label,
-                    worst.normalised,
-                )
-                continue
             if outcome.cost > MAX_MEAN_COST:
-                last_reason = self._blame(outcome)
+                # the constraints together do not fit: name the one to blame, which need not
+                # be the first over its threshold (the compromise spreads a contradiction)
+                reason, label, cost = self._blame(outcome)
+                if worst is not None:
+                    reason += f"; {_over(worst)}"
+                last_reason = (reason, label, cost)
+                continue
+            if worst is not None:
+                last_reason = (_over(worst), worst.label, worst.normalised)
                 continue
             try:
                 polygons = self._close(structure, outcome, fixed)
@@ -369,7 +367,7 @@ class Interpreter:
         frame: Frame,
         binding: dict[str, str],
         fixed: dict[str, tuple[FloatArray, float]],
-        extra: tuple[OwnedSpec, ...],
+        choices: dict[str, str],
     ) -> tuple[Outcome, tuple[str, ...], float]:
         """Initialise, match segments, adjust twice (re-matching in between).
 
@@ -390,7 +388,16 @@ class Interpreter:
         for leaf in structure.leaves:
             region = role_to_region.get(leaf.role)
             if region is not None:
-                planes.append(PlaneInit(leaf.role, leaf.concept, region.normal, region.offset_m))
+                planes.append(
+                    PlaneInit(
+                        leaf.role,
+                        leaf.concept,
+                        region.normal,
+                        region.offset_m,
+                        False,
+                        region.centroid_m,
+                    )
+                )
                 continue
             inserted.append(leaf.role)
             n = predicted_normal(leaf, frame, pitch)
@@ -408,49 +415,56 @@ class Interpreter:
                     f"{leaf.role} ({leaf.concept}) would face camera {self.evidence.camera.view} "
                     "but no region fits it"
                 )
-            planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
+            planes.append(PlaneInit(leaf.role, leaf.concept, n, d, False, on_plane))
         for role, (n, d) in sorted(fixed.items()):
             planes.append(PlaneInit(role, "", n, d, fixed=True))
-        known = {p.role for p in planes}
-        internal = tuple(
-            o
-            for o in (*structure.constraints, *extra, *self._tilts(structure, known))
-            if all(p in known for p in o.parts())
+        index = {p.role: i for i, p in enumerate(planes)}
+        tilts = tilt_constraints(
+            self.knowledge,
+            [(leaf.role, leaf.concept) for leaf in structure.leaves],
+            self._floor(structure, set(index)),
+            index,
         )
-        position_spec = self.knowledge.measurement("Region", "position")
-        positions = tuple(
-            PositionMeasure(
-                role,
-                region,
-                self.evidence.cameras[region.view],
-                position_spec,
-                join(role, "region"),
-            )
+        positions = {
+            role: position_data(region, self.evidence.cameras[region.view])
             for role, region in role_to_region.items()
-            if position_spec is not None
-        )
+        }
+        fillers = {**choices, **dict(structure.choices)}
+        root_role, root_concept, _ = self.body_slot()
         adjacency: dict[str, set[str]] = {}
         for a, b in structure.adjacency:
             adjacency.setdefault(a, set()).add(b)
             adjacency.setdefault(b, set()).add(a)
         adj = {k: frozenset(v) for k, v in adjacency.items()}
+        declared = self._declared_edges(structure)
         current = {p.role: (p.normal, p.offset_m) for p in planes}
         outcome: Outcome | None = None
-        edges: tuple[EdgeMeasure, ...] = ()
+        matches: list[EdgeMatch] = []
         for distance_px in MATCH_DISTANCES_PX:
-            rematched = self._edges(structure, binding, current, adj, distance_px)
-            if outcome is not None and _same_matches(rematched, edges):
+            rematched = self._matches(binding, current, adj, distance_px)
+            if outcome is not None and _same_matches(rematched, matches):
                 break
-            edges = rematched
-            problem = Problem(tuple(planes), internal, positions, edges)
-            outcome = self.solve(problem)
-            self._last_problem = problem
+            matches = rematched
+            verification = build_verification(
+                self.knowledge,
+                root_role,
+                root_concept,
+                planes,
+                fillers,
+                positions,
+                self._edge_evidence(matches, binding),
+                declared,
+                self._pinholes,
+                tilts,
+            )
+            self._last = verification
+            outcome = verify(verification)
             current = dict(outcome.planes)
             planes = [
                 replace(p, normal=current[p.role][0], offset_m=current[p.role][1]) for p in planes
             ]
         assert outcome is not None
-        matched = {e.match.segment.id for e in edges}
+        matched = {m.segment.id for m in matches}
         bordering = [
             s for s in self.segments if s.length_px >= 8.0 and any(r in binding for r in s.regions)
         ]
@@ -459,56 +473,40 @@ class Interpreter:
         return outcome, tuple(inserted), loose / total if total > 0 else 0.0
 
     def _blame(self, outcome: Outcome) -> tuple[str, str | None, float | None]:
-        """The internal constraint that makes an inconsistent adjustment inconsistent.
+        """The constraint that makes an inconsistent adjustment inconsistent.
 
-        No single constraint is over its threshold, but together they do not fit (mean
-        squared normalised residual above MAX_MEAN_COST): the least-squares compromise has
-        spread the contradiction. Each internal constraint, and each region's position
-        constraint, is left out in turn; the one whose removal lowers the cost most is blamed,
-        with its normalised cost in the full adjustment.
+        No single constraint is over its threshold, but together they do not fit (the
+        report's reduced cost is above MAX_MEAN_COST): the least-squares compromise has spread
+        the contradiction. Each internal constraint (with the others of its label and owner)
+        and each region's position constraint is left out in turn; the one whose removal
+        lowers the reduced cost most is blamed, with its normalised cost in the full
+        adjustment.
         """
-        problem = self._last_problem
-        labels = sorted({(o.spec.label, o.owner) for o in problem.internal})
-        trials: list[tuple[str, str, Problem]] = [
-            (
-                label,
-                label,
-                replace(
-                    problem,
-                    internal=tuple(
-                        o for o in problem.internal if (o.spec.label, o.owner) != (label, owner)
-                    ),
-                ),
-            )
-            for label, owner in labels
-        ]
-        # the evidence can be at fault too: a region whose plane fit is off
-        trials += [
-            (
-                str(m.spec.label),
-                f"{m.spec.label} of {m.role} (region {m.region.id})",
-                replace(problem, positions=tuple(p for p in problem.positions if p is not m)),
-            )
-            for m in problem.positions
-        ]
+        full = self._last
+        head = (
+            f"its constraints contradict each other (reduced normalised cost "
+            f"{outcome.cost:.3g} > {MAX_MEAN_COST:g})"
+        )
+        if full is None:
+            return head, None, None
+        groups: dict[str, list[int]] = {}
+        for i, src in enumerate(full.sources):
+            if src.group:
+                groups.setdefault(src.group, []).append(i)
         best: tuple[float, str, str] | None = None
-        for label, name, trial in trials:
+        for name, members in sorted(groups.items()):
             try:
-                cost = self.solve(trial).cost
+                cost = verify(full.without(set(members), outcome.planes)).cost
             except AidaError:
                 continue
             if best is None or cost < best[0]:
-                best = (cost, label, name)
-        head = (
-            f"its constraints contradict each other (mean squared normalised residual "
-            f"{outcome.cost:.3g} > {MAX_MEAN_COST:g})"
-        )
+                best = (cost, full.sources[members[0]].label, name)
         if best is None:
             return head, None, None
         normalised = max(
             (r.normalised for r in outcome.residuals if r.label == best[1]), default=0.0
         )
-        return f"{head}; without {best[2]!r} it would be {best[0]:.3g}", best[1], normalised
+        return f"{head}; without {best[2]} it would be {best[0]:.3g}", best[1], normalised
 
     def _mirrored_back(
         self,
@@ -536,42 +534,11 @@ class Interpreter:
         ridge = float(along.min())
         return float(frame.front @ front.centroid_m) - 2.0 * ridge
 
-    def _tilts(self, structure: Structure, known: set[str]) -> tuple[OwnedSpec, ...]:
-        """Soft constraints from the walls' `tilt` attribute: the angle to the floor.
-
-        ``attribute tilt: angle in [85 deg, 95 deg] = 90 deg`` says a wall meets the ground
-        at 90 degrees, give or take 5: each wall gets angle(wall, floor) == 90 deg, rejected
-        outside the range, whose half-width is taken as DEFAULT_REJECT_SIGMAS sigma (1 degree
-        here). The floor is the structure's own, else its whole's.
-        """
+    def _floor(self, structure: Structure, known: set[str]) -> str | None:
+        """The floor the walls' tilt refers to: the structure's own, else its whole's."""
         floors = [r for r in known if r.rsplit(".", 1)[-1] == "floor"]
         own = join(structure.root, "floor")
-        floor = own if own in known else (sorted(floors)[0] if floors else None)
-        if floor is None:
-            return ()
-        out: list[OwnedSpec] = []
-        for leaf in structure.leaves:
-            attr = self.knowledge.concept(leaf.concept).attributes.get("tilt")
-            if attr is None or attr.value is None or attr.low is None or attr.high is None:
-                continue
-            half = (attr.high - attr.low) / 2.0
-            if half <= 0:
-                continue
-            sigma = half / DEFAULT_REJECT_SIGMAS
-            spec = AttributeSpec(
-                label=f"{leaf.concept}.tilt",
-                kind="angle",
-                args=(leaf.role, floor),
-                value=attr.value,
-                unit="rad",
-                sigma=sigma,
-                weight=1.0 / sigma**2,
-                reject_above=half,
-                measurement=False,
-                concept=leaf.concept,
-            )
-            out.append(OwnedSpec(spec, ""))
-        return tuple(out)
+        return own if own in known else (sorted(floors)[0] if floors else None)
 
     def _outside(self, binding: dict[str, str], polygons: dict[str, FloatArray]) -> str:
         """Why a bound region does not lie on its part's closed face ('' if all do).
@@ -613,31 +580,35 @@ class Interpreter:
                 )
         return dict(zip(roles, faces, strict=False))
 
-    def _edges(
+    def _matches(
         self,
-        structure: Structure,
         binding: dict[str, str],
         planes: dict[str, tuple[FloatArray, float]],
         adjacency: dict[str, frozenset[str]],
         max_distance_px: float,
-    ) -> tuple[EdgeMeasure, ...]:
-        contour_spec = self.knowledge.measurement("Contour", "edge")
-        declared = self._declared_edges(structure)
+    ) -> list[EdgeMatch]:
         segs = [s for s in self.segments if any(r in binding for r in s.regions)]
-        matches = match_segments(
+        return match_segments(
             segs, binding, planes, adjacency, self.evidence.cameras, max_distance_px
         )
-        out: list[EdgeMeasure] = []
-        for m in matches:
-            spec, owner = declared.get(m.parts, (contour_spec, m.segment.id))
-            if spec is not None:
-                out.append(EdgeMeasure(m, self.evidence.cameras[m.segment.view], spec, owner))
-        return tuple(out)
 
-    def _declared_edges(self, structure: Structure) -> dict[tuple[str, str], tuple[Any, str]]:
-        """Edge measures a concept declares on its own edges (``measure edge(edge(a, b))``)."""
+    def _edge_evidence(
+        self, matches: list[EdgeMatch], binding: dict[str, str]
+    ) -> list[EdgeEvidence]:
+        """The matched segments as evidence (each with its camera and the part it borders)."""
+        out: list[EdgeEvidence] = []
+        for m in matches:
+            bound = {binding[r] for r in m.segment.regions if r in binding}
+            owner = next(p for p in m.parts if p in bound)
+            out.append(
+                EdgeEvidence(m.parts, owner, self._views.index(m.segment.view), m.segment.ends_px)
+            )
+        return out
+
+    def _declared_edges(self, structure: Structure) -> set[tuple[str, str]]:
+        """Edges a concept measures itself (``measure edge(edge(a, b))``), as sorted pairs."""
         fillers = {n.role: n.concept for n in structure.nodes}
-        out: dict[tuple[str, str], tuple[Any, str]] = {}
+        out: set[tuple[str, str]] = set()
         for node in structure.nodes:
             for spec in self.knowledge.concept(node.concept).constraints:
                 if not (spec.measurement and spec.kind == "edge" and len(spec.args) == 2):
@@ -645,7 +616,7 @@ class Interpreter:
                 if not self.knowledge.holds(node.role, spec.requires, fillers):
                     continue
                 a, b = (join(node.role, x) for x in spec.args)
-                out[(a, b) if a <= b else (b, a)] = (spec, node.role)
+                out.add((a, b) if a <= b else (b, a))
         return out
 
     # ---- costs ---------------------------------------------------------------------------------
@@ -733,27 +704,19 @@ class Interpreter:
         return out
 
 
-@dataclass(frozen=True)
-class AttributeSpec:
-    """A constraint the interpreter derives from an attribute (the fields of a ConstraintSpec)."""
-
-    label: str
-    kind: str
-    args: tuple[str, ...]
-    value: float
-    unit: str
-    sigma: float
-    weight: float
-    reject_above: float
-    measurement: bool
-    concept: str
+def _over(r: Residual) -> str:
+    """What a constraint over its threshold says, for the trace."""
+    limit = f"; reject above {r.reject_above:.3g} {r.unit}" if r.reject_above is not None else ""
+    return (
+        f"{r.label} ({r.kind}) residual {r.residual:.3g} {r.unit}, normalised cost "
+        f"{r.normalised:.3g} above its threshold {r.threshold:.3g}{limit} "
+        f"(parts {', '.join(r.parts)})"
+    )
 
 
-def _same_matches(a: tuple[EdgeMeasure, ...], b: tuple[EdgeMeasure, ...]) -> bool:
+def _same_matches(a: list[EdgeMatch], b: list[EdgeMatch]) -> bool:
     """True if two edge matchings pair the same segments with the same edges."""
-    return [(e.match.segment.id, e.match.parts) for e in a] == [
-        (e.match.segment.id, e.match.parts) for e in b
-    ]
+    return [(m.segment.id, m.parts) for m in a] == [(m.segment.id, m.parts) for m in b]
 
 
 class _UnseenError(AidaError):
@@ -773,42 +736,3 @@ def _ranked_fronts(walls: list[RegionView], evidence: EvidenceView) -> list[Regi
 def _facing(region: RegionView, evidence: EvidenceView) -> float:
     to_cam = evidence.camera.centre_m - region.centroid_m
     return float(region.normal @ to_cam) / float(np.linalg.norm(to_cam))
-
-
-def _whole_specs(
-    knowledge: Knowledge,
-    whole: Structure,
-    slot_role: str,
-    index: int,
-    part: Structure,
-) -> tuple[OwnedSpec, ...]:
-    """The whole's constraints on an optional part's filler (``wings.front`` -> ``wings[0].front``).
-
-    A constraint conditional on the filler's concept (``wings_meet`` holds 90 degrees for a
-    RightWing and 135 for a SkewWing) applies only when the part's concept is one of those.
-    """
-    root = whole.nodes[0]
-    fillers = {n.role: n.concept for n in (*whole.nodes, *part.nodes)}
-    out: list[OwnedSpec] = []
-    for spec in knowledge.concept(root.concept).constraints:
-        if spec.measurement or not any(
-            a == slot_role or a.startswith(slot_role + ".") for a in spec.args
-        ):
-            continue
-        ok = True
-        for path, allowed in spec.requires:
-            filler = (
-                part.nodes[0].concept if path == slot_role else fillers.get(join(root.role, path))
-            )
-            if filler is None or not any(knowledge.is_a(filler, a) for a in allowed):
-                ok = False
-        if not ok:
-            continue
-        args = tuple(
-            f"{slot_role}[{index}]{a[len(slot_role) :]}"
-            if a == slot_role or a.startswith(slot_role + ".")
-            else a
-            for a in spec.args
-        )
-        out.append(OwnedSpec(spec, root.role, args))
-    return tuple(out)

@@ -4,8 +4,9 @@
 realisations with cardinalities), attribute ranges in SI units, expanded constraints and
 adjacencies, and the is-a hierarchy. `structures` unfolds a concept top-down along part-of
 into every fully specialised *structure*: the instance skeleton of one alternative, with its
-planar parts (the leaves that evidence regions can bind to), the constraints its concepts
-bring in, and which planes meet (adjacency, absolute role paths).
+planar parts (the leaves that evidence regions can bind to), its is-a choices, and which
+planes meet (adjacency, absolute role paths). The constraints of a structure are not listed
+here: `aida_kb.solve.constraints_from_kb` finds them in the compiled knowledge base (`kb`).
 """
 
 from __future__ import annotations
@@ -81,27 +82,12 @@ class Node:
 
 
 @dataclass(frozen=True)
-class OwnedSpec:
-    """A constraint spec brought in by the instance at role path `owner`."""
-
-    spec: Any  # ConstraintSpec
-    owner: str
-    args: tuple[str, ...] | None = None  # the spec's args with filler indices ("wings[0].front")
-
-    def parts(self) -> tuple[str, ...]:
-        """The spec's arguments as absolute role paths."""
-        args = self.spec.args if self.args is None else self.args
-        return tuple(join(self.owner, a) for a in args)
-
-
-@dataclass(frozen=True)
 class Structure:
     """A fully specialised instance skeleton for one world-layer concept."""
 
     root: str  # role path of the composite it describes
     nodes: tuple[Node, ...]
     leaves: tuple[PlanarPart, ...]
-    constraints: tuple[OwnedSpec, ...]
     adjacency: tuple[tuple[str, str], ...]
     choices: tuple[tuple[str, str], ...]  # (role path, concept chosen along is-a)
 
@@ -120,8 +106,9 @@ def join(owner: str, role: str) -> str:
 class Knowledge:
     """The compiled knowledge base seen through the interpreter's needs."""
 
-    def __init__(self, concepts: dict[str, Concept]) -> None:
+    def __init__(self, concepts: dict[str, Concept], kb: KnowledgeBase) -> None:
         self.concepts = concepts
+        self.kb = kb
         self._children: dict[str, list[str]] = {name: [] for name in concepts}
         for c in concepts.values():
             for p in c.parents:
@@ -130,7 +117,7 @@ class Knowledge:
     @classmethod
     def from_kb(cls, kb: KnowledgeBase) -> Knowledge:
         """Wrap a compiled `aida_kb.kb.KnowledgeBase`."""
-        return cls({name: _concept_of(name, model) for name, model in kb.concepts.items()})
+        return cls({name: _concept_of(name, model) for name, model in kb.concepts.items()}, kb)
 
     def concept(self, name: str) -> Concept:
         """The concept called `name` (InterpretError if unknown)."""
@@ -193,7 +180,7 @@ class Knowledge:
                     self.slope_range_deg(special),
                     self.is_a(special, "RoofPlane") or "pitch" in c.attributes,
                 )
-                yield Structure(role, (node,), (leaf,), (), (), choice)
+                yield Structure(role, (node,), (leaf,), (), choice)
                 continue
             parts = [s for s in c.slots if s.link == "part-of" and s.obligatory]
             options = [
@@ -202,11 +189,6 @@ class Knowledge:
             for combo in itertools.product(*options):
                 nodes = (node, *(n for sub in combo for n in sub.nodes))
                 fillers = {n.role: n.concept for n in nodes}
-                own = tuple(
-                    OwnedSpec(s, role)
-                    for s in c.constraints
-                    if not s.measurement and self.holds(role, s.requires, fillers)
-                )
                 adjacency = tuple(
                     (join(role, a), join(role, b))
                     for a, b, req in c.adjacencies
@@ -216,7 +198,6 @@ class Knowledge:
                     role,
                     nodes,
                     tuple(leaf for sub in combo for leaf in sub.leaves),
-                    own + tuple(o for sub in combo for o in sub.constraints),
                     adjacency + tuple(a for sub in combo for a in sub.adjacency),
                     choice + tuple(ch for sub in combo for ch in sub.choices),
                 )

@@ -47,12 +47,15 @@ class ConstraintResidual(_Frozen):
     concept: str = Field(description="the concept that declared it")
     owner: str = Field(description="role path of the instance that introduced it")
     parts: list[str] = Field(description="the role paths it relates (absolute)")
-    residual: float = Field(description="the residual, in `unit` (RMS over its components)")
+    residual: float = Field(description="the residual, in `unit` (length of its components)")
     unit: str = Field(description="'rad', 'm', 'px' or ''")
     sigma: float | None = Field(description="the tolerance, in `unit`")
-    normalised_cost: float = Field(description="|residual| / sigma (dimensionless)")
+    normalised_cost: float = Field(
+        description="multiplicity · residual² / sigma² (aida_kb.solve's residual report)"
+    )
+    threshold: float = Field(description="the normalised cost above which it rejects")
     reject_above: float | None = Field(description="residuals above this reject, in `unit`")
-    rejected: bool = Field(description="True if the residual is above reject_above")
+    rejected: bool = Field(description="True if the normalised cost is above the threshold")
 
 
 HypothesisStatus = Literal["created", "verified", "rejected"]
@@ -70,7 +73,7 @@ class HypothesisTrace(_Frozen):
     reason: str = Field(default="", description="why it was rejected or what verified it")
     constraint: str | None = Field(default=None, description="label of the rejecting constraint")
     cost: float | None = Field(
-        default=None, description="normalised cost (|residual| / sigma) of that constraint"
+        default=None, description="the normalised cost of that constraint (residual report)"
     )
 
 

@@ -8,12 +8,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aida_kb.errors import InterpretError
-from aida_kb.interpret.adjust import adjust
 from aida_kb.interpret.interpreter import Interpreter, State
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
-from aida_kb.interpret.problem import Outcome, Solve
 from aida_kb.interpret.result import ConstraintResidual, Interpretation
+from aida_kb.interpret.verify import Outcome
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 
@@ -54,6 +53,7 @@ def _residuals(outcome: Outcome) -> list[ConstraintResidual]:
             unit=r.unit,
             sigma=r.sigma,
             normalised_cost=r.normalised,
+            threshold=r.threshold,
             reject_above=r.reject_above,
             rejected=r.rejected,
         )
@@ -86,7 +86,6 @@ def interpret(
     *,
     goal: str = "House",
     source: str = "",
-    solve: Solve = adjust,
     progress: Callable[[str], None] | None = None,
 ) -> Interpretation:
     """Interpret `evidence` against `kb` for the goal concept `goal`.
@@ -103,7 +102,7 @@ def interpret(
             f"(scene concepts: {', '.join(scene) or 'none'})"
         )
     view = view_of(evidence, source)
-    interpreter = Interpreter(knowledge, view, solve, goal)
+    interpreter = Interpreter(knowledge, view, goal)
     if progress is not None:
         progress(f"interpreting {len(view.regions)} regions, {len(view.segments)} segments")
     state, expanded, goal_id = interpreter.run()

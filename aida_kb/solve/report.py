@@ -59,6 +59,15 @@ class ResidualReport:
         return float(sum(r.cost for r in self.rows))
 
     @property
+    def reduced_cost(self) -> float:
+        """Sum of the normalised costs over their degrees of freedom (a reduced chi-square).
+
+        About 1 when every constraint misses by about its sigma; 0 for an empty report.
+        """
+        dof = sum(DOF[r.kind] for r in self.rows)
+        return float(sum(r.normalised_cost for r in self.rows) / dof) if dof else 0.0
+
+    @property
     def exceeding(self) -> tuple[ConstraintResidual, ...]:
         """The constraints whose normalised cost exceeds their threshold."""
         return tuple(r for r in self.rows if r.exceeds)

@@ -135,3 +135,27 @@ def test_position_kernel(plane_derivative: Derivative) -> None:
     cos = np.einsum("ij,ij->i", n[:4], n_init)
     np.testing.assert_allclose(r2[:, 3] - r[:, 3], ss * 0.1 * cos, atol=1e-12)
     _check_jacobian(kern, n, d, idx, plane_derivative)
+
+
+def test_position_scales_in_pixels() -> None:
+    from aida_kb.constraints.model import Constraint, PositionData, compile_blocks
+    from aida_kb.errors import SolveError
+
+    base = PositionData((0.0, 0.0, -1.0), (0.0, 0.0, 20.0), px_per_m=40.0, radius_m=3.0)
+    tuned = PositionData(
+        (0.0, 0.0, -1.0), (0.0, 0.0, 20.0), shift_px_per_m=0.8, tilt_px_per_rad=57.3
+    )
+
+    def pos(p: PositionData) -> Constraint:
+        return Constraint("position", (0,), sigma=1.0, unit="px", position=p)
+
+    (block,) = compile_blocks([pos(base), pos(tuned)], 1)
+    # the rim of a 3 m region at 40 px/m; the explicit scales replace both
+    np.testing.assert_allclose(block.data["scale_angle"], [120.0, 57.3])
+    np.testing.assert_allclose(block.data["scale_shift"], [40.0, 0.8])
+    half = PositionData((0.0, 0.0, -1.0), (0.0, 0.0, 20.0), shift_px_per_m=0.8)
+    with pytest.raises(SolveError, match="px_per_m"):
+        compile_blocks([pos(half)], 1)
+    bad = PositionData((0.0, 0.0, -1.0), (0.0, 0.0, 20.0), shift_px_per_m=-1.0)
+    with pytest.raises(SolveError, match="shift_px_per_m must be"):
+        compile_blocks([pos(bad)], 1)

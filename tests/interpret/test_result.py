@@ -45,6 +45,7 @@ def _example() -> Interpretation:
                 unit="rad",
                 sigma=0.0087,
                 normalised_cost=0.11,
+                threshold=10.828,
                 reject_above=None,
                 rejected=False,
             )

@@ -1,0 +1,384 @@
+"""Verifying a hypothesis with the project's solver (`aida_kb.solve`).
+
+A hypothesis is verified by one weighted least-squares problem over the planes of its parts:
+seen parts start from their regions' plane fits, inserted ones from the knowledge, and parts
+of an already verified level (the main body when a wing or an oriel is tried) are fixed.
+Its constraints come from the knowledge base by `aida_kb.solve.constraints_from_kb`: the
+internal constraints of every concept the hypothesis instantiates, and the measurements that
+tie it to the evidence — the position of each bound region (paper eq. 4) and the edge of each
+matched image segment (eq. 5; a concept's own ``measure edge(edge(a, b))`` where it declares
+one, else the segment's ``Contour``). Walls also get a soft constraint from their ``tilt``
+attribute (`tilt_constraints`).
+
+How the interpreter scales the evidence (`position_data`): a region's plane may move by what
+stereo can tell apart, so its shift along the normal is measured as the change of disparity it
+causes (``f·B/z²`` pixels per metre at the region's depth z; ``f/z`` across the image when the
+baseline is unknown) and its tilt at one pixel per degree; the constraint's multiplicity is
+the region's *mean* certainty (in 0..1), so that a large region does not outvote the knowledge.
+
+The verdict comes from the solver's residual report: a constraint whose normalised cost
+exceeds its threshold rejects the hypothesis (`Outcome.worst_rejected`); the report's reduced
+cost (`Outcome.cost`) measures how well the constraints fit together. The fragments of one
+model edge seen in one image (a contour broken by texture or occlusion) are judged together:
+their rows of the report are pooled (normalised costs and thresholds summed, the residual the
+RMS over the fragments), so that one stray fragment does not outweigh the rest of the edge.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.constraints.model import Constraint, EdgeData, PositionData
+from aida_kb.errors import SolveError
+from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.interpret.knowledge import Knowledge, join
+from aida_kb.interpret.observe import CameraView, RegionView
+from aida_kb.solve import build_problem, constraints_from_kb, solve
+
+FloatArray = npt.NDArray[np.float64]
+
+TILT_PX_PER_RAD = math.degrees(1.0)  # a region's tilt: one degree counts as one pixel
+TILT_SIGMAS = 5.0  # an attribute range's half-width is taken as this many sigma
+MAX_EVALUATIONS = 60  # a hypothesis that needs more is wrong; its residuals will say so
+TOLERANCE = 1e-8  # the solver's ftol, xtol and gtol: far below what the verdicts can tell
+
+
+@dataclass(frozen=True)
+class PlaneInit:
+    """A part's plane before adjustment: unit outward normal (3,), offset d (n·x = d), metres.
+
+    ``centre_m`` (3,), world frame: a point near the part's middle (its frame's origin; the
+    foot of the perpendicular from the world origin when None).
+    """
+
+    role: str
+    concept: str
+    normal: FloatArray
+    offset_m: float
+    fixed: bool = False
+    centre_m: FloatArray | None = None
+
+
+@dataclass(frozen=True)
+class Source:
+    """Where a constraint came from: its knowledge-base label, concept and owning instance.
+
+    ``group`` names the constraints that stand or fall together when one is left out to find
+    the culprit of a contradiction ('' for those never left out).
+    """
+
+    label: str
+    concept: str
+    owner: str
+    group: str = ""
+
+
+@dataclass(frozen=True)
+class Residual:
+    """One constraint after adjustment (see `aida_kb.interpret.result.ConstraintResidual`)."""
+
+    label: str
+    kind: str
+    concept: str
+    owner: str
+    parts: tuple[str, ...]
+    residual: float
+    unit: str
+    sigma: float | None
+    normalised: float
+    threshold: float
+    reject_above: float | None
+    rejected: bool
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """The adjusted planes, the residual of every constraint and the report's reduced cost."""
+
+    planes: dict[str, tuple[FloatArray, float]]
+    residuals: tuple[Residual, ...]
+    cost: float  # sum of normalised costs over their degrees of freedom
+
+    def worst_rejected(self) -> Residual | None:
+        """The rejected constraint with the highest normalised cost over its threshold."""
+        bad = [r for r in self.residuals if r.rejected]
+        return max(bad, key=lambda r: r.normalised / r.threshold) if bad else None
+
+
+@dataclass(frozen=True)
+class Verification:
+    """One hypothesis' least-squares problem: planes, constraints with their sources, cameras."""
+
+    planes: tuple[PlaneInit, ...]
+    constraints: tuple[Constraint, ...]
+    sources: tuple[Source, ...]
+    cameras: tuple[PinholeCamera, ...] = ()
+    skipped: tuple[str, ...] = field(default=(), compare=False)
+
+    @property
+    def roles(self) -> tuple[str, ...]:
+        """The parts' role paths, in part order."""
+        return tuple(p.role for p in self.planes)
+
+    def without(
+        self, drop: Collection[int], start: Mapping[str, tuple[FloatArray, float]] | None = None
+    ) -> Verification:
+        """The same problem without the constraints at positions ``drop``.
+
+        ``start`` (role path -> (unit normal, offset m)) replaces the initial planes, e.g. by
+        the solution of the full problem (a warm start).
+        """
+        keep = [i for i in range(len(self.constraints)) if i not in drop]
+        planes = self.planes
+        if start is not None:
+            planes = tuple(
+                replace(p, normal=start[p.role][0], offset_m=start[p.role][1])
+                if p.role in start
+                else p
+                for p in planes
+            )
+        return replace(
+            self,
+            planes=planes,
+            constraints=tuple(self.constraints[i] for i in keep),
+            sources=tuple(self.sources[i] for i in keep),
+        )
+
+
+def position_data(region: RegionView, camera: CameraView) -> PositionData:
+    """The evidence of a region's position constraint, scaled as the module docstring says."""
+    z = float(camera.pinhole.depth(region.centroid_m[None, :])[0])
+    if not z > 0:
+        raise SolveError(f"region {region.id} lies behind camera {camera.view}")
+    f = float(camera.K[0, 0])
+    shift = f * camera.baseline_m / z**2 if camera.baseline_m > 0 else f / z
+    certainty = min(1.0, region.weight / max(region.area_px, 1.0))
+    return PositionData(
+        n_init=_v3(region.normal),
+        c_init=_v3(region.centroid_m),
+        w_c=float(np.clip(certainty, 1e-6, 1.0)),
+        px_per_m=f / z,
+        shift_px_per_m=shift,
+        tilt_px_per_rad=TILT_PX_PER_RAD,
+    )
+
+
+def _v3(a: FloatArray) -> tuple[float, float, float]:
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def _relative(root: str, path: str) -> str:
+    """``path`` relative to the role path ``root`` ('' for the root itself)."""
+    if not root:
+        return path
+    if path == root:
+        return ""
+    if not path.startswith(root + "."):
+        raise SolveError(f"{path} is not a part of {root}")
+    return path[len(root) + 1 :]
+
+
+def _absolute(root: str, rel: str) -> str:
+    return join(root, rel) if rel else root
+
+
+@dataclass(frozen=True)
+class EdgeEvidence:
+    """A segment matched to the edge of two parts (absolute role paths) in one camera.
+
+    ``contour_of`` is the part whose region the segment borders: the segment is that region's
+    contour when no concept declares a measure on this edge.
+    """
+
+    parts: tuple[str, str]
+    contour_of: str
+    camera: int
+    ends_px: FloatArray  # (2, 2)
+
+
+def build_verification(
+    knowledge: Knowledge,
+    root: str,
+    root_concept: str,
+    planes: Sequence[PlaneInit],
+    fillers: Mapping[str, str],
+    positions: Mapping[str, PositionData],
+    edges: Sequence[EdgeEvidence],
+    declared: Collection[tuple[str, str]],
+    cameras: Sequence[PinholeCamera],
+    extra: Sequence[tuple[Constraint, Source]] = (),
+) -> Verification:
+    """The verification problem of a hypothesis, its constraints from the knowledge base.
+
+    Parameters
+    ----------
+    knowledge : the knowledge (its compiled ``kb``).
+    root, root_concept : role path and concept of the instance the parts belong to
+        (``"body"``, ``"HouseBody"``); every role path below is absolute.
+    planes : the parts' initial planes (fixed ones included).
+    fillers : role path -> the concept chosen for it along is-a.
+    positions : role path of a seen part -> its region's evidence.
+    edges : matched segments; those of an edge in ``declared`` (sorted role pairs whose edge a
+        concept measures itself) feed that measure, the others their region's contour.
+    cameras : the cameras of the edge evidence.
+    extra : constraints the interpreter adds (part indices into ``planes``) with their sources.
+
+    Constraints among fixed parts only are left out: they were verified with their level.
+    """
+    index = {p.role: i for i, p in enumerate(planes)}
+    if len(index) != len(planes):
+        raise SolveError("verification: a part appears twice")
+    rel = {_relative(root, role): i for role, i in index.items()}
+    declared_set = {tuple(sorted(pair)) for pair in declared}
+    edge_map: dict[tuple[int, int], list[EdgeData]] = {}
+    contours: dict[str, tuple[int, int, EdgeData]] = {}
+    counts: dict[str, int] = {}
+    for e in edges:
+        data = EdgeData(e.camera, (float(e.ends_px[0, 0]), float(e.ends_px[0, 1])), _p2(e.ends_px))
+        a, b = index[e.parts[0]], index[e.parts[1]]
+        if tuple(sorted(e.parts)) in declared_set:
+            edge_map.setdefault((min(a, b), max(a, b)), []).append(data)
+            continue
+        region = f"{_relative(root, e.contour_of)}.region.contours"
+        k = counts.get(region, 0)
+        counts[region] = k + 1
+        contours[f"{region}[{k}]"] = (a, b, data)
+    found = constraints_from_kb(
+        knowledge.kb,
+        root_concept,
+        rel,
+        fillers={_relative(root, r): c for r, c in fillers.items() if r != root},
+        positions={index[r]: p for r, p in positions.items()},
+        edges=edge_map,
+        contours=contours,
+    )
+    fixed = {i for i, p in enumerate(planes) if p.fixed}
+    out: list[Constraint] = []
+    sources: list[Source] = []
+    for c, spec in zip(found.constraints, found.specs, strict=True):
+        if set(c.parts) <= fixed:
+            continue
+        owner = _absolute(root, "" if c.label.startswith(".:") else c.label.split(":", 1)[0])
+        group = "" if spec.kind == "edge" else f"'{spec.label}' of {owner or 'the goal'}"
+        if spec.kind == "position":
+            group = f"'{spec.label}' of {planes[c.parts[0]].role}"
+        out.append(replace(c, label=spec.label))
+        sources.append(Source(spec.label, spec.concept, owner, group))
+    for c, s in extra:
+        if not set(c.parts) <= fixed:
+            out.append(c)
+            sources.append(s)
+    return Verification(tuple(planes), tuple(out), tuple(sources), tuple(cameras), found.skipped)
+
+
+def _p2(ends: FloatArray) -> tuple[float, float]:
+    return (float(ends[1, 0]), float(ends[1, 1]))
+
+
+def tilt_constraints(
+    knowledge: Knowledge,
+    parts: Sequence[tuple[str, str]],
+    floor: str | None,
+    index: Mapping[str, int],
+) -> list[tuple[Constraint, Source]]:
+    """Soft constraints from the parts' ``tilt`` attribute: the angle to the floor.
+
+    ``attribute tilt: angle in [85 deg, 95 deg] = 90 deg`` says a wall meets the ground at 90
+    degrees, give or take 5: each such part (role path, concept) gets angle(part, floor) ==
+    90 deg, rejected outside the range, whose half-width is taken as `TILT_SIGMAS` sigma
+    (1 degree here). No floor, no constraints.
+    """
+    if floor is None or floor not in index:
+        return []
+    out: list[tuple[Constraint, Source]] = []
+    for role, concept in parts:
+        attr = knowledge.concept(concept).attributes.get("tilt")
+        if attr is None or attr.value is None or attr.low is None or attr.high is None:
+            continue
+        half = (attr.high - attr.low) / 2.0
+        if half <= 0 or role not in index:
+            continue
+        label = f"{concept}.tilt"
+        constraint = Constraint(
+            kind="angle",
+            parts=(index[role], index[floor]),
+            value=attr.value,
+            sigma=half / TILT_SIGMAS,
+            reject_above=half,
+            unit="rad",
+            label=label,
+        )
+        out.append((constraint, Source(label, concept, role, f"'{label}' of {role}")))
+    return out
+
+
+def verify(v: Verification) -> Outcome:
+    """Adjust the free planes (`aida_kb.solve.solve`) and report every constraint.
+
+    Raises
+    ------
+    SolveError
+        Degenerate planes or a diverged adjustment.
+    """
+    normals = np.array([p.normal for p in v.planes], dtype=np.float64).reshape(-1, 3)
+    offsets = np.array([p.offset_m for p in v.planes], dtype=np.float64)
+    centres = np.array(
+        [
+            p.centre_m
+            if p.centre_m is not None
+            else p.offset_m * p.normal / np.linalg.norm(p.normal)
+            for p in v.planes
+        ],
+        dtype=np.float64,
+    ).reshape(-1, 3)
+    problem = build_problem(
+        normals,
+        offsets,
+        v.constraints,
+        centres=centres,
+        fixed_parts=[i for i, p in enumerate(v.planes) if p.fixed],
+        names=v.roles,
+        cameras=v.cameras,
+    )
+    result = solve(problem, max_iterations=MAX_EVALUATIONS, tolerance=TOLERANCE)
+    if not (np.all(np.isfinite(result.normals)) and np.all(np.isfinite(result.offsets))):
+        raise SolveError("adjustment diverged (non-finite planes)")
+    roles = v.roles
+    pools: dict[tuple[object, ...], list[int]] = {}
+    for k, (c, src) in enumerate(zip(v.constraints, v.sources, strict=True)):
+        key: tuple[object, ...] = (k,)
+        if c.kind == "edge" and c.edge is not None:
+            key = (src.label, c.parts, c.edge.camera)
+        pools.setdefault(key, []).append(k)
+    rows = result.report.rows
+    residuals = []
+    for members in pools.values():
+        first = members[0]
+        c, src, row = v.constraints[first], v.sources[first], rows[first]
+        normalised = sum(rows[k].normalised_cost for k in members)
+        threshold = sum(rows[k].threshold for k in members)
+        residuals.append(
+            Residual(
+                label=src.label,
+                kind=row.kind,
+                concept=src.concept,
+                owner=src.owner,
+                parts=tuple(roles[i] for i in row.parts),
+                residual=math.sqrt(sum(rows[k].residual ** 2 for k in members) / len(members)),
+                unit=row.unit,
+                sigma=c.sigma,
+                normalised=normalised,
+                threshold=threshold,
+                reject_above=c.reject_above,
+                rejected=normalised > threshold,
+            )
+        )
+    planes = {
+        role: (result.normals[i].copy(), float(result.offsets[i])) for i, role in enumerate(roles)
+    }
+    return Outcome(planes, tuple(residuals), result.report.reduced_cost)

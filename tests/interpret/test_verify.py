@@ -1,0 +1,170 @@
+"""Verification of a hypothesis with aida_kb.solve: compromises, rejections, fixed parts."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from aida_kb.constraints.model import Constraint
+from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.interpret.knowledge import Knowledge
+from aida_kb.interpret.observe import CameraView, RegionView
+from aida_kb.interpret.verify import (
+    EdgeEvidence,
+    PlaneInit,
+    Source,
+    Verification,
+    build_verification,
+    position_data,
+    tilt_constraints,
+    verify,
+)
+from aida_kb.kb.model import KnowledgeBase
+
+CAMERA = CameraView("00", np.diag([800.0, 800.0, 1.0]), np.eye(3), np.zeros(3), 640, 480, 0.4)
+
+
+def _turn(n: np.ndarray, deg: float) -> np.ndarray:
+    a = math.radians(deg)
+    c, s = math.cos(a), math.sin(a)
+    return np.array([c * n[0] + s * n[2], n[1], -s * n[0] + c * n[2]])
+
+
+def _region(rid: str, normal: np.ndarray, centroid: list[float]) -> RegionView:
+    return RegionView(rid, "00", normal, np.asarray(centroid, float), 9000.0, 10000.0, 0.01)
+
+
+def _position(part: int, region: RegionView, sigma: float = 1.0) -> tuple[Constraint, Source]:
+    c = Constraint(
+        kind="position",
+        parts=(part,),
+        sigma=sigma,
+        reject_above=4.0,
+        unit="px",
+        measurement=True,
+        label="Region#1",
+        position=position_data(region, CAMERA),
+    )
+    return c, Source("Region#1", "Region", region.id, f"'Region#1' of {region.id}")
+
+
+def _angle(parts: tuple[int, int], value: float, sigma_deg: float, reject_deg: float) -> Constraint:
+    return Constraint(
+        kind="angle",
+        parts=parts,
+        value=value,
+        sigma=math.radians(sigma_deg),
+        reject_above=math.radians(reject_deg),
+        unit="rad",
+        label="corner",
+    )
+
+
+def test_perpendicular_walls_meet_the_regions_part_way() -> None:
+    front, left = np.array([0.0, 0.0, -1.0]), np.array([-1.0, 0.0, 0.0])
+    # the regions say the corner is 92 degrees; the knowledge says 90 +- 1
+    seen = {"a": (_turn(front, 1.0), [0, 0, 20.0]), "b": (_turn(left, -1.0), [-5.0, 0, 22.0])}
+    planes = tuple(
+        PlaneInit(r, "Wall", n, float(n @ c), centre_m=np.asarray(c, float))
+        for r, (n, c) in seen.items()
+    )
+    positions = [_position(i, _region(r, n, c)) for i, (r, (n, c)) in enumerate(seen.items())]
+    corner = _angle((0, 1), math.pi / 2, 1.0, 5.0)
+    v = Verification(
+        planes,
+        (corner, *(c for c, _ in positions)),
+        (Source("corner", "Test", ""), *(s for _, s in positions)),
+    )
+    out = verify(v)
+    n_a, n_b = out.planes["a"][0], out.planes["b"][0]
+    meeting = 180.0 - math.degrees(math.acos(float(n_a @ n_b)))
+    # a degree of tilt costs 1 px (sigma 1 px) times the mean certainty 0.9 at each region, a
+    # degree of corner costs 1 sigma: minimising 2·0.9·x² + (2 - 2x)² leaves 2 - 2x = 0.621
+    assert meeting == pytest.approx(90.0 + 2.0 - 2.0 * 8.0 / 11.6, abs=0.01)
+    corner_row = next(r for r in out.residuals if r.label == "corner")
+    assert corner_row.normalised == pytest.approx((meeting - 90.0) ** 2, rel=0.02)
+    assert corner_row.threshold == pytest.approx(25.0)  # (reject above / sigma)²
+    assert out.worst_rejected() is None
+
+
+def test_a_contradiction_over_the_threshold_is_flagged_and_fixed_parts_stay() -> None:
+    n = np.array([0.0, 0.0, -1.0])
+    tilted = _turn(n, 40.0)
+    planes = (
+        PlaneInit("a", "Wall", n, -20.0, fixed=True),
+        PlaneInit("b", "Wall", tilted, float(tilted @ [3.0, 0.0, 20.0])),
+    )
+    strict = Constraint(
+        kind="parallel",
+        parts=(0, 1),
+        sigma=math.radians(0.5),
+        reject_above=math.radians(2.0),
+        unit="rad",
+        label="parallel",
+    )
+    pos, src = _position(1, _region("b", tilted, [3.0, 0.0, 20.0]), sigma=0.01)
+    out = verify(Verification(planes, (strict, pos), (Source("parallel", "T", ""), src)))
+    np.testing.assert_allclose(out.planes["a"][0], n)
+    worst = out.worst_rejected()
+    assert worst is not None
+    assert worst.label == "parallel"
+    assert worst.residual > math.radians(2.0)
+    assert worst.normalised > worst.threshold
+
+
+def test_fragments_of_one_edge_share_one_verdict(buildings_kb: KnowledgeBase) -> None:
+    knowledge = Knowledge.from_kb(buildings_kb)
+    roles = ["body.front", "body.left"]
+    normals = [np.array([0.0, 0.0, -1.0]), np.array([-1.0, 0.0, 0.0])]
+    corner = np.array([-5.0, 0.0, 20.0])
+    planes = [
+        PlaneInit(r, "Wall", n, float(n @ corner)) for r, n in zip(roles, normals, strict=True)
+    ]
+    cam = PinholeCamera(np.diag([800.0, 800.0, 1.0]), np.eye(3), np.zeros(3), 640, 480)
+    x = cam.project(corner + np.array([[0, -2.0, 0], [0, 2.0, 0]]))
+    # two fragments of the vertical corner line: 1 px and 5 px off to the side
+    fragments = [x + np.array([1.0, 0.0]), x + np.array([5.0, 0.0])]
+    edges = [EdgeEvidence(("body.front", "body.left"), "body.front", 0, f) for f in fragments]
+    v = build_verification(knowledge, "body", "HouseBody", planes, {}, {}, edges, set(), (cam,))
+    assert [c.kind for c in v.constraints] == ["angle", "edge", "edge"]
+    assert [s.owner for s in v.sources] == [
+        "body",
+        "body.front.region.contours[0]",
+        "body.front.region.contours[1]",
+    ]
+    fixed = tuple(PlaneInit(p.role, p.concept, p.normal, p.offset_m, fixed=True) for p in planes)
+    out = verify(Verification(fixed, v.constraints, v.sources, v.cameras))
+    edge = [r for r in out.residuals if r.kind == "edge"]
+    assert len(edge) == 1  # pooled: RMS over the fragments, summed costs and thresholds
+    assert edge[0].residual == pytest.approx(math.sqrt((2 * 1.0 + 2 * 25.0) / 2), rel=1e-3)
+    assert edge[0].threshold == pytest.approx(18.0)
+    assert edge[0].rejected  # 26 > 18: the 5 px fragment is too far even with the other
+
+
+def test_constraints_come_from_the_knowledge_base(buildings_kb: KnowledgeBase) -> None:
+    knowledge = Knowledge.from_kb(buildings_kb)
+    body = ["front", "back", "left", "right", "floor", "roof.front", "roof.back"]
+    wing = ["front", "back", "left", "right", "roof.front", "roof.back"]
+    up = np.array([0.0, -1.0, 0.0])
+    planes = [PlaneInit(f"body.{r}", "", up, 0.0, fixed=True) for r in body]
+    planes += [PlaneInit(f"body.wings[0].{r}", "Wall", up, 0.0) for r in wing]
+    fillers = {"body.roof": "GableRoof", "body.wings[0]": "SkewWing"}
+    index = {p.role: i for i, p in enumerate(planes)}
+    walls = [(f"body.wings[0].{r}", "Wall") for r in ("front", "back")]
+    tilts = tilt_constraints(knowledge, walls, "body.floor", index)
+    v = build_verification(
+        knowledge, "body", "HouseBody", planes, fillers, {}, [], set(), (), tilts
+    )
+    labels = {(s.label, s.owner) for s in v.sources}
+    # the body's own constraints relate fixed parts only: verified with the body, left out
+    assert ("corner_fl", "body") not in labels
+    assert ("wings_meet", "body") in labels
+    meet = v.constraints[[s.label for s in v.sources].index("wings_meet")]
+    assert meet.value == pytest.approx(math.radians(135.0))
+    assert ("Wing#1", "body.wings[0]") in labels
+    assert ("Wall.tilt", "body.wings[0].back") in labels
+    tilt = v.constraints[[s.owner for s in v.sources].index("body.wings[0].back")]
+    assert tilt.sigma == pytest.approx(math.radians(1.0))
+    assert tilt.reject_above == pytest.approx(math.radians(5.0))
