@@ -388,16 +388,7 @@ class Interpreter:
         for leaf in structure.leaves:
             region = role_to_region.get(leaf.role)
             if region is not None:
-                planes.append(
-                    PlaneInit(
-                        leaf.role,
-                        leaf.concept,
-                        region.normal,
-                        region.offset_m,
-                        False,
-                        region.centroid_m,
-                    )
-                )
+                planes.append(PlaneInit(leaf.role, leaf.concept, region.normal, region.offset_m))
                 continue
             inserted.append(leaf.role)
             n = predicted_normal(leaf, frame, pitch)
@@ -415,7 +406,7 @@ class Interpreter:
                     f"{leaf.role} ({leaf.concept}) would face camera {self.evidence.camera.view} "
                     "but no region fits it"
                 )
-            planes.append(PlaneInit(leaf.role, leaf.concept, n, d, False, on_plane))
+            planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
         for role, (n, d) in sorted(fixed.items()):
             planes.append(PlaneInit(role, "", n, d, fixed=True))
         index = {p.role: i for i, p in enumerate(planes)}

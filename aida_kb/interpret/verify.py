@@ -52,8 +52,8 @@ TOLERANCE = 1e-8  # the solver's ftol, xtol and gtol: far below what the verdict
 class PlaneInit:
     """A part's plane before adjustment: unit outward normal (3,), offset d (n·x = d), metres.
 
-    ``centre_m`` (3,), world frame: a point near the part's middle (its frame's origin; the
-    foot of the perpendicular from the world origin when None).
+    Its frame (`aida_kb.solve`) is centred at the foot of the perpendicular from the world
+    origin (the reference camera): a direction the constraints leave free keeps that point.
     """
 
     role: str
@@ -61,7 +61,6 @@ class PlaneInit:
     normal: FloatArray
     offset_m: float
     fixed: bool = False
-    centre_m: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -327,20 +326,10 @@ def verify(v: Verification) -> Outcome:
     """
     normals = np.array([p.normal for p in v.planes], dtype=np.float64).reshape(-1, 3)
     offsets = np.array([p.offset_m for p in v.planes], dtype=np.float64)
-    centres = np.array(
-        [
-            p.centre_m
-            if p.centre_m is not None
-            else p.offset_m * p.normal / np.linalg.norm(p.normal)
-            for p in v.planes
-        ],
-        dtype=np.float64,
-    ).reshape(-1, 3)
     problem = build_problem(
         normals,
         offsets,
         v.constraints,
-        centres=centres,
         fixed_parts=[i for i, p in enumerate(v.planes) if p.fixed],
         names=v.roles,
         cameras=v.cameras,

@@ -66,10 +66,7 @@ def test_perpendicular_walls_meet_the_regions_part_way() -> None:
     front, left = np.array([0.0, 0.0, -1.0]), np.array([-1.0, 0.0, 0.0])
     # the regions say the corner is 92 degrees; the knowledge says 90 +- 1
     seen = {"a": (_turn(front, 1.0), [0, 0, 20.0]), "b": (_turn(left, -1.0), [-5.0, 0, 22.0])}
-    planes = tuple(
-        PlaneInit(r, "Wall", n, float(n @ c), centre_m=np.asarray(c, float))
-        for r, (n, c) in seen.items()
-    )
+    planes = tuple(PlaneInit(r, "Wall", n, float(n @ c)) for r, (n, c) in seen.items())
     positions = [_position(i, _region(r, n, c)) for i, (r, (n, c)) in enumerate(seen.items())]
     corner = _angle((0, 1), math.pi / 2, 1.0, 5.0)
     v = Verification(
