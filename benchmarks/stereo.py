@@ -6,12 +6,19 @@ that have a true disparity: time (best of several runs, same disparity range for
 bad1 / bad2 (share of estimated pixels off by more than 1 / 2 px) and mean error. At matched
 density: the NCC matcher's most certain pixels, as many as SGBM estimates.
 
+Timing: all matchers run interleaved round-robin (REPEATS rounds), so that a changing machine
+load hits them alike; the ratios use the best time (the least disturbed run) and, as a check,
+the median. Once with the default threads (NCC: one row-band worker per CPU, OpenCV: its
+default), once with one thread each (less sensitive to other processes on the machine). The
+1-minute load average is reported with the figures.
+
 Run: .venv/bin/python benchmarks/stereo.py   (prints ONE line of JSON at the end)
 """
 
 from __future__ import annotations
 
 import json
+import os
 import sys
 import tempfile
 import time
@@ -34,9 +41,9 @@ REPEATS = 15
 
 
 def best_times(fns: dict[str, Callable[[], Any]], repeats: int = REPEATS) -> dict[str, Any]:
-    """Fastest of `repeats` runs (seconds) of each function, runs interleaved round-robin so
-    that a varying machine load hits all of them alike; and each function's last result."""
-    best = {name: float("inf") for name in fns}
+    """Fastest and median of `repeats` wall times (seconds) of each function, runs interleaved
+    round-robin so that a varying machine load hits all of them alike; each one's last result."""
+    times: dict[str, list[float]] = {name: [] for name in fns}
     result: dict[str, Any] = {}
     for name, fn in fns.items():
         result[name] = fn()  # warm-up (allocations, thread pools)
@@ -44,8 +51,12 @@ def best_times(fns: dict[str, Callable[[], Any]], repeats: int = REPEATS) -> dic
         for name, fn in fns.items():
             start = time.perf_counter()
             result[name] = fn()
-            best[name] = min(best[name], time.perf_counter() - start)
-    return {"time": best, "result": result}
+            times[name].append(time.perf_counter() - start)
+    return {
+        "time": {name: min(t) for name, t in times.items()},
+        "median": {name: float(np.median(t)) for name, t in times.items()},
+        "result": result,
+    }
 
 
 def opencv_disparity(raw: Any) -> np.ndarray:
@@ -152,6 +163,8 @@ def main() -> None:
                     "ncc_exact_at_sgbm": score_disparity(matched_exact, truth),
                     "ncc_density_at_sgbm": matched_density,
                     "single": single["time"],
+                    "median": runs["median"],
+                    "single_median": single["median"],
                 }
             )
     first = rows[0]
@@ -170,6 +183,10 @@ def main() -> None:
     out["ncc_time_over_bm"] = round(first["time_s"]["ncc"] / first["time_s"]["bm"], 2)
     out["ncc_exact_time_over_bm"] = round(first["time_s"]["ncc_exact"] / first["time_s"]["bm"], 2)
     out["ncc_time_over_bm_1thread"] = round(first["single"]["ncc"] / first["single"]["bm"], 2)
+    out["ncc_time_over_bm_median"] = round(first["median"]["ncc"] / first["median"]["bm"], 2)
+    out["ncc_time_over_bm_1thread_median"] = round(
+        first["single_median"]["ncc"] / first["single_median"]["bm"], 2
+    )
     # the second view, as a check that the figures are not a one-view accident
     second = rows[1]
     out["view01_ncc_bad2_at_sgbm_density"] = round(second["ncc_at_sgbm"].bad2, 4)
@@ -178,6 +195,8 @@ def main() -> None:
     out["view01_ncc_time_over_bm_1thread"] = round(
         second["single"]["ncc"] / second["single"]["bm"], 2
     )
+    out["load_average_1min"] = round(os.getloadavg()[0], 2)
+    out["cpus"] = os.cpu_count()
     out["done_when_bad2"] = out["ncc_bad2_at_sgbm_density"] <= out["sgbm_bad2"]
     out["done_when_time"] = out["ncc_time_over_bm"] <= 5.0
     print(json.dumps(out))

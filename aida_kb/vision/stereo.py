@@ -1,14 +1,19 @@
 """Block-wise normalised cross-correlation (NCC) stereo with a certainty map (paper §2).
 
 For a rectified pair, every left pixel x is compared with the right pixel x - d for each
-disparity d of the range with the zero-mean NCC of a square window; box filters give the
-window sums for all pixels of one disparity at once, so the work is one loop over the
-disparity range of whole-image operations (no per-pixel Python). The scores of a disparity are
-stored as int32 keys (the quantised score in the high bits, the disparity index in the low
-bits), so that one max-reduction yields the best score and its disparity together, for the
-left image and, through a strided view of the same volume, for the right image (left-right
-consistency). Subpixel disparity comes from a parabola through the three scores around the
-peak. Rows are processed in bands, in parallel threads (OpenCV and numpy release the GIL).
+disparity d of the range with the NCC of a square window. Each image is normalised once
+(window mean and standard deviation, whole-image box filters); then, per band of rows and per
+disparity, the products of the two normalised images are summed over every window at once with
+one float32 integral image (no per-pixel Python). The scores of a disparity are stored as int32
+keys (the quantised score in the high bits, the disparity index in the low bits), so that
+running int32 maxima yield the best score and its disparity together, for the left image and,
+read with the disparity's column shift, for the right image (left-right consistency). Subpixel
+disparity comes from a parabola through the three scores around the peak.
+
+Coarse to fine: a half-resolution pass over the whole range bounds each band's disparities, so
+that the full-resolution pass searches only those. Bands run in parallel threads (OpenCV and
+numpy release the GIL); scratch arrays are reused across bands and calls (first-touch page
+faults of fresh memory cost more than the arithmetic).
 
 The certainty map (0..1) is the product of three factors: the NCC peak, its distinctiveness
 (peak minus the best score at least two disparities away) and the local image gradient.
@@ -19,8 +24,12 @@ from __future__ import annotations
 import math
 import os
 import threading
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import lru_cache, partial
+from typing import Any, TypeVar, cast
 
 import cv2
 import numpy as np
@@ -29,6 +38,7 @@ import numpy.typing as npt
 from aida_kb.errors import VisionError
 
 F32 = npt.NDArray[np.float32]
+T = TypeVar("T")
 
 # certainty model (module constants, documented in `ncc_disparity`)
 PEAK_FLOOR = 0.3  # NCC at or below this gets certainty 0
@@ -119,7 +129,11 @@ def ncc_disparity(
     if min_disp + window >= W or window > H:
         raise VisionError(f"image of {W}x{H} pixels is too small for the disparity range")
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
-    return _ncc(L, R, min_disp, num_disp, window, lr_tolerance_px, exact, adaptive_range, n_workers)
+    args = (L, R, min_disp, num_disp, window, lr_tolerance_px, exact, adaptive_range)
+    if n_workers <= 1:
+        return _ncc(*args, None)
+    with ThreadPoolExecutor(max_workers=n_workers) as pool:
+        return _ncc(*args, pool)
 
 
 def _ncc(
@@ -131,45 +145,60 @@ def _ncc(
     lr_tol: float,
     exact: bool,
     adaptive: bool,
-    workers: int,
+    pool: ThreadPoolExecutor | None,
 ) -> DisparityMap:
-    """`ncc_disparity` on validated float images (grey levels - 128)."""
+    """`ncc_disparity` on validated float images (grey levels - 128); `pool` runs the image
+    preparation and the row bands in threads (None: one after another)."""
     H, W = L.shape
-    half = window // 2
     bands = [(y0, min(H, y0 + _BAND_ROWS)) for y0 in range(0, H, _BAND_ROWS)]
     hi_all = min_disp + num_disp - 1
     ranges = {band: (min_disp, hi_all) for band in bands}
     if adaptive and num_disp >= 16 and min(H, W) >= 8 * window:
-        ranges = _band_ranges(L, R, bands, min_disp, num_disp, window, workers)
+        ranges = _band_ranges(L, R, bands, min_disp, num_disp, window, pool)
     # search one disparity beyond each end of the range, so that a peak on an end of the
     # requested range still has two neighbours for the parabola; d = -1 (min_disp 0) is
     # searched with the right image shifted left by one pixel
     shift = 1 if min_disp == 0 else 0
     if shift:
         R = np.concatenate([R[:, 1:], R[:, -1:]], axis=1)
-    out = [np.full((H, W), np.nan, np.float32) for _ in range(4)]
-    out[1][:] = 0.0
+    out = _Output(
+        disparity=np.empty((H, W), np.float32),
+        certainty=np.empty((H, W), np.float32),
+        peak=np.empty((H, W), np.float32),
+        distinctiveness=np.empty((H, W), np.float32),
+    )
+    with _workspace() as wl, _workspace() as wr:
+        scale = 1.0 / (window * window)  # folded into the left image: sums are NCC scores
+        jobs: list[Callable[[], Any]] = [
+            lambda: _prepare(L, window, exact, scale, wl, with_gradient=True),
+            lambda: _prepare(R, window, exact, 1.0, wr, with_gradient=False),
+        ]
+        left, right = _run(pool, jobs)
 
-    def job(band: tuple[int, int]) -> None:
-        y0, y1 = band
-        lo, hi = ranges[band]
-        a, b = max(0, y0 - half), min(H, y1 + half)
-        res = _band(L[a:b], R[a:b], lo - 1 + shift, hi - lo + 3, window, lr_tol, exact)
-        for dst, src in zip(out, res, strict=True):
-            dst[y0:y1] = src[y0 - a : y1 - a]
+        def job(band: tuple[int, int]) -> None:
+            lo, hi = ranges[band]
+            with _workspace() as ws:
+                _band(left, right, out, band, lo - 1 + shift, hi - lo + 3, lr_tol, ws)
 
-    if workers <= 1:
-        for band in bands:
-            job(band)
-    else:
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            list(pool.map(job, bands))
+        _run(pool, [partial(job, band) for band in bands])
     if shift:
-        out[0] -= np.float32(shift)
-    return DisparityMap(disparity=out[0], certainty=out[1], peak=out[2], distinctiveness=out[3])
+        np.subtract(out.disparity, np.float32(shift), out=out.disparity)
+    return DisparityMap(
+        disparity=out.disparity,
+        certainty=out.certainty,
+        peak=out.peak,
+        distinctiveness=out.distinctiveness,
+    )
 
 
-RANGE_MARGIN_PX = 3  # widening of each band's disparity range found at half resolution
+def _run(pool: ThreadPoolExecutor | None, jobs: Sequence[Callable[[], T]]) -> list[T]:
+    """The jobs' results, in order: in the pool's threads, or one after another."""
+    if pool is None:
+        return [job() for job in jobs]
+    return list(pool.map(lambda job: job(), jobs))
+
+
+RANGE_MARGIN_PX = 2  # widening of each band's disparity range found at half resolution
 RANGE_QUANTILE = 0.002  # coarse disparities below / above these quantiles are outliers
 
 
@@ -180,7 +209,7 @@ def _band_ranges(
     min_disp: int,
     num_disp: int,
     window: int,
-    workers: int,
+    pool: ThreadPoolExecutor | None,
 ) -> dict[tuple[int, int], tuple[int, int]]:
     """Each band's disparity range (inclusive), from a half-resolution NCC pass.
 
@@ -202,7 +231,7 @@ def _band_ranges(
         1.0,
         False,
         False,
-        workers,
+        pool,
     )
     cd = coarse.disparity
     ok = (coarse.certainty > 0.1) & ~np.isnan(cd)
@@ -223,25 +252,265 @@ def _band_ranges(
     return ranges
 
 
-def _box(img: F32, window: int) -> F32:
+def _box(img: F32, window: int, dst: F32 | None = None) -> F32:
     return np.asarray(
-        cv2.boxFilter(img, cv2.CV_32F, (window, window), borderType=cv2.BORDER_REFLECT_101),
+        cv2.boxFilter(
+            img, cv2.CV_32F, (window, window), dst=dst, borderType=cv2.BORDER_REFLECT_101
+        ),
         dtype=np.float32,
     )
 
 
-_local = threading.local()
+class _Workspace:
+    """Named scratch arrays reused across bands and calls (first-touch page faults of fresh
+    memory cost more than the arithmetic on it). Contents are undefined on `get`."""
+
+    def __init__(self) -> None:
+        self._buffers: dict[str, npt.NDArray[Any]] = {}
+
+    def get(self, name: str, shape: tuple[int, ...], dtype: type[np.generic]) -> npt.NDArray[Any]:
+        size = math.prod(shape)
+        buf = self._buffers.get(name)
+        if buf is None or buf.size < size or buf.dtype != dtype:
+            buf = np.empty(max(size, int(1.25 * size)), dtype)
+            self._buffers[name] = buf
+        return buf[:size].reshape(shape)
 
 
-def _workspace(shape: tuple[int, int, int]) -> F32:
-    """A contiguous float32 volume of `shape` on a per-thread buffer reused across bands
-    (first-touch page faults of fresh memory are costly). Its content is undefined."""
-    size = shape[0] * shape[1] * shape[2]
-    buf: F32 | None = getattr(_local, "buffer", None)
-    if buf is None or buf.size < size:
-        buf = np.empty(max(size, int(1.25 * size)), np.float32)
-        _local.buffer = buf
-    return buf[:size].reshape(shape)
+_FREE_WORKSPACES: list[_Workspace] = []
+_WORKSPACE_LOCK = threading.Lock()
+
+
+@contextmanager
+def _workspace() -> Iterator[_Workspace]:
+    """A workspace for one job at a time, returned to a shared free list afterwards."""
+    with _WORKSPACE_LOCK:
+        ws = _FREE_WORKSPACES.pop() if _FREE_WORKSPACES else _Workspace()
+    try:
+        yield ws
+    finally:
+        with _WORKSPACE_LOCK:
+            _FREE_WORKSPACES.append(ws)
+
+
+@dataclass(frozen=True)
+class _Output:
+    disparity: F32
+    certainty: F32
+    peak: F32
+    distinctiveness: F32
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """One image of the pair, prepared for correlation (arrays live in a workspace).
+
+    corr : (H + w - 1, W + w - 1) the values correlated per disparity, padded by the window's
+        half side (reflect-101): (I - mu) / max(sd, MIN_STD) * scale, or I itself (exact).
+    inv_sd, mu : (H, W) 1 / max(sd, MIN_STD) and the mean of each pixel's window.
+    flat : (H, W) windows with std < MIN_STD.
+    c_grad : (H, W) the certainty's gradient factor (left image only, else empty).
+    """
+
+    window: int
+    exact: bool
+    corr: F32
+    inv_sd: F32
+    mu: F32
+    flat: npt.NDArray[np.bool_]
+    c_grad: F32
+
+
+def _prepare(
+    img: F32, window: int, exact: bool, scale: float, ws: _Workspace, *, with_gradient: bool
+) -> _Prepared:
+    """Window statistics of one whole image (see `_Prepared`), in `ws`'s buffers."""
+    half = window // 2
+    H, W = img.shape
+    mu = _box(img, window, ws.get("mu", (H, W), np.float32))
+    var = ws.get("var", (H, W), np.float32)
+    cv2.sqrBoxFilter(img, cv2.CV_32F, (window, window), dst=var, borderType=cv2.BORDER_REFLECT_101)
+    inv_sd = ws.get("inv_sd", (H, W), np.float32)
+    cv2.multiply(mu, mu, dst=inv_sd)
+    cv2.subtract(var, inv_sd, dst=var)
+    flat = var < np.float32(MIN_STD * MIN_STD)
+    np.maximum(var, np.float32(MIN_STD * MIN_STD), out=inv_sd)
+    cv2.sqrt(inv_sd, dst=inv_sd)
+    np.reciprocal(inv_sd, out=inv_sd)
+    corr = ws.get("corr", (H + 2 * half, W + 2 * half), np.float32)
+    if exact:
+        src = img
+    else:
+        src = var  # the scratch takes the normalised image
+        cv2.subtract(img, mu, dst=src)
+        cv2.multiply(src, inv_sd, dst=src, scale=scale)
+    cv2.copyMakeBorder(src, half, half, half, half, cv2.BORDER_REFLECT_101, dst=corr)
+    c_grad = np.empty((0, 0), np.float32)
+    if with_gradient:
+        c_grad = _gradient_factor(img, window, ws)
+    return _Prepared(window, exact, corr, inv_sd, mu, flat, c_grad)
+
+
+def _gradient_factor(img: F32, window: int, ws: _Workspace) -> F32:
+    """g² / (g² + GRADIENT_SCALE²) (H, W), g the window mean of the gradient magnitude."""
+    H, W = img.shape
+    gx = ws.get("gx", (H, W), np.float32)
+    gy = ws.get("gy", (H, W), np.float32)
+    cv2.Sobel(img, cv2.CV_32F, 1, 0, dst=gx, ksize=3, scale=0.125)
+    cv2.Sobel(img, cv2.CV_32F, 0, 1, dst=gy, ksize=3, scale=0.125)
+    cv2.magnitude(gx, gy, magnitude=gx)
+    g = _box(gx, window, gy)
+    cv2.multiply(g, g, dst=g)  # g²
+    np.add(g, np.float32(GRADIENT_SCALE**2), out=gx)
+    cv2.divide(g, gx, dst=g)
+    return g
+
+
+def _window_sums(
+    left: _Prepared, right: _Prepared, y0: int, d: int, dst: F32, ws: _Workspace
+) -> None:
+    """Window sums of corr_L(x) * corr_R(x - d) (exact mode: the zero-mean NCC) for the output
+    rows y0 .. y0 + h - 1 and columns d .. W - 1, written to `dst` (h, W - d), from one
+    integral image of the band's products."""
+    w = left.window
+    h, n = dst.shape
+    Lb = left.corr[y0 : y0 + h + w - 1]
+    Rb = right.corr[y0 : y0 + h + w - 1]
+    m = Lb.shape[1] - d
+    if not left.exact:
+        p = ws.get("prod", (h + w - 1, m), np.float32)
+        cv2.multiply(Lb[:, d:], Rb[:, :m], dst=p)
+        # float32 integral: the normalised products are ~1/w² each, so that a band's total
+        # stays small enough for ~1e-5 absolute accuracy of the scores
+        s = ws.get("integral", (h + w, m + 1), np.float32)
+        cv2.integral(p, sum=s, sdepth=cv2.CV_32F)
+        v = ws.get("vertical", (h, m + 1), np.float32)
+        cv2.subtract(s[w : w + h], s[0:h], dst=v)
+        cv2.subtract(v[:, w : w + n], v[:, 0:n], dst=dst)
+        return
+    # exact zero-mean NCC: raw products summed in float64, then the means and deviations
+    p64 = Lb[:, d:].astype(np.float64) * Rb[:, :m]
+    s64 = cv2.integral(p64, sdepth=cv2.CV_64F)
+    v64 = s64[w : w + h] - s64[0:h]
+    sums = v64[:, w : w + n] - v64[:, 0:n]
+    rows = slice(y0, y0 + h)
+    cov = sums / (w * w) - left.mu[rows, d:] * right.mu[rows, :n]
+    dst[:] = cov * left.inv_sd[rows, d:] * right.inv_sd[rows, :n]
+
+
+def _band(
+    left: _Prepared,
+    right: _Prepared,
+    out: _Output,
+    band: tuple[int, int],
+    min_disp: int,
+    D: int,
+    lr_tol: float,
+    ws: _Workspace,
+) -> None:
+    """NCC stereo on the output rows band = (y0, y1), disparities min_disp .. min_disp + D - 1;
+    writes the band's rows of `out`.
+
+    The volume holds the scores as float32 with the disparity index written into the lowest
+    mantissa bits; the IEEE bits of positive floats order like integers, so an int32 max over
+    the disparity axis gives the best positive score and its index at once (a pixel whose
+    scores are all <= 0 gets none, as it should). The maxima for the left and the right image
+    are taken while each slice is in cache.
+    """
+    y0, y1 = band
+    h = y1 - y0
+    W = left.flat.shape[1]
+    rows = slice(y0, y1)
+    kbits = max(1, math.ceil(math.log2(D)))
+    kmask = (1 << kbits) - 1
+    not_k = ~kmask
+
+    # slice k + 1 holds disparity index k; slices 0 and D + 1 are empty sentinels, so that the
+    # neighbours k - 1 and k + 1 of any peak can be read without bounds checks
+    width = W + 1  # a spare column keeps the flat neighbour indices in bounds
+    vol = ws.get("volume", (D + 2, h, width), np.float32)
+    keys = vol.view(np.int32)
+    keys[0] = 0  # key 0 (+0.0) is below the key of every positive score
+    keys[D + 1] = 0
+    keys[:, :, W:] = 0
+    best = ws.get("best", (h, W), np.int32)
+    best_r = ws.get("best_r", (h, W), np.int32)  # right image: its pixel xr = x - d
+    best.fill(0)
+    best_r.fill(0)
+    for k in range(D):
+        d = min_disp + k
+        n = W - d
+        keys[k + 1, :, : min(d, W)] = 0
+        if n <= 0:
+            continue
+        _window_sums(left, right, y0, d, vol[k + 1, :, d:W], ws)
+        ks = keys[k + 1, :, d:W]
+        cv2.bitwise_and(ks, _scalar(not_k), dst=ks)
+        cv2.bitwise_or(ks, _scalar(k), dst=ks)
+        cv2.max(best[:, d:], ks, dst=best[:, d:])
+        cv2.max(best_r[:, :n], ks, dst=best_r[:, :n])
+
+    def score(key: npt.NDArray[np.int32]) -> F32:
+        return np.asarray(np.bitwise_and(key, not_k).view(np.float32), dtype=np.float32)
+
+    k_best = best & kmask
+    peak = score(best)
+    # neighbours k - 1 and k + 1 of the peak: flat indices in the (D + 2, h, width) volume
+    flat = keys.reshape(-1)
+    plane = h * width
+    idx = k_best.astype(np.intp)
+    idx *= plane
+    idx += _base_index(h, width, W)  # slice k_best holds index k_best - 1
+    s_m = score(flat.take(idx))
+    flat[idx] = 0  # (for the second best, at least two disparities away from the peak)
+    idx += 2 * plane
+    s_p = score(flat.take(idx))
+    flat[idx] = 0
+    idx -= plane
+    flat[idx] = 0
+    second = _max_over(keys[1 : D + 1, :, :W])
+    s_2 = score(second)
+    s_2 -= second <= kmask  # no positive score two away: -1 for "none" (ok, it is below 0)
+
+    # subpixel: parabola through the peak and its neighbours (NaN/inf only where invalid)
+    denom = cv2.scaleAdd(peak, -2.0, cv2.add(s_m, s_p))
+    interior = (k_best > 0) & (k_best < D - 1) & (denom < 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        offset = cv2.divide(cv2.subtract(s_m, s_p), denom, scale=0.5)
+    np.clip(offset, np.float32(-0.5), np.float32(0.5), out=offset)
+    disp = k_best.astype(np.float32)
+    disp += offset
+    disp += np.float32(min_disp)
+
+    # left-right consistency: the right pixel x - d must point back (no key where it is flat)
+    np.multiply(best_r, ~right.flat[rows], out=best_r)
+    row_start, right_base = _right_index(h, W, min_disp)
+    idx_r = right_base - k_best  # flat index of (y, x - d) in best_r
+    x_ok = idx_r >= row_start
+    key_r = np.take(best_r.reshape(-1), idx_r, mode="clip")
+    consistent = np.abs((key_r & kmask) - k_best) <= lr_tol
+    valid = (best > kmask) & (key_r > kmask) & interior & consistent & x_ok & ~left.flat[rows]
+
+    distinct = peak - s_2
+    c_peak = peak - np.float32(PEAK_FLOOR)
+    c_peak *= np.float32(1.0 / (1.0 - PEAK_FLOOR))
+    np.clip(c_peak, np.float32(0.0), np.float32(1.0), out=c_peak)
+    c_dist = distinct * np.float32(1.0 / DISTINCT_SCALE)
+    np.clip(c_dist, np.float32(0.0), np.float32(1.0), out=c_dist)
+    vf = valid.astype(np.float32)
+    cv2.multiply(c_peak, c_dist, dst=out.certainty[rows])
+    cv2.multiply(out.certainty[rows], left.c_grad[rows], dst=out.certainty[rows])
+    cv2.multiply(out.certainty[rows], vf, dst=out.certainty[rows])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nan_if_invalid = np.float32(0.0) / vf  # 0 where valid, NaN elsewhere
+    np.add(disp, nan_if_invalid, out=out.disparity[rows])
+    np.add(peak, nan_if_invalid, out=out.peak[rows])
+    np.add(distinct, nan_if_invalid, out=out.distinctiveness[rows])
+
+
+def _scalar(value: int) -> Any:
+    """An int as an OpenCV scalar operand (the cv2 stubs type only arrays there)."""
+    return cast(Any, value)
 
 
 def _max_over(slices: npt.NDArray[np.int32] | list[npt.NDArray[np.int32]]) -> npt.NDArray[np.int32]:
@@ -253,126 +522,21 @@ def _max_over(slices: npt.NDArray[np.int32] | list[npt.NDArray[np.int32]]) -> np
     return acc
 
 
-def _band(
-    L: F32, R: F32, min_disp: int, D: int, window: int, lr_tol: float, exact: bool
-) -> tuple[F32, F32, F32, F32]:
-    """NCC stereo on one band of rows (with its halo); returns full-band arrays.
+@lru_cache(maxsize=16)
+def _base_index(h: int, width: int, W: int) -> npt.NDArray[np.intp]:
+    """Flat indices of the pixels (h, W) of one (h, width) slice (read-only, cached)."""
+    idx = np.arange(h * width, dtype=np.intp).reshape(h, width)[:, :W].copy()
+    idx.setflags(write=False)
+    return idx
 
-    The volume holds the scores as float32 with the disparity index written into the lowest
-    mantissa bits; the IEEE bits of positive floats order like integers, so an int32 max over
-    the disparity axis gives the best positive score and its index at once (a pixel whose
-    scores are all <= 0 gets none, as it should).
-    """
-    h, W = L.shape
-    kbits = max(1, math.ceil(math.log2(D)))
-    kmask = np.int32((1 << kbits) - 1)
-    invalid = np.int32(0)  # +0.0: below the key of every positive score
 
-    muL, muR = _box(L, window), _box(R, window)
-    sdL = np.sqrt(np.maximum(_box(L * L, window) - muL * muL, 0.0))
-    sdR = np.sqrt(np.maximum(_box(R * R, window) - muR * muR, 0.0))
-    flatL, flatR = sdL < MIN_STD, sdR < MIN_STD
-    A = (1.0 / np.maximum(sdL, MIN_STD)).astype(np.float32)
-    B = (1.0 / np.maximum(sdR, MIN_STD)).astype(np.float32)
-    P = (muL * A).astype(np.float32)
-    Q = (muR * B).astype(np.float32)
-    if not exact:
-        Ln = ((L - muL) * A).astype(np.float32)
-        Rn = ((R - muR) * B).astype(np.float32)
-
-    # slice k + 1 holds disparity index k; slices 0 and D + 1 are empty sentinels, so that the
-    # neighbours k - 1 and k + 1 of any peak can be read without bounds checks
-    width = W + min_disp + D  # extra columns keep the right-image strided view in bounds
-    vol = _workspace((D + 2, h, width))
-    keys = vol.view(np.int32)
-    keys[0] = invalid
-    keys[D + 1] = invalid
-    keys[:, :, W:] = invalid
-    prod = np.empty((h, W), np.float32)
-    mm = np.empty((h, W), np.float32)
-    not_k = ~kmask
-    for k in range(D):
-        d = min_disp + k
-        n = W - d
-        keys[k + 1, :, : min(d, W)] = invalid
-        if n <= 0:
-            continue
-        sl = vol[k + 1, :, d:W]
-        if exact:
-            p = cv2.multiply(L[:, d:], R[:, :n], dst=prod[:, :n])
-            s = cv2.boxFilter(p, cv2.CV_32F, (window, window), borderType=cv2.BORDER_REFLECT_101)
-            cv2.multiply(s, A[:, d:], dst=s)
-            cv2.multiply(s, B[:, :n], dst=s)
-            m = cv2.multiply(P[:, d:], Q[:, :n], dst=mm[:, :n])
-            cv2.subtract(s, m, dst=sl)
-        else:
-            p = cv2.multiply(Ln[:, d:], Rn[:, :n], dst=prod[:, :n])
-            cv2.boxFilter(
-                p, cv2.CV_32F, (window, window), dst=sl, borderType=cv2.BORDER_REFLECT_101
-            )
-        # pack the disparity index into the low mantissa bits (while the slice is in cache);
-        # the IEEE bits of positive floats order like integers (negative scores never win)
-        ks = keys[k + 1, :, d:W]
-        np.bitwise_and(ks, not_k, out=ks)
-        np.bitwise_or(ks, k, out=ks)
-
-    def score(key: npt.NDArray[np.int32]) -> F32:
-        return np.asarray((key & not_k).view(np.float32), dtype=np.float32)
-
-    inner = keys[1 : D + 1, :, :W]
-    best = _max_over(inner)
-    # right image: its pixel xr at disparity index k sits at left column xr + min_disp + k
-    best_r = _max_over([keys[k + 1, :, min_disp + k : min_disp + k + W] for k in range(D)])
-
-    k_best = (best & kmask).astype(np.intp)
-    has = best > kmask
-    peak = score(best)
-    # flat indices of the neighbours k-1, k+1 in the (D, h, width) volume
-    flat = keys.reshape(-1)
-    plane = h * width
-    i_best = np.arange(h * width, dtype=np.intp).reshape(h, width)[:, :W] + (k_best + 1) * plane
-    i_m = i_best - plane
-    i_p = i_best + plane
-    s_m = score(flat[i_m])
-    s_p = score(flat[i_p])
-    # second best at least two disparities away
-    flat[i_m] = invalid
-    flat[i_best] = invalid
-    flat[i_p] = invalid
-    second = _max_over(inner)
-    s_2 = np.where(second > kmask, score(second), np.float32(-1.0))
-
-    denom = s_m - 2.0 * peak + s_p
-    interior = (k_best > 0) & (k_best < D - 1) & (denom < 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        offset = np.where(interior, 0.5 * (s_m - s_p) / np.where(interior, denom, -1.0), 0.0)
-    disp = (min_disp + k_best + np.clip(offset, -0.5, 0.5)).astype(np.float32)
-
-    # left-right consistency
-    d_int = min_disp + k_best
-    xs = np.arange(W)[None, :]
-    xr = np.clip(xs - d_int, 0, W - 1)
-    rows = (np.arange(h, dtype=np.intp) * W)[:, None]
-    k_r = (best_r.reshape(-1)[rows + xr] & kmask).astype(np.intp)
-    consistent = np.abs(k_r - k_best) <= lr_tol
-    x_ok = xs - d_int >= 0
-
-    flat_r_at = flatR.reshape(-1)[rows + xr]
-    valid = has & interior & consistent & x_ok & ~flatL & ~flat_r_at & (peak > 0.0)
-
-    gx = cv2.Sobel(L, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
-    gy = cv2.Sobel(L, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
-    g = _box(np.sqrt(gx * gx + gy * gy), window)
-    distinct = (peak - s_2).astype(np.float32)
-    c_peak = np.clip((peak - PEAK_FLOOR) / (1.0 - PEAK_FLOOR), 0.0, 1.0)
-    c_dist = np.clip(distinct / DISTINCT_SCALE, 0.0, 1.0)
-    g2 = g * g
-    c_grad = g2 / (g2 + GRADIENT_SCALE**2)
-    certainty = np.where(valid, c_peak * c_dist * c_grad, 0.0).astype(np.float32)
-    nan = np.float32(np.nan)
-    return (
-        np.where(valid, disp, nan).astype(np.float32),
-        certainty,
-        np.where(valid, peak, nan).astype(np.float32),
-        np.where(valid, distinct, nan).astype(np.float32),
-    )
+@lru_cache(maxsize=16)
+def _right_index(
+    h: int, W: int, min_disp: int
+) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
+    """(h, 1) flat index y·W of each row's start, and (h, W) y·W + x - min_disp (read-only)."""
+    row_start = (np.arange(h, dtype=np.int32) * np.int32(W))[:, None]
+    base = row_start + (np.arange(W, dtype=np.int32) - np.int32(min_disp))[None, :]
+    row_start.setflags(write=False)
+    base.setflags(write=False)
+    return row_start, base
