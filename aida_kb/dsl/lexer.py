@@ -50,22 +50,21 @@ class FastContextualLexer:
 
     def __init__(self, inner: ContextualLexer) -> None:
         self.inner = inner
-        by_lexer: dict[int, tuple[_Match, dict[str, Any], frozenset[str]]] = {}
+        #: LALR state -> (match function, keyword callbacks, terminals that may hold newlines);
+        #: filled on first use, as Lark builds its scanners (start-up stays short)
         self.states: dict[int, tuple[_Match, dict[str, Any], frozenset[str]]] = {}
-        ignore: frozenset[str] = frozenset()
-        for state, lexer in inner.lexers.items():
-            entry = by_lexer.get(id(lexer))
-            if entry is None:
-                scanner = lexer.scanner  # type: ignore[attr-defined]  # builds the callbacks
-                entry = (
-                    _matcher(scanner._mres),
-                    dict(lexer.callback),  # type: ignore[attr-defined]
-                    frozenset(lexer.newline_types),  # type: ignore[attr-defined]
-                )
-                by_lexer[id(lexer)] = entry
-                ignore = frozenset(lexer.ignore_types)  # type: ignore[attr-defined]
-            self.states[state] = entry
-        self.ignore = ignore
+        self._by_lexer: dict[int, tuple[_Match, dict[str, Any], frozenset[str]]] = {}
+        self.ignore: frozenset[str] = frozenset(inner.root_lexer.ignore_types)  # type: ignore[attr-defined]
+
+    def _entry(self, state: int) -> tuple[_Match, dict[str, Any], frozenset[str]]:
+        lexer: Any = self.inner.lexers[state]
+        entry = self._by_lexer.get(id(lexer))
+        if entry is None:
+            scanner = lexer.scanner  # builds the scanner and the keyword callbacks
+            entry = (_matcher(scanner._mres), dict(lexer.callback), frozenset(lexer.newline_types))
+            self._by_lexer[id(lexer)] = entry
+        self.states[state] = entry
+        return entry
 
     def lex(self, lexer_state: LexerState, parser_state: Any) -> Iterator[Token]:
         """The tokens of ``lexer_state``'s text, each in the parser's current context."""
@@ -81,7 +80,10 @@ class FastContextualLexer:
         stack = parser_state.state_stack
         new = _str_new
         while pos < end:
-            match, callbacks, newline_types = states[stack[-1]]
+            try:
+                match, callbacks, newline_types = states[stack[-1]]
+            except KeyError:
+                match, callbacks, newline_types = self._entry(stack[-1])
             m = match(text, pos, end)
             if m is None:  # a syntax error: let Lark's own lexer raise it
                 ctr.char_pos, ctr.line, ctr.line_start_pos = pos, line, line_start

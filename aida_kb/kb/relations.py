@@ -136,6 +136,8 @@ _Outer = tuple[tuple[ast.Relation, dict[str, "Arg"], Span | None], ...]
 
 
 def _merge_requires(*groups: Requires) -> Requires:
+    if not any(groups):  # the common case: nothing is conditional
+        return ()
     out: dict[str, tuple[str, ...]] = {}
     for group in groups:
         for prefix, concepts in group:
@@ -598,7 +600,7 @@ class Analyzer:
     ) -> list[Prim]:
         """Bind a template's parameters to the use's arguments and expand its body."""
         params = template.params
-        required = sum(1 for p in params if p.default is None)
+        required, defaults = self.signature(template)
         given = len(call.args)
         if not required <= given <= len(params):
             sig = ", ".join(
@@ -629,8 +631,7 @@ class Analyzer:
                     r = self.ref(arg, env)
                     v = r if r is None or self.fits(r, ptype, arg.span, p, template) else None
             else:
-                assert p.default is not None
-                v = _default(p.default, ptype)
+                v = defaults[i]
             if v is None:
                 ok = False
             else:
@@ -662,6 +663,22 @@ class Analyzer:
         finally:
             self._expanding.pop()
             self._site = outer_site
+
+    def signature(self, template: ast.Template) -> tuple[int, tuple[Val | None, ...]]:
+        """How many arguments the template requires, and each parameter's default as a value
+        (None: no default, or one that is no constant of the parameter's type). Computed once
+        per template and knowledge base."""
+        cache = self.table.signatures
+        found = cache.get(template.name.text)
+        if found is None or found[0] is not template:
+            params = template.params
+            required = sum(1 for p in params if p.default is None)
+            defaults = tuple(
+                None if p.default is None else _default(p.default, p.type.text) for p in params
+            )
+            found = (template, required, defaults)
+            cache[template.name.text] = found
+        return found[1], found[2]
 
     def fits(self, ref: Ref, ptype: str, span: Span, p: ast.Param, t: ast.Template) -> bool:
         """Whether a role argument's concept is the parameter's concept or a specialisation."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Iterable, Iterator
+from typing import Any
 
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
@@ -147,6 +148,10 @@ class Table:
         self._descendants: dict[str, list[str]] = {}
         self._adjacent: dict[str, frozenset[tuple[str, str]]] = {}
         self._simple: dict[tuple[str, str], PathRes] = {}
+        self._dotted: dict[tuple[str, tuple[str, ...]], PathRes] = {}
+        #: template name -> (the template, required arguments, defaults as values): filled and
+        #: read by `aida_kb.kb.relations.Analyzer.signature`
+        self.signatures: dict[str, tuple[ast.Template, int, tuple[Any, ...]]] = {}
 
     # -- is-a queries
     def ancestors(self, name: str) -> frozenset[str]:
@@ -221,6 +226,19 @@ class Table:
             if hit is not None:
                 self._simple[key] = hit
                 return hit
+        texts = tuple(p.text for p in parts)
+        key2 = (owner, texts)
+        hit = self._dotted.get(key2)
+        if hit is not None:
+            return hit
+        res = self._resolve_parts(owner, parts)
+        if isinstance(res, PathRes):  # diagnostics carry this path's span: not shared
+            self._dotted[key2] = res
+        return res
+
+    def _resolve_parts(
+        self, owner: str, parts: tuple[ast.Name, ...]
+    ) -> PathRes | Diagnostic | None:
         cur: str | None = owner
         requires: list[tuple[str, tuple[str, ...]]] = []
         slot: Slot | None = None
