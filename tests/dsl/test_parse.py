@@ -250,6 +250,26 @@ def test_keyword_followed_number_is_not_a_unit() -> None:
     assert isinstance(rel.reject, ast.Number)
 
 
+def test_next_binding_on_the_same_line_is_not_a_unit() -> None:
+    item = _one('instance w of W { "A wall." n = 2  k = 3 deg  m = 4 kk = 5 }')
+    assert isinstance(item, ast.Instance)
+    assert item.doc == "A wall."
+    n, k, m, kk = item.bindings
+    assert [b.role.text for b in item.bindings] == ["n", "k", "m", "kk"]
+    assert isinstance(n.value, ast.Number)
+    assert n.value.span == Span("t.kb", 1, 33, 1, 34)
+    assert isinstance(k.value, ast.Quantity)
+    assert (k.value.value, k.value.unit) == (3.0, "deg")
+    assert isinstance(m.value, ast.Number)
+    assert isinstance(kk.value, ast.Number)
+
+
+def test_unknown_unit_is_still_reported_as_a_unit() -> None:
+    result = parse("instance w of W { n = 2 degs }", "t.kb")
+    assert [d.code for d in result.diagnostics] == ["KB003"]
+    assert result.diagnostics[0].span == Span("t.kb", 1, 25, 1, 29)
+
+
 def test_buildings_kb_parses_cleanly() -> None:
     path = ROOT / "kb" / "buildings.kb"
     result = parse(path.read_text(encoding="utf-8"), str(path))
