@@ -120,11 +120,15 @@ class Prim:
         self.span = span
 
 
+#: A rejection threshold: (value, whether it is a multiple of sigma, its kind, where written).
+_Threshold = tuple[float, bool, str, Span]
+
+
 class _Quals:
     __slots__ = ("reject", "tolerance", "weight")
 
     def __init__(
-        self, tolerance: Val | None, weight: float | None, reject: tuple[float, bool] | None
+        self, tolerance: Val | None, weight: float | None, reject: _Threshold | None
     ) -> None:
         self.tolerance = tolerance
         self.weight = weight
@@ -535,12 +539,20 @@ class Analyzer:
 
     # -- qualifiers
     def qualifiers(
-        self, rel: ast.Relation, env: dict[str, Arg], tol_kind: str, outer: _Outer = ()
+        self,
+        rel: ast.Relation,
+        env: dict[str, Arg],
+        tol_kind: str,
+        outer: _Outer = (),
+        *,
+        combined: bool = True,
     ) -> _Quals:
         """The relation's tolerance, weight and threshold; the enclosing uses' override them,
-        each read in the unit of this relation and reported at its own place."""
+        each read in the unit of this relation and reported at its own place. When
+        ``combined``, a threshold with a unit must be of the tolerance's kind (a measurement's
+        tolerance and threshold both in pixels or both lengths: ``KB132``)."""
         tol = weight = None
-        reject: tuple[float, bool] | None = None
+        reject: _Threshold | None = None
         if rel.tolerance is not None:
             tol = self.tolerance(rel.tolerance, tol_kind, env)
         if rel.weight is not None:
@@ -557,12 +569,31 @@ class Analyzer:
         for use_rel, use_env, use_site in outer:
             saved, self._site = self._site, use_site
             try:
-                over = self.qualifiers(use_rel, use_env, tol_kind)
+                over = self.qualifiers(use_rel, use_env, tol_kind, combined=False)
             finally:
                 self._site = saved
             tol = over.tolerance or tol
             weight = over.weight if over.weight is not None else weight
             reject = over.reject or reject
+        if (
+            combined
+            and tol is not None
+            and reject is not None
+            and not reject[1]
+            and reject[2] != tol.kind
+        ):
+            self.report(
+                diag(
+                    codes.UNIT_MISMATCH,
+                    f"the threshold is {_KIND_WORDS[reject[2]]}, but the tolerance is "
+                    f"{_KIND_WORDS[tol.kind]}",
+                    reject[3],
+                    "give the tolerance and the threshold in the same kind of unit "
+                    "(both px or both lengths), or the threshold as a multiple of sigma",
+                ),
+                use_dependent=True,
+            )
+            reject = None
         return _Quals(tol, weight, reject)
 
     def tolerance(self, expr: ast.Expr, kind: str, env: dict[str, Arg]) -> Val | None:
@@ -579,20 +610,18 @@ class Analyzer:
             return None
         return v
 
-    def threshold(
-        self, expr: ast.Expr, kind: str, env: dict[str, Arg]
-    ) -> tuple[float, bool] | None:
+    def threshold(self, expr: ast.Expr, kind: str, env: dict[str, Arg]) -> _Threshold | None:
         if isinstance(expr, ast.Number):
             if expr.value <= 0:
                 self.report(diag(codes.BAD_QUALIFIER, "a threshold must be positive", expr.span))
                 return None
-            return (expr.value, True)
+            return (expr.value, True, kind, expr.span)
         if kind == "image" and isinstance(expr, ast.Quantity) and expr.unit in ("m", "cm", "mm"):
             kind = "length"
         v = self.value(expr, kind, env)
         if v is None:
             return None
-        return (v.alts[0][0], False)
+        return (v.alts[0][0], False, v.kind, expr.span)
 
     # -- template uses
     def use(
@@ -745,13 +774,15 @@ class Analyzer:
         if quals.tolerance is not None:
             sigma = quals.tolerance.alts[0][0]
             tol_kind = quals.tolerance.kind
+        elif quals.reject is not None and not quals.reject[1]:
+            tol_kind = quals.reject[2]  # no tolerance: the threshold's unit is the relation's
         unit = _SI[tol_kind] if measurement else "rad"
         weight = quals.weight
         if weight is None:
             weight = 1.0 / (sigma * sigma) if sigma else 1.0
         reject = None
         if quals.reject is not None:
-            r, multiple = quals.reject
+            r, multiple, _, _ = quals.reject
             if multiple:
                 if sigma is None:
                     self.report(

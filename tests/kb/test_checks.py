@@ -193,6 +193,13 @@ CASES = [
         4,
         31,
     ),
+    (
+        "measurement-threshold-unit",
+        H + "concept R in image { measure position(self) +- 1 px reject above 3 cm }",
+        "KB132",
+        2,
+        66,
+    ),
     ("attribute-unit", H + "concept W in world { attribute h: length = 3 deg }", "KB132", 2, 44),
     (
         "template-arg-unit",

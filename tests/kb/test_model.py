@@ -165,6 +165,23 @@ def test_qualifiers_threshold_in_sigmas_and_units() -> None:
     assert b.reject_above == pytest.approx(5 * DEG)
 
 
+def test_measurement_units_follow_the_tolerance_or_else_the_threshold() -> None:
+    text = (
+        "layers scene > world > image\n"
+        "concept R in image {\n"
+        "  measure position(self) reject above 2 cm\n"
+        "  measure position(self) +- 1 cm reject above 3\n"
+        "  measure position(self) +- 2 px reject above 5 px\n"
+        "}\n"
+    )
+    result = compile_text(text, "u.kb")
+    assert result.kb is not None
+    a, b, c = result.kb.concepts["R"].constraints
+    assert (a.unit, a.sigma, a.reject_above) == ("m", None, pytest.approx(0.02))
+    assert (b.unit, b.sigma, b.reject_above) == ("m", pytest.approx(0.01), pytest.approx(0.03))
+    assert (c.unit, c.sigma, c.reject_above) == ("px", 2.0, 5.0)
+
+
 def test_models_are_frozen(kb: KnowledgeBase) -> None:
     spec = kb.concepts["HouseBody"].constraints[0]
     with pytest.raises(Exception, match="frozen"):
