@@ -694,14 +694,16 @@ class Analyzer:
             self._site = outer_site
 
     def signature(self, template: ast.Template) -> tuple[int, tuple[Val | None, ...]]:
-        """How many arguments the template requires, and each parameter's default as a value
-        (None: no default, or one that is no constant of the parameter's type). Computed once
-        per template and knowledge base."""
+        """How many arguments a use must give (up to the last parameter without a default: only
+        defaults at the end can be left out), and each parameter's default as a value (None: no
+        default, or one that is no constant of the parameter's type). Computed once per
+        template and knowledge base."""
         cache = self.table.signatures
         found = cache.get(template.name.text)
         if found is None or found[0] is not template:
             params = template.params
-            required = sum(1 for p in params if p.default is None)
+            # arguments go by position: every parameter up to the last without a default
+            required = max((i + 1 for i, p in enumerate(params) if p.default is None), default=0)
             defaults = tuple(
                 None if p.default is None else _default(p.default, p.type.text) for p in params
             )

@@ -145,6 +145,14 @@ CASES = [
         30,
     ),
     (
+        "only-trailing-defaults-may-be-left-out",
+        H + "template t(v: angle = 90 deg, a: W, b: W) { angle(a, b) == v }\n"
+        "concept W in world { }\nconcept A in world { part f, l: W\n constraint t(f, l) }",
+        "KB130",
+        5,
+        13,
+    ),
+    (
         "arity",
         H + "template t(a: W, b: W) { parallel(a, b) }\nconcept W in world { }\n"
         "concept A in world { part f, l: W\n constraint t(f) }",
