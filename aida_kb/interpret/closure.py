@@ -1,90 +1,125 @@
-"""Closed convex solids from the planes of a verified structure (halfspace intersection).
+"""Closed solids from the planes of a verified structure (`aida_kb.geometry.polyhedron`).
 
-Every part of a house body, a wing or an oriel box is a face of a convex solid: the solid is
-the intersection of the halfspaces n·x <= d of its planes (normals out of the solid), and each
-part's polygon is that plane's face of it, ordered counter-clockwise seen from outside. A part
-whose face is missing or tiny does not exist in the closed model: the hypothesis that needs it
-predicted a face that its own planes do not produce.
+Every structure of an interpretation — a house body, a wing, an oriel box — is one closed
+polyhedron: its planar parts are its faces, and which of them meet along an edge is the
+knowledge base's adjacency (`Structure.adjacency`). `Polyhedron.from_adjacency` turns that into
+faces with shared vertices, so every edge belongs to exactly two faces; it needs no convexity
+(the walls of a wing may run into its body), and it refuses degenerate solids with a
+`GeometryError` naming the faces (a face that does not close, planes that cross over).
+
+A structure the knowledge gives fewer faces than a closed solid needs is closed by the planes
+of the verified level it belongs to (`closing_faces`): a wing standing on the ground by its
+whole's floor (its bottom face, ``<wing>.floor``), an oriel standing out of a wall by that
+wall (its back face, ``<oriel>.back``, facing into the body). Several structures together
+(a body with wings) form a union of closed solids.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import linprog
-from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
 from aida_kb.errors import GeometryError
+from aida_kb.geometry.polyhedron import Polyhedron
 
 FloatArray = npt.NDArray[np.float64]
 
-
-def interior_point(normals: FloatArray, offsets_m: FloatArray) -> tuple[FloatArray, float]:
-    """The point deepest inside n·x <= d (Chebyshev centre) and its depth, metres."""
-    norms = np.linalg.norm(normals, axis=1)
-    c = np.zeros(4)
-    c[3] = -1.0
-    A = np.column_stack([normals, norms])
-    res = linprog(c, A_ub=A, b_ub=offsets_m, bounds=[(None, None)] * 3 + [(0, None)])
-    if not res.success:
-        raise GeometryError("the planes enclose no solid (no interior point)")
-    return np.asarray(res.x[:3], dtype=np.float64), float(res.x[3])
+MIN_FACE_FRACTION = 0.01  # a face smaller than this fraction of the largest one is missing
 
 
-def convex_faces(
-    normals: FloatArray, offsets_m: FloatArray, tol_m: float = 1e-6
-) -> list[FloatArray]:
-    """The face polygon (N_i, 3) of each plane of the solid n·x <= d; (0, 3) when it has none.
+@dataclass(frozen=True)
+class ClosingFace:
+    """A face that closes a structure: role path, concept, plane (unit n, d) and neighbours."""
 
-    Raises GeometryError when the planes do not bound a solid of some thickness.
+    role: str
+    concept: str
+    normal: FloatArray  # (3,) unit, out of the structure's solid
+    offset_m: float
+    neighbours: tuple[str, ...]  # role paths of the structure's parts it meets
+
+
+def closing_faces(
+    root: str,
+    leaves: Sequence[tuple[str, str, bool]],
+    front_normal: FloatArray,
+    fixed: Mapping[str, tuple[FloatArray, float]],
+) -> list[ClosingFace]:
+    """The faces a structure lacks for a closed solid, from the planes of verified levels.
+
+    Parameters
+    ----------
+    root : the structure's role path (``body.wings[0]``).
+    leaves : its planar parts as (role path, last role name, pitched).
+    front_normal : (3,) the unit normal of its front part, world frame.
+    fixed : role path -> (unit normal (3,), offset m) of the verified levels' planes; only
+        the whole's own parts (``body.floor`` for ``body.wings[0]``) are used.
+
+    A structure without a floor (``floor``/``bottom``) stands on its whole's floor; one
+    without a back stands out of the whole's wall it faces away from (the wall whose normal
+    is closest to its front's). Nothing is added to a structure that has both, or when no fixed
+    plane fits.
     """
-    normals = np.asarray(normals, dtype=np.float64)
-    offsets_m = np.asarray(offsets_m, dtype=np.float64)
-    centre, depth = interior_point(normals, offsets_m)
-    if depth < 1e-3:
-        raise GeometryError(f"the planes enclose no solid (thickness {2 * depth:.3g} m)")
-    halfspaces = np.column_stack([normals, -offsets_m])
-    try:
-        vertices = HalfspaceIntersection(halfspaces, centre).intersections
-        hull = ConvexHull(vertices)
-    except QhullError as exc:
-        raise GeometryError(f"the planes do not bound a closed solid: {exc}") from None
-    vertices = vertices[hull.vertices]
-    if not np.all(np.isfinite(vertices)) or np.abs(vertices).max() > 1e6:
-        raise GeometryError("the planes do not bound a closed solid (vertex at infinity)")
-    scale = max(1.0, float(np.abs(vertices).max()))
-    faces: list[FloatArray] = []
-    for n, d in zip(normals, offsets_m, strict=True):
-        on = vertices[np.abs(vertices @ n - d) <= 1e-6 * scale + tol_m]
-        if len(on) < 3:
-            faces.append(np.zeros((0, 3)))
-            continue
-        mid = on.mean(axis=0)
-        u = on[0] - mid
-        u = u / max(float(np.linalg.norm(u)), 1e-12)
-        v = np.cross(n, u)
-        angles = np.arctan2((on - mid) @ v, (on - mid) @ u)
-        faces.append(_dedupe(on[np.argsort(angles)], 1e-9 * scale))
-    return faces
-
-
-def _dedupe(poly: FloatArray, tol: float) -> FloatArray:
-    keep = [0]
-    for i in range(1, len(poly)):
-        if np.linalg.norm(poly[i] - poly[keep[-1]]) > tol:
-            keep.append(i)
-    if len(keep) > 1 and np.linalg.norm(poly[keep[-1]] - poly[keep[0]]) <= tol:
-        keep.pop()
-    out: FloatArray = poly[keep]
+    whole = root.rsplit(".", 1)[0] if "." in root else ""
+    fixed = {r: p for r, p in fixed.items() if (r.rsplit(".", 1)[0] if "." in r else "") == whole}
+    names = {name for _, name, _ in leaves}
+    walls = [role for role, name, pitched in leaves if not pitched and name not in ("top",)]
+    out: list[ClosingFace] = []
+    if not names & {"floor", "bottom"}:
+        floors = sorted(r for r in fixed if r.rsplit(".", 1)[-1] == "floor")
+        if floors:
+            n, d = fixed[floors[0]]
+            out.append(ClosingFace(f"{root}.floor", "Floor", n, d, tuple(walls)))
+    if "back" not in names and "front" in names:
+        front = f"{root}.front"
+        candidates = [
+            (float(np.asarray(n) @ front_normal), r)
+            for r, (n, _) in fixed.items()
+            if r.rsplit(".", 1)[-1] not in ("floor", "bottom")
+        ]
+        if candidates:
+            score, wall = max(candidates)
+            if score > 0.9:
+                n, d = fixed[wall]
+                around = tuple(r for r, _, _ in leaves if r != front) + tuple(c.role for c in out)
+                out.append(ClosingFace(f"{root}.back", "Wall", -n, -d, around))
     return out
 
 
-def polygon_area(poly: FloatArray) -> float:
-    """Area of a planar polygon (N, 3), square metres."""
-    if len(poly) < 3:
-        return 0.0
-    cross = np.cross(poly - poly[0], np.roll(poly, -1, axis=0) - poly[0])
-    return 0.5 * float(np.linalg.norm(cross.sum(axis=0)))
+def close(
+    faces: Sequence[tuple[str, FloatArray, float]],
+    adjacency: Iterable[tuple[str, str]],
+) -> dict[str, FloatArray]:
+    """The closed solid of the faces (role path, unit normal (3,), offset m): every polygon.
+
+    Returns role path -> polygon (K, 3), metres, world frame, counter-clockwise seen from
+    outside; every edge is shared by exactly two polygons.
+
+    Raises
+    ------
+    GeometryError
+        Naming the faces: the adjacency does not close a solid, the planes cross over, or a
+        face is vanishingly small (below `MIN_FACE_FRACTION` of the largest).
+    """
+    names = [r for r, _, _ in faces]
+    known = set(names)
+    pairs = {(min(a, b), max(a, b)) for a, b in adjacency if a in known and b in known}
+    solid = Polyhedron.from_adjacency(
+        names,
+        np.array([n for _, n, _ in faces], dtype=np.float64),
+        np.array([d for _, _, d in faces], dtype=np.float64),
+        sorted(pairs),
+    )
+    areas = solid.face_areas()
+    biggest = float(areas.max())
+    for name, area in zip(names, areas, strict=True):
+        if area < MIN_FACE_FRACTION * biggest:
+            raise GeometryError(
+                f"{name} has no face in the closed model ({area:.2g} m² of {biggest:.3g} m²)"
+            )
+    return solid.polygons()
 
 
 def inside_face(face: FloatArray, point_m: FloatArray, margin: float = 0.0) -> bool:

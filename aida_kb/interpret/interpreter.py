@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.errors import AidaError, GeometryError, InterpretError
-from aida_kb.interpret.closure import convex_faces, inside_face, polygon_area
+from aida_kb.interpret.closure import ClosingFace, close, closing_faces, inside_face
 from aida_kb.interpret.edges import EdgeMatch, match_segments
 from aida_kb.interpret.hypotheses import (
     DEFAULT_PITCH_DEG,
@@ -64,7 +64,6 @@ MIN_WALL_WEIGHT_FRACTION = 0.02  # a region lighter than this fraction of the to
 MATCH_DISTANCES_PX = (25.0, 8.0)
 MAX_MEAN_COST = 1.0  # an adjustment whose constraints miss by more than sigma on average fails
 SEGMENT_PENALTY = 4.0  # cost of leaving every segment of the bound regions unexplained
-MIN_FACE_FRACTION = 0.01  # a face smaller than this fraction of the largest one is missing
 
 
 @dataclass
@@ -122,6 +121,7 @@ class Level:
     outcome: Outcome
     frame: Frame
     polygons: dict[str, FloatArray]  # role path -> closed face polygon (N, 3), world, metres
+    closing: tuple[ClosingFace, ...]  # faces of its solid from the levels it belongs to
     misfit: float  # adjustment cost plus the penalty for unexplained segments of bound regions
 
 
@@ -308,7 +308,7 @@ class Interpreter:
                 last_reason = (_over(worst), worst.label, worst.normalised)
                 continue
             try:
-                polygons = self._close(structure, outcome, fixed)
+                polygons, closing = self._close(structure, outcome, fixed)
             except GeometryError as exc:
                 last_reason = (f"its planes do not close a solid: {exc}", None, None)
                 continue
@@ -317,7 +317,9 @@ class Interpreter:
                 last_reason = (outside, None, None)
                 continue
             misfit = outcome.cost + SEGMENT_PENALTY * loose
-            level = Level(hid, structure, binding, inserted, outcome, frame, polygons, misfit)
+            level = Level(
+                hid, structure, binding, inserted, outcome, frame, polygons, closing, misfit
+            )
             if best is None or level.misfit < best.misfit:
                 best = level
         if best is None:
@@ -551,25 +553,21 @@ class Interpreter:
         structure: Structure,
         outcome: Outcome,
         fixed: dict[str, tuple[FloatArray, float]],
-    ) -> dict[str, FloatArray]:
-        """The closed solid of a structure's planes; GeometryError if a part has no face.
+    ) -> tuple[dict[str, FloatArray], tuple[ClosingFace, ...]]:
+        """The closed solid of a structure's planes (`closure`): polygons and closing faces.
 
-        A structure without a floor of its own (a wing) is closed by its whole's floor.
+        Raises GeometryError (naming the parts) if the planes do not close a solid with a
+        face for every part.
         """
-        roles = [leaf.role for leaf in structure.leaves]
-        closing = [r for r in fixed if r.rsplit(".", 1)[-1] == "floor" and r not in roles]
-        planes = [outcome.planes[r] for r in roles + closing[:1]]
-        normals = np.array([n for n, _ in planes])
-        offsets = np.array([d for _, d in planes])
-        faces = convex_faces(normals, offsets)
-        areas = [polygon_area(f) for f in faces]
-        biggest = max(areas)
-        for role, area in zip(roles, areas, strict=False):
-            if area < MIN_FACE_FRACTION * biggest:
-                raise GeometryError(
-                    f"{role} has no face in the closed model ({area:.2g} m² of {biggest:.3g} m²)"
-                )
-        return dict(zip(roles, faces, strict=False))
+        leaves = [(leaf.role, leaf.name, leaf.pitched) for leaf in structure.leaves]
+        front = join(structure.root, "front")
+        front_normal = outcome.planes[front][0] if front in outcome.planes else self.up
+        closing = closing_faces(structure.root, leaves, front_normal, fixed)
+        faces = [(leaf.role, *outcome.planes[leaf.role]) for leaf in structure.leaves]
+        faces += [(c.role, c.normal, c.offset_m) for c in closing]
+        adjacency = list(structure.adjacency)
+        adjacency += [(c.role, other) for c in closing for other in c.neighbours]
+        return close(faces, adjacency), tuple(closing)
 
     def _matches(
         self,

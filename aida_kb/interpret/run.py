@@ -62,19 +62,26 @@ def _residuals(outcome: Outcome) -> list[ConstraintResidual]:
 
 
 def model_of(state: State, evidence: Evidence) -> ReconstructedModel:
-    """The reconstructed model of an accepted state: every part's plane and closed polygon."""
+    """The reconstructed model of an accepted state: every part's plane and closed polygon.
+
+    Each level is one closed solid: its parts, and the faces that close it from the levels it
+    belongs to (a wing's bottom in its body's floor plane, `closure.closing_faces`).
+    """
     parts: list[ModelPart] = []
     for level in state.levels:
-        for leaf in level.structure.leaves:
-            n, d = level.outcome.planes[leaf.role]
-            poly = level.polygons[leaf.role]
+        faces = [
+            (leaf.role, leaf.concept, *level.outcome.planes[leaf.role])
+            for leaf in level.structure.leaves
+        ]
+        faces += [(c.role, c.concept, c.normal, c.offset_m) for c in level.closing]
+        for role, concept, n, d in faces:
             parts.append(
                 ModelPart(
-                    role=leaf.role,
-                    concept=leaf.concept,
+                    role=role,
+                    concept=concept,
                     normal=_v3(n / np.linalg.norm(n)),
                     offset_m=float(d),
-                    polygon=[_v3(p) for p in poly],
+                    polygon=[_v3(p) for p in level.polygons[role]],
                 )
             )
     return ReconstructedModel(parts=parts, cameras=_cameras(evidence))

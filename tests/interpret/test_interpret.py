@@ -12,6 +12,7 @@ import pytest
 
 from aida_kb.interpret.report import explanation, instance_tree
 from aida_kb.interpret.result import INSERTED, Interpretation
+from aida_kb.io.model import obj_text
 
 Get = Callable[[str], Interpretation]
 
@@ -30,14 +31,15 @@ def _errors(interp: Interpretation, world: object) -> tuple[float, float]:
 
 
 def _closed(interp: Interpretation) -> bool:
-    """Every edge of the model's polygons is shared by exactly two faces."""
+    """model.obj is a closed mesh: every edge is shared by exactly two faces."""
     assert interp.model is not None
-    edges: Counter[tuple[tuple[float, ...], tuple[float, ...]]] = Counter()
-    for part in interp.model.parts:
-        pts = [tuple(round(c, 4) for c in v) for v in part.polygon]
-        for a, b in zip(pts, pts[1:] + pts[:1], strict=True):
-            edges[(a, b) if a <= b else (b, a)] += 1
-    return all(count == 2 for count in edges.values())
+    edges: Counter[tuple[int, int]] = Counter()
+    for line in obj_text(interp.model).splitlines():
+        if line.startswith("f "):
+            ids = [int(i) for i in line.split()[1:]]
+            for a, b in zip(ids, ids[1:] + ids[:1], strict=True):
+                edges[(a, b) if a <= b else (b, a)] += 1
+    return bool(edges) and all(count == 2 for count in edges.values())
 
 
 def test_occluded_back_walls_are_inserted(interpreted: Get, generate: ModuleType) -> None:
@@ -120,7 +122,13 @@ def test_wing_at_135_degrees_is_a_skew_wing(interpreted: Get, generate: ModuleTy
     assert meet.parts == ["body.front", "body.wings[0].front"]
     assert meet.normalised_cost < 1.0
     assert interp.model is not None
-    assert len(interp.model.parts) == 13
+    # 13 parts and the wing's bottom, closed by the body's floor plane: two closed solids
+    assert len(interp.model.parts) == 14
+    bottom = next(p for p in interp.model.parts if p.role == "body.wings[0].floor")
+    floor = next(p for p in interp.model.parts if p.role == "body.floor")
+    assert bottom.concept == "Floor"
+    assert bottom.normal == floor.normal
+    assert _closed(interp)
 
 
 def test_no_house_is_an_empty_interpretation(interpreted: Get) -> None:

@@ -1,0 +1,84 @@
+"""Closing a structure's planes into a solid with geometry.Polyhedron (convex or not)."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from aida_kb.errors import GeometryError
+from aida_kb.interpret.closure import close, closing_faces
+
+UP = np.array([0.0, -1.0, 0.0])  # OpenCV world: y down
+
+
+def _edges_shared_twice(polygons: dict[str, np.ndarray]) -> bool:
+    edges: Counter[tuple[tuple[float, ...], tuple[float, ...]]] = Counter()
+    for poly in polygons.values():
+        pts = [tuple(round(float(c), 6) for c in v) for v in poly]
+        for a, b in zip(pts, pts[1:] + pts[:1], strict=True):
+            edges[(a, b) if a <= b else (b, a)] += 1
+    return all(count == 2 for count in edges.values())
+
+
+def _l_prism() -> tuple[list[tuple[str, np.ndarray, float]], list[tuple[str, str]]]:
+    """An L-shaped block 10 x 10 m with a 5 x 5 m notch, 4 m high (a non-convex solid)."""
+    # outline in x-z, counter-clockwise seen from above: walls as (name, normal, offset)
+    walls = [
+        ("south", np.array([0.0, 0.0, -1.0]), 0.0),  # z = 0
+        ("east", np.array([1.0, 0.0, 0.0]), 10.0),  # x = 10, z 0..5
+        ("notch_z", np.array([0.0, 0.0, 1.0]), 5.0),  # z = 5, x 5..10
+        ("notch_x", np.array([1.0, 0.0, 0.0]), 5.0),  # x = 5, z 5..10
+        ("north", np.array([0.0, 0.0, 1.0]), 10.0),  # z = 10, x 0..5
+        ("west", np.array([-1.0, 0.0, 0.0]), 0.0),  # x = 0
+    ]
+    faces = [*walls, ("top", UP, 4.0), ("floor", -UP, 0.0)]
+    names = [w[0] for w in walls]
+    adjacency = [(a, b) for a, b in zip(names, names[1:] + names[:1], strict=True)]
+    adjacency += [(w, t) for w in names for t in ("top", "floor")]
+    return faces, adjacency
+
+
+def test_a_non_convex_solid_closes() -> None:
+    faces, adjacency = _l_prism()
+    polygons = close(faces, adjacency)
+    assert set(polygons) == {f[0] for f in faces}
+    assert _edges_shared_twice(polygons)
+    assert len(polygons["top"]) == 6  # the L outline, re-entrant corner included
+    assert any(np.allclose(v, [5.0, -4.0, 5.0]) for v in polygons["top"])
+    assert len(polygons["notch_x"]) == 4
+
+
+def test_a_face_the_planes_do_not_produce_is_named() -> None:
+    faces, adjacency = _l_prism()
+    # the notch wall moved beyond the east wall: the planes cross over
+    moved = [(n, v, 12.0) if n == "notch_x" else (n, v, d) for n, v, d in faces]
+    with pytest.raises(GeometryError, match="notch"):
+        close(moved, adjacency)
+    with pytest.raises(GeometryError, match=r"fewer than 3 neighbours.*: top"):
+        close(faces, [p for p in adjacency if "top" not in p or "south" in p])
+
+
+def test_a_wing_closes_on_the_floor_and_an_oriel_on_the_wall() -> None:
+    fixed = {
+        "body.floor": (-UP, 0.0),
+        "body.front": (np.array([0.0, 0.0, -1.0]), 0.0),
+        "body.wings[0].front": (np.array([0.0, 0.0, -1.0]), 3.0),
+    }
+    wing = [
+        ("body.wings[0].front", "front", False),
+        ("body.wings[0].back", "back", False),
+        ("body.wings[0].roof.front", "front", True),
+    ]
+    (bottom,) = closing_faces("body.wings[0]", wing, np.array([0.0, 0.0, -1.0]), fixed)
+    assert bottom.role == "body.wings[0].floor"
+    assert bottom.neighbours == ("body.wings[0].front", "body.wings[0].back")
+    np.testing.assert_allclose(bottom.normal, -UP)
+    oriel = [(f"body.oriels[0].{n}", n, False) for n in ("front", "left", "right", "bottom")]
+    (back,) = closing_faces("body.oriels[0]", oriel, np.array([0.0, 0.0, -1.0]), fixed)
+    # its back lies in the body's front wall (not in another wing's), facing into the body
+    assert back.role == "body.oriels[0].back"
+    np.testing.assert_allclose(back.normal, [0.0, 0.0, 1.0])
+    assert back.offset_m == 0.0
+    assert "body.oriels[0].front" not in back.neighbours
