@@ -21,6 +21,7 @@ LAYERS: list[set[str]] = [
     {"io"},
     {"vision"},
     {"synth"},
+    {"register"},
     {"interpret"},
     {"cli", "__main__"},
 ]

@@ -32,6 +32,7 @@ COMMANDS: tuple[str, ...] = (
     "evidence",
     "interpret",
     "reconstruct",
+    "register",
 )
 
 EXIT_OK = 0

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
-from aida_kb.interpret.run import interpret
 from aida_kb.io.evidence import Evidence, write_evidence
 from aida_kb.io.model import write_model, write_obj
 from aida_kb.io.scene import read_scene
@@ -45,6 +45,8 @@ def reconstruct_scene(
     The files (`OUTPUT_FILES`; model.json and model.obj only when the goal was found) are
     written to a temporary folder beside `out_dir` and moved into place together, so that
     a failed run leaves no half-written output. The scene's truth.json is never read.
+    Every view is used: the first is interpreted, the others are registered against its
+    model and the model is refined with all of them (`aida_kb.interpret.multiview`).
     """
     from aida_kb.vision.evidence import scene_evidence
 
@@ -52,7 +54,10 @@ def reconstruct_scene(
     evidence, _ = scene_evidence(scene, views=views, stage=stage)
     if stage is not None:
         stage("-", "interpretation")
-    interp = interpret(kb, evidence, goal=goal, source=str(Path(scene_dir) / "evidence"))
+    progress = None if stage is None else (lambda what: stage("-", what))
+    interp = reconstruct_views(
+        kb, evidence, goal=goal, source=str(Path(scene_dir) / "evidence"), progress=progress
+    )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=".reconstruct-", dir=out))

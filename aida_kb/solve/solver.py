@@ -200,9 +200,15 @@ def _run(
         return np.asarray(res.x), calls[0], bool(res.success), str(res.message)
 
     cache: dict[str, object] = {}
+    n_res = ev.n_residuals
 
     def fun(x: FloatArray) -> FloatArray:
-        f, J = ev.residuals_and_jacobian(x)
+        try:
+            f, J = ev.residuals_and_jacobian(x)
+        except SolveError:
+            # a trial step with no residual (an edge behind a free camera, degenerate planes):
+            # a cost far above the start's makes the trust region reject it and shrink
+            return np.full(n_res, 1e8)
         cache["x"] = x.copy()
         cache["J"] = J
         return f

@@ -1,0 +1,310 @@
+"""Incremental multi-view reconstruction (paper §5, fig. 8): every view of a scene in one model.
+
+The sequence of the paper:
+
+1. The first view is the reference (the world frame); interpreting it gives the first shape.
+2. The second view is registered against the first shape (`aida_kb.register`, no initial
+   guess) and then the first shape and the second view's pose are adjusted in one joint
+   optimisation: the model's planes and the camera pose are the unknowns; the edge constraints
+   of both views (image segments matched to model edges), the position constraints of both
+   views' regions and the first shape's angles between adjacent parts (what the knowledge base
+   imposed on it) are the constraints.
+3. Further views are registered, each starting from the previous one, against that model.
+4. The model is refined with all views at once (planes and every later view's pose).
+
+Only views whose poses are unknown (``frame = "camera"`` in the evidence) are registered; the
+poses in a scene's truth.json are never used.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.constraints.kernels import meeting_angle
+from aida_kb.constraints.model import Constraint, EdgeData, PositionData
+from aida_kb.errors import GeometryError, SolveError
+from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.geometry.polyhedron import Polyhedron
+from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.run import interpret
+from aida_kb.io.evidence import Evidence
+from aida_kb.io.model import Cahv, ModelCamera, ModelPart, ReconstructedModel
+from aida_kb.register import (
+    RegistrationOptions,
+    RigidModel,
+    match_regions,
+    match_segments,
+)
+from aida_kb.register.evidence import ViewMeasurements, measurements_of, register_evidence_view
+from aida_kb.solve import build_problem, solve
+
+if TYPE_CHECKING:
+    from aida_kb.kb.model import KnowledgeBase
+
+FloatArray = npt.NDArray[np.float64]
+
+__all__ = ["JOINT_EDGE_SIGMA_PX", "joint_adjustment", "meeting_angles", "reconstruct_views"]
+
+JOINT_EDGE_SIGMA_PX = 1.0
+"""Edge constraints of the joint adjustment: standard deviation, pixels."""
+JOINT_ANGLE_SIGMA_DEG = 0.3
+"""The first shape's angles between adjacent parts, kept to this standard deviation."""
+JOINT_MATCH_PX = 3.0
+"""Segments within this distance of a projected model edge are its evidence."""
+
+
+def _camera(view_left: object) -> PinholeCamera:
+    K = np.array(view_left.K, dtype=np.float64)  # type: ignore[attr-defined]
+    R = np.array(view_left.R, dtype=np.float64)  # type: ignore[attr-defined]
+    t = np.array(view_left.t, dtype=np.float64)  # type: ignore[attr-defined]
+    return PinholeCamera(K, R, t, 1, 1)
+
+
+def _model_camera(view: str, cam: PinholeCamera) -> ModelCamera:
+    c = cam.to_cahv()
+
+    def v3(a: FloatArray) -> tuple[float, float, float]:
+        return (float(a[0]), float(a[1]), float(a[2]))
+
+    def m3(
+        a: FloatArray,
+    ) -> tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]:
+        return (v3(a[0]), v3(a[1]), v3(a[2]))
+
+    return ModelCamera(
+        view=view,
+        K=m3(cam.K),
+        R=m3(cam.R_cam_world),
+        t=v3(cam.t_cam_world),
+        image_width=cam.width,
+        image_height=cam.height,
+        cahv=Cahv(C=v3(c.C), A=v3(c.A), H=v3(c.H), V=v3(c.V)),
+    )
+
+
+def joint_adjustment(
+    model: RigidModel,
+    cameras: Sequence[PinholeCamera],
+    views: Sequence[ViewMeasurements],
+    free_cameras: Sequence[int],
+    *,
+    angles: Mapping[tuple[int, int], float] | None = None,
+) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...]]:
+    """Adjust the model's planes and the free cameras' poses to all views at once.
+
+    Parameters
+    ----------
+    model : the current model (world frame); its adjacent parts' meeting angles (or `angles`,
+        rad, by the pair of part indices (a, b), a < b) are kept as soft constraints.
+    cameras : one per view (world frame); views : their measurements.
+    free_cameras : indices of the cameras whose poses are unknowns (the others fix the frame).
+
+    Returns
+    -------
+    normals (P, 3), offsets (P,) and the cameras at their adjusted poses.
+
+    Raises
+    ------
+    SolveError
+        A degenerate problem.
+    """
+    opts = RegistrationOptions()
+    cons: list[Constraint] = []
+    for ci, (cam, m) in enumerate(zip(cameras, views, strict=True)):
+        vis = model.visible_edges(cam)
+        mt = match_segments(
+            vis.a,
+            vis.b,
+            m.p1,
+            m.p2,
+            max_distance_px=JOINT_MATCH_PX,
+            max_angle_rad=math.radians(opts.max_angle_deg),
+        )
+        faces = model.edge_faces[vis.index[mt.edge]]
+        for (a, b), p, q in zip(faces, m.p1[mt.segment], m.p2[mt.segment], strict=True):
+            cons.append(
+                Constraint(
+                    kind="edge",
+                    parts=(int(a), int(b)),
+                    sigma=JOINT_EDGE_SIGMA_PX,
+                    unit="px",
+                    measurement=True,
+                    label=f"edge({model.names[a]}, {model.names[b]})@{m.view}",
+                    edge=EdgeData(ci, (float(p[0]), float(p[1])), (float(q[0]), float(q[1]))),
+                )
+            )
+        obs = match_regions(model, cam, m.regions, opts) if m.regions.size else None
+        if obs is None:
+            continue
+        R, C = cam.R_cam_world, cam.centre
+        for part, n, c, s in zip(
+            obs.part, obs.normal_cam @ R, obs.centre_cam @ R + C, obs.sigma_m, strict=True
+        ):
+            n = n / np.linalg.norm(n)
+            cons.append(
+                Constraint(
+                    kind="position",
+                    parts=(int(part),),
+                    sigma=float(s),
+                    unit="m",
+                    measurement=True,
+                    label=f"position({model.names[part]})@{m.view}",
+                    position=PositionData(
+                        (float(n[0]), float(n[1]), float(n[2])),
+                        (float(c[0]), float(c[1]), float(c[2])),
+                    ),
+                )
+            )
+    if angles is None:
+        angles = meeting_angles(model)
+    for (a, b), phi in angles.items():
+        cons.append(
+            Constraint(
+                kind="angle",
+                parts=(int(a), int(b)),
+                value=float(phi),
+                sigma=math.radians(JOINT_ANGLE_SIGMA_DEG),
+                unit="rad",
+                label=f"first-shape angle({model.names[a]}, {model.names[b]})",
+            )
+        )
+    problem = build_problem(
+        model.normals,
+        model.offsets,
+        cons,
+        names=model.names,
+        cameras=cameras,
+        free_cameras=free_cameras,
+    )
+    result = solve(problem, loss="soft_l1", f_scale=2.0)
+    return result.normals, result.offsets, result.cameras
+
+
+def meeting_angles(model: RigidModel) -> dict[tuple[int, int], float]:
+    """The angle (rad) at which each pair of adjacent parts (a, b), a < b, meets."""
+    a = np.minimum(model.edge_faces[:, 0], model.edge_faces[:, 1])
+    b = np.maximum(model.edge_faces[:, 0], model.edge_faces[:, 1])
+    phi = meeting_angle(model.normals[a], model.normals[b])[0]
+    return {(int(i), int(j)): float(p) for i, j, p in zip(a, b, phi, strict=True)}
+
+
+def _rebuilt(
+    model: RigidModel, normals: FloatArray, offsets: FloatArray
+) -> tuple[RigidModel, list[FloatArray]]:
+    """The model with moved planes and its polygons, recomputed as a closed polyhedron."""
+    adjacency = [(model.names[a], model.names[b]) for a, b in model.edge_faces]
+    poly = Polyhedron.from_adjacency(model.names, normals, offsets, adjacency)
+    polygons = [poly.polygon(f) for f in model.names]
+    return RigidModel.from_polygons(model.names, poly.normals, poly.offsets, polygons), polygons
+
+
+def _adjusted(
+    model: RigidModel,
+    cameras: Sequence[PinholeCamera],
+    views: Sequence[ViewMeasurements],
+    free: Sequence[int],
+    angles: Mapping[tuple[int, int], float],
+) -> tuple[RigidModel, list[FloatArray], list[PinholeCamera]] | str:
+    """`joint_adjustment` and the rebuilt model, or why it failed (the caller keeps the old)."""
+    try:
+        n, d, adjusted = joint_adjustment(model, cameras, views, free, angles=angles)
+        rigid, polygons = _rebuilt(model, n, d)
+    except (GeometryError, SolveError) as exc:
+        return str(exc)
+    return rigid, polygons, list(adjusted)
+
+
+def reconstruct_views(
+    kb: KnowledgeBase,
+    evidence: Evidence,
+    *,
+    goal: str = "House",
+    source: str = "",
+    progress: Callable[[str], None] | None = None,
+) -> Interpretation:
+    """Interpret the first view, register the others, refine the model with all of them.
+
+    With one view (or no view of unknown pose) this is `interpret` itself. Otherwise the
+    returned interpretation is the first view's, with the model replaced by the one refined
+    with every view and a camera for every view.
+
+    Raises
+    ------
+    SolveError
+        A view that cannot be registered (named).
+    """
+    later = [v for v in evidence.views[1:] if v.frame == "camera"]
+    known = [v for v in evidence.views if v.frame == "world"]
+    first = evidence.model_copy(update={"views": known})
+    interp = interpret(kb, first, goal=goal, source=source)
+    if not later or interp.model is None:
+        return interp
+    model0 = interp.model
+    try:
+        rigid = RigidModel.from_model(model0)
+        rigid, polygons = _rebuilt(rigid, rigid.normals, rigid.offsets)
+    except GeometryError as exc:
+        return interp.model_copy(
+            update={
+                "message": f"{interp.message}; views {', '.join(v.id for v in later)} not "
+                f"registered: the model is not one closed solid ({exc})"
+            }
+        )
+    angles = meeting_angles(rigid)
+    views = [measurements_of(v) for v in known + later]
+    cams: list[PinholeCamera] = []
+    for v, m in zip(known, views, strict=False):
+        c = _camera(v.left)
+        cams.append(PinholeCamera(c.K, c.R_cam_world, c.t_cam_world, m.width, m.height))
+    n_known = len(cams)
+    notes: list[str] = []
+    for k, v in enumerate(later):
+        if progress is not None:
+            progress(f"registering view {v.id}")
+        reg = register_evidence_view(rigid, cams[-1], v)
+        cams.append(reg.camera)
+        if k == 0:
+            # the first shape and the second view's pose in one joint optimisation
+            step = _adjusted(rigid, cams, views[: len(cams)], [len(cams) - 1], angles)
+            if isinstance(step, str):
+                notes.append(f"joint adjustment with view {v.id} skipped: {step}")
+            else:
+                rigid, polygons, cams = step
+    if len(later) > 1:
+        if progress is not None:
+            progress(f"refining the model with all {len(cams)} views")
+        step = _adjusted(rigid, cams, views, list(range(n_known, len(cams))), angles)
+        if isinstance(step, str):
+            notes.append(f"refinement with all views skipped: {step}")
+        else:
+            rigid, polygons, cams = step
+    parts = []
+    by_role = {p.role: p for p in model0.parts}
+    for i, name in enumerate(rigid.names):
+        poly = polygons[i]
+        nrm = rigid.normals[i]
+        parts.append(
+            ModelPart(
+                role=name,
+                concept=by_role[name].concept,
+                normal=(float(nrm[0]), float(nrm[1]), float(nrm[2])),
+                offset_m=float(rigid.offsets[i]),
+                polygon=[(float(p[0]), float(p[1]), float(p[2])) for p in poly],
+            )
+        )
+    ids = [v.id for v in known + later]
+    model = ReconstructedModel(
+        parts=parts, cameras=[_model_camera(i, c) for i, c in zip(ids, cams, strict=True)]
+    )
+    return interp.model_copy(
+        update={
+            "model": model,
+            "message": f"{interp.message}; {len(later)} more view(s) registered and the model "
+            f"refined with all {len(ids)}" + "".join(f"; {n}" for n in notes),
+        }
+    )

@@ -1,0 +1,113 @@
+"""A view's evidence as registration measurements, and registration of an evidence view.
+
+Segments are undistorted with the left camera's D (evidence pixels are those of the original
+image); region plane fits are carried into the view's own left camera frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import SolveError
+from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.io.evidence import ViewEvidence
+from aida_kb.io.model import ModelCamera
+from aida_kb.register.model import RigidModel
+from aida_kb.register.register import (
+    RegionMeasurements,
+    Registration,
+    RegistrationOptions,
+    register_view,
+)
+
+FloatArray = npt.NDArray[np.float64]
+
+__all__ = ["ViewMeasurements", "camera_of", "measurements_of", "register_evidence_view"]
+
+
+@dataclass(frozen=True)
+class ViewMeasurements:
+    """What registration uses of a view.
+
+    K : (3, 3) left camera matrix; width, height : image size, pixels; p1, p2 : (S, 2)
+    undistorted segment end points, pixels; regions : plane fits in the left camera frame.
+    """
+
+    view: str
+    K: FloatArray
+    width: int
+    height: int
+    p1: FloatArray
+    p2: FloatArray
+    regions: RegionMeasurements
+
+
+def undistorted(pixels: FloatArray, K: FloatArray, D: FloatArray) -> FloatArray:
+    """Original-image pixels (N, 2) moved to where the pinhole camera (K) sees them."""
+    if D.size == 0 or not np.any(D) or pixels.shape[0] == 0:
+        return pixels
+    import cv2
+
+    out = cv2.undistortPoints(pixels.reshape(-1, 1, 2), K, D, P=K)
+    result: FloatArray = np.asarray(out, dtype=np.float64).reshape(-1, 2)
+    return result
+
+
+def measurements_of(view: ViewEvidence) -> ViewMeasurements:
+    """Segments and region plane fits of an evidence view, in its left camera's terms."""
+    K = np.array(view.left.K, dtype=np.float64)
+    D = np.array(view.left.D, dtype=np.float64)
+    ends = np.array([[s.p1, s.p2] for s in view.lines], dtype=np.float64).reshape(-1, 2, 2)
+    flat = undistorted(ends.reshape(-1, 2), K, D).reshape(-1, 2, 2)
+    R = np.array(view.left.R, dtype=np.float64)
+    t = np.array(view.left.t, dtype=np.float64)
+    n = np.array([r.n_init for r in view.regions], dtype=np.float64).reshape(-1, 3)
+    c = np.array([r.c_init for r in view.regions], dtype=np.float64).reshape(-1, 3)
+    rms = np.array([r.rms_m for r in view.regions], dtype=np.float64)
+    regions = RegionMeasurements(n @ R.T, c @ R.T + t, rms)
+    return ViewMeasurements(
+        view.id, K, view.image_width, view.image_height, flat[:, 0], flat[:, 1], regions
+    )
+
+
+def camera_of(camera: ModelCamera) -> PinholeCamera:
+    """The pinhole camera of a model file's camera entry."""
+    return PinholeCamera(
+        np.array(camera.K, dtype=np.float64),
+        np.array(camera.R, dtype=np.float64),
+        np.array(camera.t, dtype=np.float64),
+        camera.image_width,
+        camera.image_height,
+    )
+
+
+def register_evidence_view(
+    model: RigidModel,
+    reference: PinholeCamera,
+    view: ViewEvidence,
+    *,
+    init_angle_deg: float | None = None,
+    use_regions: bool = True,
+    options: RegistrationOptions | None = None,
+) -> Registration:
+    """Register an evidence view (its segments and, if asked, its regions) against `model`.
+
+    Raises SolveError naming the view when it cannot be registered.
+    """
+    m = measurements_of(view)
+    try:
+        return register_view(
+            model,
+            reference,
+            m.p1,
+            m.p2,
+            regions=m.regions if use_regions and m.regions.size else None,
+            intrinsics=(m.K, m.width, m.height),
+            init_angle_deg=init_angle_deg,
+            options=options,
+        )
+    except SolveError as exc:
+        raise SolveError(f"view {view.id}: {exc}") from exc

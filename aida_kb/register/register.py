@@ -1,0 +1,344 @@
+"""Registration of a new view against a fixed model (paper §5, §6.2).
+
+`register_view` finds the pose of a camera that saw image segments (and, optionally, regions
+with depth) of a known model, without an initial guess:
+
+1. **Coarse search.** The new camera is assumed to have moved about the model's vertical axis
+   (a turntable, or a walk around a building): candidate poses are the reference camera turned
+   about the vertical through the model's centroid, every few degrees over the whole circle
+   (or about ``init_angle_deg``). Each candidate is scored by the chamfer distance of its
+   projected model edges to the image segments.
+2. **Refinement** from the best few distinct candidates: project the model edges, match them
+   to the segments by distance and direction, solve for the six pose parameters (edge and
+   position constraints), match again with a tighter tolerance, and so on.
+3. **Choice by residual.** The refined candidate with the smallest chamfer cost wins; poses
+   that explain the image equally well (a symmetric model) are decided by the smallest turn
+   from the start.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import GeometryError, SolveError
+from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.geometry.rotation import rotation_from_rvec, rvec_from_rotation
+from aida_kb.register.match import chamfer_cost, match_segments
+from aida_kb.register.model import RigidModel
+from aida_kb.register.pose import EdgeObservations, RegionObservations, fit_pose
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+__all__ = [
+    "RegionMeasurements",
+    "Registration",
+    "RegistrationOptions",
+    "angle_about",
+    "match_regions",
+    "refine",
+    "register_view",
+    "turned",
+    "vertical_axis",
+]
+
+
+@dataclass(frozen=True)
+class RegionMeasurements:
+    """Plane fits of a view's regions in its own camera frame (before matching to parts).
+
+    normal_cam : (R, 3) unit normals (towards the camera); centre_cam : (R, 3) metres;
+    rms_m : (R,) the fits' RMS distances, metres.
+    """
+
+    normal_cam: FloatArray
+    centre_cam: FloatArray
+    rms_m: FloatArray
+
+    @property
+    def size(self) -> int:
+        """Number of regions R."""
+        return int(self.normal_cam.shape[0])
+
+
+@dataclass(frozen=True)
+class RegistrationOptions:
+    """Tuning of `register_view`.
+
+    step_deg : spacing of the coarse search; span_deg : half width of the search about
+    ``init_angle_deg`` when one is given (else the whole circle); starts : how many distinct
+    coarse candidates are refined; schedules_px : the matching distance of each refinement
+    round, pixels — every start is refined with each schedule (a tight one first: it ignores
+    clutter; a wide one catches a start further off); max_angle_deg : the matching direction
+    tolerance; tie_tolerance : refined candidates whose cost is within this fraction (plus
+    `tie_floor`) of the best are equally good; sigma_px : the standard deviation of an edge
+    point across its edge, pixels; min_segment_px : shorter segments are ignored;
+    region_sigma_rel : the position constraints' distance sigma as a fraction of the model's
+    size (at least the fit's RMS); region_sigma_deg : their normal's sigma.
+    """
+
+    step_deg: float = 5.0
+    span_deg: float = 30.0
+    starts: int = 4
+    schedules_px: tuple[tuple[float, ...], ...] = (
+        (12.0, 6.0, 3.0, 2.0, 2.0),
+        (24.0, 12.0, 6.0, 3.0, 2.0, 2.0),
+    )
+    max_angle_deg: float = 6.0
+    tie_tolerance: float = 0.15
+    tie_floor: float = 0.01
+    sigma_px: float = 1.0
+    region_sigma_rel: float = 0.01
+    region_sigma_deg: float = 2.0
+    min_segment_px: float = 10.0
+
+
+@dataclass(frozen=True)
+class Registration:
+    """The outcome of `register_view`.
+
+    camera : the registered camera (world frame). angle_deg : its turn about the vertical axis
+    relative to the reference camera, degrees in (-180, 180]. rms_px : RMS edge residual of the
+    matched segments, pixels. cost : the chamfer cost at the pose (0 perfect, 1 nothing
+    matched). n_edges, n_regions : the matched segments and regions of the last round.
+    candidates : (start angle, final angle, cost) of every refined start, degrees.
+    """
+
+    camera: PinholeCamera
+    angle_deg: float
+    rms_px: float
+    cost: float
+    n_edges: int
+    n_regions: int
+    candidates: tuple[tuple[float, float, float], ...]
+
+
+def vertical_axis(model: RigidModel, reference: PinholeCamera) -> FloatArray:
+    """The model's vertical (3,), unit, world frame, pointing up in the reference image.
+
+    The normal of the part most nearly along the reference camera's image y axis (a floor, a
+    flat roof, the top of a box).
+    """
+    down = reference.R_cam_world[1]
+    along = model.normals @ down
+    n = model.normals[int(np.argmax(np.abs(along)))]
+    up: FloatArray = -n if float(n @ down) > 0 else n.copy()
+    return up
+
+
+def turned(
+    reference: PinholeCamera, axis: FloatArray, pivot: FloatArray, angle_rad: float
+) -> PinholeCamera:
+    """The reference camera seeing the scene turned by ``angle_rad`` about ``axis`` at ``pivot``.
+
+    With ``Ra`` the rotation about the axis, ``R = R_ref Ra`` and ``t = t_ref + R_ref (p - Ra p)``:
+    the camera that sees the world turned by Ra about the pivot p as the reference saw it.
+    """
+    Ra = rotation_from_rvec(axis * angle_rad)
+    R = reference.R_cam_world @ Ra
+    t = reference.t_cam_world + reference.R_cam_world @ (pivot - Ra @ pivot)
+    return PinholeCamera(reference.K, R, t, reference.width, reference.height)
+
+
+def angle_about(reference: PinholeCamera, camera: PinholeCamera, axis: FloatArray) -> float:
+    """The turn of ``camera`` relative to ``reference`` about ``axis``, degrees in (-180, 180].
+
+    The signed angle of the relative rotation ``R_ref^T R`` about the axis (its swing-twist
+    twist component).
+    """
+    rel = reference.R_cam_world.T @ camera.R_cam_world
+    rv = rvec_from_rotation(rel)
+    theta = float(np.linalg.norm(rv))
+    if theta < 1e-15:
+        return 0.0
+    w = math.cos(theta / 2.0)
+    v = rv / theta * math.sin(theta / 2.0)
+    twist = 2.0 * math.atan2(float(v @ axis), w)
+    deg = math.degrees(twist)
+    return deg - 360.0 if deg > 180.0 else (deg + 360.0 if deg <= -180.0 else deg)
+
+
+def _wrap(deg: float) -> float:
+    return (deg + 180.0) % 360.0 - 180.0
+
+
+def match_regions(
+    model: RigidModel, camera: PinholeCamera, regions: RegionMeasurements, opts: RegistrationOptions
+) -> RegionObservations | None:
+    """Pair each region with the part whose plane it lies on at `camera`'s pose.
+
+    A region goes to the part whose normal is within 20 degrees of its own and whose plane is
+    nearest its centre (within 15 % of the model's size). None when no region pairs.
+    """
+    if regions.size == 0:
+        return None
+    R = camera.R_cam_world
+    nw = regions.normal_cam @ R
+    X = regions.centre_cam @ R + camera.centre
+    agree = nw @ model.normals.T  # (R, P)
+    dist = np.abs(X @ model.normals.T - model.offsets)
+    limit = 0.15 * model.size
+    ok = (agree > math.cos(math.radians(20.0))) & (dist < limit)
+    score = np.where(ok, dist, np.inf)
+    part = np.argmin(score, axis=1)
+    keep = np.isfinite(score[np.arange(regions.size), part])
+    if not np.any(keep):
+        return None
+    sigma_m = np.maximum(regions.rms_m[keep], opts.region_sigma_rel * model.size)
+    return RegionObservations(
+        part[keep].astype(np.intp),
+        regions.normal_cam[keep],
+        regions.centre_cam[keep],
+        sigma_m,
+        np.full(int(keep.sum()), math.radians(opts.region_sigma_deg)),
+    )
+
+
+def _score(
+    model: RigidModel,
+    camera: PinholeCamera,
+    p1: FloatArray,
+    p2: FloatArray,
+    cap_px: float,
+    max_angle: float,
+) -> float:
+    vis = model.visible_edges(camera)
+    return chamfer_cost(vis.a, vis.b, p1, p2, cap_px=cap_px, max_angle_rad=max_angle)
+
+
+def refine(
+    model: RigidModel,
+    start: PinholeCamera,
+    p1: FloatArray,
+    p2: FloatArray,
+    regions: RegionMeasurements | None = None,
+    options: RegistrationOptions | None = None,
+    schedule_px: tuple[float, ...] = (12.0, 6.0, 3.0, 2.0, 2.0),
+) -> tuple[PinholeCamera, float, int, int]:
+    """Match, solve, re-match: the pose from a start near it.
+
+    Each round matches with the next distance of ``schedule_px`` (pixels).
+
+    Returns the camera, the RMS edge residual (pixels) and the numbers of matched segments and
+    regions of the last round.
+
+    Raises
+    ------
+    SolveError
+        Fewer than 3 matched segments in a round, or a degenerate solve.
+    """
+    opts = options or RegistrationOptions()
+    max_angle = math.radians(opts.max_angle_deg)
+    camera = start
+    rms, n_edges, n_regions = math.inf, 0, 0
+    for tol in schedule_px:
+        vis = model.visible_edges(camera)
+        m = match_segments(vis.a, vis.b, p1, p2, max_distance_px=tol, max_angle_rad=max_angle)
+        if m.size < 3:
+            raise SolveError(f"registration: only {m.size} segments match the model edges")
+        edges = EdgeObservations(model.edge_faces[vis.index[m.edge]], p1[m.segment], p2[m.segment])
+        obs = match_regions(model, camera, regions, opts) if regions is not None else None
+        fit = fit_pose(model, camera, edges, obs, sigma_px=opts.sigma_px, f_scale=3.0)
+        camera = fit.camera
+        rms, n_edges, n_regions = fit.rms_px, m.size, 0 if obs is None else obs.size
+    return camera, rms, n_edges, n_regions
+
+
+def _local_minima(costs: FloatArray, angles: FloatArray, count: int, sep_deg: float) -> list[int]:
+    order = np.argsort(costs, kind="stable")
+    chosen: list[int] = []
+    for i in order:
+        if all(abs(_wrap(float(angles[i] - angles[j]))) >= sep_deg for j in chosen):
+            chosen.append(int(i))
+        if len(chosen) == count:
+            break
+    return chosen
+
+
+def register_view(
+    model: RigidModel,
+    reference: PinholeCamera,
+    p1: npt.ArrayLike,
+    p2: npt.ArrayLike,
+    *,
+    regions: RegionMeasurements | None = None,
+    intrinsics: tuple[FloatArray, int, int] | None = None,
+    init_angle_deg: float | None = None,
+    axis: FloatArray | None = None,
+    options: RegistrationOptions | None = None,
+) -> Registration:
+    """The pose of a new view of a fixed model, found with no initial guess.
+
+    Parameters
+    ----------
+    model : the fixed model (world frame).
+    reference : a registered camera (the first view, or the previous one): the start of the
+        search about the vertical axis.
+    p1, p2 : (S, 2) the new view's image segments, pixels of the undistorted image.
+    regions : the new view's regions with depth (its camera frame), or None.
+    intrinsics : (K (3, 3), width, height) of the new camera if they differ from the reference.
+    init_angle_deg : a rough turn about the vertical from the reference; the search then spans
+        ``options.span_deg`` about it instead of the whole circle.
+    axis : the vertical (3,), world frame; default `vertical_axis`.
+    options : tuning (`RegistrationOptions`).
+
+    Raises
+    ------
+    SolveError
+        When no start leads to a pose that matches the image.
+    """
+    opts = options or RegistrationOptions()
+    q1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
+    q2 = np.asarray(p2, dtype=np.float64).reshape(-1, 2)
+    if q1.shape != q2.shape or not (np.all(np.isfinite(q1)) and np.all(np.isfinite(q2))):
+        raise SolveError("registration: segment end points must be finite (S, 2) arrays")
+    long = np.linalg.norm(q2 - q1, axis=1) >= opts.min_segment_px
+    q1, q2 = q1[long], q2[long]
+    if q1.shape[0] < 3:
+        raise SolveError(f"registration: the view has only {q1.shape[0]} usable line segments")
+    if intrinsics is not None:
+        K, w, h = intrinsics
+        reference = PinholeCamera(K, reference.R_cam_world, reference.t_cam_world, w, h)
+    up = vertical_axis(model, reference) if axis is None else np.asarray(axis, dtype=np.float64)
+    up = up / np.linalg.norm(up)
+    pivot = model.centroid
+    centre = 0.0 if init_angle_deg is None else float(init_angle_deg)
+    if init_angle_deg is None:
+        angles = np.arange(-180.0, 180.0, opts.step_deg)
+    else:
+        half = opts.span_deg
+        angles = centre + np.arange(-half, half + 1e-9, opts.step_deg)
+    max_angle = math.radians(opts.max_angle_deg)
+    cap = max(max(s) for s in opts.schedules_px)
+    costs = np.empty(angles.size)
+    for k, a in enumerate(angles):  # a few dozen candidates; each scored vectorised
+        try:
+            cam = turned(reference, up, pivot, math.radians(float(a)))
+            costs[k] = _score(model, cam, q1, q2, cap, max_angle)
+        except GeometryError:
+            costs[k] = math.inf
+    picks = _local_minima(costs, angles, opts.starts, sep_deg=2.5 * opts.step_deg)
+    results: list[tuple[float, float, PinholeCamera, float, int, int, float]] = []
+    for i in picks:
+        if not math.isfinite(costs[i]):
+            continue
+        start = turned(reference, up, pivot, math.radians(float(angles[i])))
+        for schedule in opts.schedules_px:
+            try:
+                cam, rms, ne, nr = refine(model, start, q1, q2, regions, opts, schedule)
+                cost = _score(model, cam, q1, q2, 2.0, max_angle)
+            except (SolveError, GeometryError):
+                continue
+            final = angle_about(reference, cam, up)
+            results.append((cost, final, cam, rms, ne, nr, float(angles[i])))
+    if not results:
+        raise SolveError("registration: no start converged to a pose that matches the image")
+    best = min(r[0] for r in results)
+    ties = [r for r in results if r[0] <= best * (1.0 + opts.tie_tolerance) + opts.tie_floor]
+    cost, final, cam, rms, ne, nr, _ = min(ties, key=lambda r: (abs(_wrap(r[1] - centre)), r[0]))
+    cands = tuple((r[6], r[1], r[0]) for r in results)
+    return Registration(cam, final, rms, cost, ne, nr, cands)

@@ -1,0 +1,88 @@
+"""`aida-kb register`: a view's pose against a model file; bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aida_kb.cli.main import main
+from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel, write_model
+from aida_kb.io.scene import read_scene
+from aida_kb.synth.scenes import preset, render_scene
+
+
+@pytest.fixture(scope="module")
+def house(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A rendered two-view house and a model file of its true shape with view 00's camera."""
+    root = tmp_path_factory.mktemp("register")
+    scene_dir = root / "house"
+    render_scene(preset("house", seed=1), scene_dir, supersample=1)
+    truth = read_scene(scene_dir).truth
+    assert truth is not None
+    v0 = truth.views[0]
+    model = ReconstructedModel(
+        parts=[
+            ModelPart(
+                role=p.role, concept=p.concept, normal=p.normal, offset_m=p.d, polygon=p.polygon
+            )
+            for p in truth.parts
+        ],
+        cameras=[ModelCamera(view="00", K=v0.K, R=v0.R, t=v0.t, image_width=640, image_height=480)],
+    )
+    write_model(root / "model.json", model)
+    return root / "model.json", scene_dir
+
+
+def test_register_finds_the_second_views_pose(
+    house: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    model, scene_dir = house
+    code = main(["register", str(model), str(scene_dir), "--view", "01", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0
+    true = read_scene(scene_dir).truth.pose("01")  # type: ignore[union-attr]
+    C_true = -np.array(true.R).T @ np.array(true.t)
+    assert np.linalg.norm(np.array(out["centre_m"]) - C_true) < 0.3  # metres, at 30 m
+    assert abs(out["turn_deg"] + 45.0) < 0.5
+    assert out["rms_px"] < 1.0
+    assert out["segments"] >= 10
+
+
+def test_register_prints_the_pose_and_residual(
+    house: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    model, scene_dir = house
+    code = main(["register", str(model), str(scene_dir), "--view", "01", "--init-angle", "-40"])
+    text = capsys.readouterr().out
+    assert code == 0
+    assert "turn about the vertical: -4" in text
+    assert "residual:" in text
+    assert "px RMS over" in text
+
+
+def test_register_bad_input_is_one_line_and_non_zero(
+    house: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model, scene_dir = house
+    assert main(["register", str(tmp_path / "none.json"), str(scene_dir), "--view", "01"]) == 2
+    assert "none.json: no such file" in capsys.readouterr().err
+    assert main(["register", str(model), str(scene_dir), "--view", "07"]) != 0
+    assert "no view(s) 07" in capsys.readouterr().err
+    bare = tmp_path / "bare.json"
+    bare.write_text(model.read_text().replace('"cameras"', '"_cameras"'))
+    assert main(["register", str(bare), str(scene_dir), "--view", "01"]) == 2
+    err = capsys.readouterr().err
+    assert "bare.json" in err
+    assert "Traceback" not in err
+    assert main(["register", str(model), str(scene_dir), "--view", "01", "--reference", "05"]) == 2
+    assert "no camera of view '05'" in capsys.readouterr().err
+
+
+def test_register_help_has_an_example(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["register", "--help"])
+    assert exc.value.code == 0
+    assert "aida-kb register out/m/model.json out/house --view 01" in capsys.readouterr().out

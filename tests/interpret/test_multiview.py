@@ -1,0 +1,45 @@
+"""Multi-view reconstruction: the two-view house with the second view's pose unknown."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aida_kb.interpret.evaluate import compare_with_truth
+from aida_kb.interpret.multiview import reconstruct_views
+from aida_kb.io.scene import read_scene
+from aida_kb.synth.scenes import preset, render_scene
+from aida_kb.vision.evidence import scene_evidence
+
+
+@pytest.fixture(scope="module")
+def house(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("mv") / "house"
+    render_scene(preset("house", seed=0), out)
+    return out
+
+
+def test_two_view_house_registers_the_second_view_and_refines_the_model(
+    house: Path, buildings_kb: object
+) -> None:
+    scene = read_scene(house, with_truth=False)
+    evidence, _ = scene_evidence(scene)
+    assert [v.frame for v in evidence.views] == ["world", "camera"]  # view 01's pose unknown
+    interp = reconstruct_views(buildings_kb, evidence)  # type: ignore[arg-type]
+    assert interp.accepted
+    assert interp.model is not None
+    assert [c.view for c in interp.model.cameras] == ["00", "01"]
+    truth = read_scene(house).truth
+    assert truth is not None
+    c = compare_with_truth(interp.model, truth)
+    assert not c.missing
+    assert c.max_vertex_error_rel < 0.01
+    cam = interp.model.cameras[1]
+    true = truth.pose("01")
+    R, t = np.array(cam.R), np.array(cam.t)
+    Rt, tt = np.array(true.R), np.array(true.t)
+    assert np.linalg.norm(R.T @ t - Rt.T @ tt) < 0.2  # metres, at 30 m
+    angle = np.degrees(np.arccos(np.clip((np.trace(R @ Rt.T) - 1) / 2, -1.0, 1.0)))
+    assert angle < 0.5
