@@ -229,6 +229,15 @@ class Evaluation:
         self.n_residuals = row
         self.rows = np.concatenate(rows_all) if rows_all else np.zeros(0, dtype=np.intp)
         self.cols = np.concatenate(cols_all) if cols_all else np.zeros(0, dtype=np.intp)
+        # the CSR structure once: entries sorted by (row, col), duplicates (a plane occurring
+        # twice in one constraint) summed into one slot by `_slot`
+        width = max(self.n_params, 1)
+        self._flat = self.rows * width + self.cols
+        uniq, slot = np.unique(self._flat, return_inverse=True)
+        self._slot = slot.reshape(-1)
+        self._csr_indices = (uniq % width).astype(np.int32)
+        counts = np.bincount(uniq // width, minlength=self.n_residuals)
+        self._csr_indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
         self.base_params = np.zeros((P, 3))
         self.base_cameras: tuple[PinholeCamera, ...] = problem.cameras
 
@@ -293,6 +302,29 @@ class Evaluation:
 
     def residuals_and_jacobian(self, x: FloatArray) -> tuple[FloatArray, sp.csr_matrix]:
         """Weighted residual vector and its sparse Jacobian (n_residuals, n_params), CSR."""
+        f, data = self._residuals_and_entries(x)
+        values = np.bincount(self._slot, weights=data, minlength=self._csr_indices.size)
+        jac = sp.csr_matrix(
+            (values, self._csr_indices, self._csr_indptr), shape=(self.n_residuals, self.n_params)
+        )
+        return f, jac
+
+    def residuals_and_dense_jacobian(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Weighted residual vector and its Jacobian as a dense (n_residuals, n_params) array
+        (for small problems, where a dense factorisation beats an iterative solver)."""
+        f, data = self._residuals_and_entries(x)
+        size = self.n_residuals * self.n_params
+        dense: FloatArray = np.bincount(self._flat, weights=data, minlength=size).astype(
+            np.float64, copy=False
+        )
+        return f, dense.reshape(self.n_residuals, self.n_params)
+
+    def jacobian(self, x: FloatArray) -> sp.csr_matrix:
+        """The sparse Jacobian alone (CSR)."""
+        return self.residuals_and_jacobian(x)[1]
+
+    def _residuals_and_entries(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Weighted residuals and the Jacobian's entries in the order of ``rows``/``cols``."""
         rs, js, jcs = self.raw(self.params(x), self.cameras(x), jacobian=True)
         fs, vals = [], []
         for b, r, J, Jc, mask, cmask in zip(
@@ -305,12 +337,7 @@ class Evaluation:
                 assert Jc is not None
                 vals.append((Jc * scale[:, :, None])[cmask])
         data = np.concatenate(vals) if vals else np.zeros(0)
-        jac = sp.csr_matrix((data, (self.rows, self.cols)), shape=(self.n_residuals, self.n_params))
-        return (np.concatenate(fs) if fs else np.zeros(0)), jac
-
-    def jacobian(self, x: FloatArray) -> sp.csr_matrix:
-        """The sparse Jacobian alone (CSR)."""
-        return self.residuals_and_jacobian(x)[1]
+        return (np.concatenate(fs) if fs else np.zeros(0)), data
 
     def _weigh(self, b: ConstraintBlock, r: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Weighted, robustified residuals (M, k) and the factor (M, k) for their Jacobian."""

@@ -12,7 +12,7 @@ from aida_kb.constraints.kernels import meeting_angle
 from aida_kb.constraints.model import Constraint, PositionData
 from aida_kb.errors import SolveError
 from aida_kb.solve.problem import Evaluation, build_problem
-from aida_kb.solve.solver import SolveResult, solve
+from aida_kb.solve.solver import EXACT_MAX_UNKNOWNS, SolveResult, choose_tr_solver, solve
 from aida_kb.solve.synthetic import SyntheticScene, house_row, intersect_planes, perturbed
 
 
@@ -117,6 +117,57 @@ def test_hierarchical_mode_fixes_the_main_parts_first(house: SyntheticScene) -> 
     assert joint.cost <= result.cost + 1e-9
 
 
+def test_exact_and_lsmr_reach_the_same_minimum(house: SyntheticScene) -> None:
+    problem = _build(house)
+    auto = solve(problem)
+    assert auto.tr_solvers == ("exact",)  # 84 unknowns: dense
+    lsmr = solve(problem, tr_solver="lsmr")
+    assert lsmr.tr_solvers == ("lsmr",)
+    assert auto.success
+    assert lsmr.success
+    # the exact trust-region steps end at least as low as the iterative ones
+    assert auto.cost <= lsmr.cost * (1 + 1e-12)
+    assert lsmr.cost == pytest.approx(auto.cost, rel=1e-8)
+    np.testing.assert_allclose(lsmr.normals, auto.normals, atol=1e-6)
+    # hierarchical: each level chooses by its own size; cg uses no trust region
+    main = [i for i, name in enumerate(house.names) if ".wings" not in name]
+    assert solve(problem, levels=[main], tr_solver="lsmr").tr_solvers == ("lsmr", "lsmr")
+    assert solve(problem, method="cg", max_iterations=2).tr_solvers == ()
+
+
+def test_undetermined_directions_keep_their_start() -> None:
+    # the offsets of parts 1-3 and some of their rotations are free: no constraint fixes them
+    n = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.2], [0.0, 1.0, 0.1], [0.3, -1.0, 0.0]])
+    region = PositionData(n_init=(0.0, 0.0, 1.0), c_init=(0.0, 0.0, 5.0))
+    cons = [
+        Constraint(kind="position", parts=(0,), sigma=0.01, measurement=True, position=region),
+        Constraint(kind="angle", parts=(0, 1), value=math.radians(90), sigma=0.01),
+        Constraint(kind="symmetry", parts=(0, 1, 0, 2), sigma=0.01),
+        Constraint(kind="symmetry", parts=(1, 3, 2, 3), sigma=0.01),
+    ]
+    problem = build_problem(n, np.array([5.0, 2.0, 3.0, 1.0]), cons)
+    result = solve(problem, tr_solver="exact")
+    assert result.success
+    assert result.cost < 1e-12
+    np.testing.assert_allclose(result.params[:, 0], 0.0, atol=1e-12)  # offsets
+    # rotations: no more than the symmetries need (without the anchor rows, part 3 turned by
+    # 13 rad on rounding noise)
+    assert np.max(np.abs(result.params[:, 1:])) < 0.8
+
+
+def test_auto_tr_solver_threshold() -> None:
+    assert choose_tr_solver(1) == "exact"
+    assert choose_tr_solver(EXACT_MAX_UNKNOWNS) == "exact"
+    assert choose_tr_solver(EXACT_MAX_UNKNOWNS + 1) == "lsmr"
+    assert choose_tr_solver(EXACT_MAX_UNKNOWNS + 1, "exact") == "exact"
+    assert choose_tr_solver(3, "lsmr") == "lsmr"
+    big = house_row(2, seed=0)
+    n0, d0 = perturbed(big, seed=1, angle_deg=1.0, offset_m=0.1)
+    result = solve(build_problem(n0, d0, big.constraints, centres=big.centres))
+    assert result.tr_solvers == ("lsmr",)  # 56 parts, 168 unknowns
+    assert result.success
+
+
 def test_cg_reaches_the_same_minimum_on_a_small_problem(house: SyntheticScene) -> None:
     names = ("front", "left")
     parts = [house.index(f"h0.body.oriels[0].{r}") for r in names]
@@ -172,6 +223,9 @@ def test_sparse_jacobian_matches_finite_differences(house: SyntheticScene) -> No
         f, J = ev.residuals_and_jacobian(x)
         assert J.shape == (f.size, ev.n_params)
         np.testing.assert_allclose(f, ev.residuals(x))
+        f_dense, J_dense = ev.residuals_and_dense_jacobian(x)
+        np.testing.assert_array_equal(f_dense, f)
+        np.testing.assert_allclose(J_dense, J.toarray(), rtol=0, atol=1e-15)
         eps = 1e-7
         cols = np.random.default_rng(4).choice(ev.n_params, size=12, replace=False)
         for j in cols:
@@ -179,6 +233,28 @@ def test_sparse_jacobian_matches_finite_differences(house: SyntheticScene) -> No
             dx[j] = eps
             num = (ev.residuals(x + dx) - ev.residuals(x - dx)) / (2 * eps)
             np.testing.assert_allclose(J[:, j].toarray()[:, 0], num, atol=1e-4, rtol=1e-5)
+
+
+def test_jacobian_sums_a_part_that_occurs_twice_in_one_constraint() -> None:
+    rng = np.random.default_rng(7)
+    n = rng.normal(size=(4, 3))
+    cons = [
+        Constraint(kind="parallel_edge", parts=(0, 1, 0, 2), sigma=0.1),
+        Constraint(kind="symmetry", parts=(0, 1, 1, 3), sigma=0.1),
+        Constraint(kind="angle", parts=(2, 3), value=2.0, sigma=0.1),
+    ]
+    problem = build_problem(n, rng.normal(size=4), cons)
+    ev = Evaluation(problem, np.arange(4))
+    x = rng.normal(scale=0.05, size=ev.n_params)
+    f, J = ev.residuals_and_jacobian(x)
+    np.testing.assert_allclose(ev.residuals_and_dense_jacobian(x)[1], J.toarray(), atol=1e-15)
+    eps = 1e-7
+    num = np.empty((f.size, ev.n_params))
+    for j in range(ev.n_params):
+        dx = np.zeros_like(x)
+        dx[j] = eps
+        num[:, j] = (ev.residuals(x + dx) - ev.residuals(x - dx)) / (2 * eps)
+    np.testing.assert_allclose(J.toarray(), num, atol=1e-5, rtol=1e-5)
 
 
 def _position(n: tuple[float, float, float] = (0.0, 0.0, 1.0), **kw: float) -> Constraint:
@@ -224,5 +300,7 @@ def test_bad_planes_and_options_are_solve_errors() -> None:
     problem = build_problem(n, np.ones(2), good)
     with pytest.raises(SolveError, match="unknown method"):
         solve(problem, method="bfgs")  # type: ignore[arg-type]
+    with pytest.raises(SolveError, match="unknown tr_solver"):
+        solve(problem, tr_solver="cholesky")  # type: ignore[arg-type]
     with pytest.raises(SolveError, match="level 0: unknown part index 9"):
         solve(problem, levels=[[9]])
