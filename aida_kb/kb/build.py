@@ -163,7 +163,17 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
                 )
             )
     az = Analyzer(table, cname)
-    prims = [(r.label, r.owner, az.rule(r.node, inherited=r.owner != cname)) for r in info.rules]
+    done = table.expansions  # the rules the checks analysed in this concept
+    prims = [
+        (
+            r.label,
+            r.owner,
+            done[(cname, id(r.node))]
+            if (cname, id(r.node)) in done
+            else az.rule(r.node, inherited=r.owner != cname),
+        )
+        for r in info.rules
+    ]
     return _make(
         ConceptModel,
         name=cname,

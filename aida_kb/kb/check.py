@@ -1,10 +1,11 @@
 """Phase 3, semantic checks: each a small function yielding diagnostics with a code and a span.
 
-The checks read the resolved `Table` and never change it. Per concept: the concepts its roles
-name, layers of parts and con-of, cardinalities, attributes (types, units, ranges), adjacency
-paths, constraints and measures (through `relations.Analyzer`). Over the whole net: part-of
-cycles, templates (parameters, body, use), instances, and the warnings (unused template,
-unreachable concept, concept that cannot be verified).
+The checks read the resolved `Table` and change nothing it says (they fill its caches, and
+keep each rule's primitives in ``Table.expansions`` for the build). Per concept: the concepts
+its roles name, layers of parts and con-of, cardinalities, attributes (types, units, ranges),
+adjacency paths, constraints and measures (through `relations.Analyzer`). Over the whole net:
+part-of cycles, templates (parameters, body, use), instances, and the warnings (unused
+template, unreachable concept, concept that cannot be verified).
 """
 
 from __future__ import annotations
@@ -200,9 +201,11 @@ def check_rules(table: Table, info: CInfo, used: set[str]) -> Iterator[Diagnosti
     """Constraints and measures: relations, templates, units, adjacency of edges."""
     cname = info.node.name.text
     az = Analyzer(table, cname)
+    expansions = table.expansions
     for rule in info.rules:
         if rule.owner == cname or info.own_slots:
-            az.rule(rule.node, inherited=rule.owner != cname)
+            prims = az.rule(rule.node, inherited=rule.owner != cname)
+            expansions[(cname, id(rule.node))] = prims
     used |= az.used
     yield from az.diagnostics
 

@@ -152,6 +152,9 @@ class Table:
         #: template name -> (the template, required arguments, defaults as values): filled and
         #: read by `aida_kb.kb.relations.Analyzer.signature`
         self.signatures: dict[str, tuple[ast.Template, int, tuple[Any, ...]]] = {}
+        #: (concept, id of a constraint or measure node) -> its primitives as analysed in that
+        #: concept (`aida_kb.kb.relations.Prim`): kept by the checks, reused by the build
+        self.expansions: dict[tuple[str, int], list[Any]] = {}
 
     # -- is-a queries
     def ancestors(self, name: str) -> frozenset[str]:
