@@ -22,6 +22,7 @@ __all__ = ["run_checks"]
 
 _EPS = 1e-12
 _KIND_WORDS = {"angle": "an angle", "length": "a length", "image": "in pixels"}
+_A_TYPE = {"angle": "an angle", "length": "a length", "number": "a number"}
 
 
 # ---- per concept ------------------------------------------------------------------------------
@@ -372,7 +373,8 @@ def _check_binding(table: Table, slot: Slot, b: ast.Binding) -> Iterator[Diagnos
         if not isinstance(value, ast.Quantity | ast.Number):
             yield diag(
                 codes.BAD_BINDING,
-                f"attribute '{slot.name.text}' takes a {node.type.text} value, not '{value}'",
+                f"attribute '{slot.name.text}' takes {_A_TYPE[node.type.text]} value, "
+                f"not '{value}'",
                 value.span,
             )
             return
