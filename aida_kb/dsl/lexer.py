@@ -70,9 +70,9 @@ class FastContextualLexer:
         """The tokens of ``lexer_state``'s text, each in the parser's current context."""
         states = self.states
         ignore = self.ignore
-        text_slice = lexer_state.text
-        text: str = text_slice.text
-        end = text_slice.end
+        source: Any = lexer_state.text  # a TextSlice (Lark >= 1.2) or the text itself
+        text: str = source if isinstance(source, str) else source.text
+        end: int = len(source) if isinstance(source, str) else source.end
         ctr = lexer_state.line_ctr
         pos = ctr.char_pos
         line = ctr.line
@@ -124,10 +124,31 @@ class FastContextualLexer:
 
 
 def install(lark: Lark) -> bool:
-    """Drive ``lark``'s contextual lexer with `FastContextualLexer`; False when it has none."""
+    """Drive ``lark``'s contextual lexer with `FastContextualLexer`.
+
+    Returns False, and leaves Lark's own lexer in place, when ``lark`` has no contextual lexer
+    or its lexer lacks the internals the driver reuses (another Lark version).
+    """
     frontend: Any = lark.parser
     inner = getattr(frontend, "lexer", None)
-    if not isinstance(inner, ContextualLexer):
+    if not isinstance(inner, ContextualLexer) or not _reusable(inner):
         return False
     frontend.lexer = FastContextualLexer(inner)
     return True
+
+
+def _reusable(inner: ContextualLexer) -> bool:
+    """Whether the contextual lexer has the per-state scanners and callbacks the driver uses."""
+    try:
+        lexers: Any = inner.lexers
+        root: Any = inner.root_lexer
+        some: Any = next(iter(lexers.values()))
+        return (
+            isinstance(lexers, dict)
+            and isinstance(root.ignore_types, frozenset | set)
+            and isinstance(some.scanner._mres, list)
+            and isinstance(some.callback, dict)
+            and isinstance(some.newline_types, frozenset | set)
+        )
+    except (AttributeError, StopIteration, TypeError):
+        return False

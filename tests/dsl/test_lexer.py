@@ -86,3 +86,16 @@ def test_same_tokens_on_mutants(data: st.DataObject) -> None:
     insert = data.draw(st.text(alphabet='abz_ 09.\n"/*{}()[]:,=+-#', max_size=6))
     text = BUILDINGS[:start] + insert + BUILDINGS[start + length :]
     assert _outcome(FAST, text) == _outcome(SLOW, text)
+
+
+def test_install_leaves_other_lexers_alone() -> None:
+    basic = Lark("start: NAME\nNAME: /[a-z]+/\n", parser="lalr", lexer="basic")
+    assert not install(basic)
+    assert basic.parse("abc").children == ["abc"]
+
+
+def test_install_declines_a_lexer_without_the_reused_internals() -> None:
+    lark = make_lark()
+    lark.parser.lexer.root_lexer = None  # as if another Lark version had no root lexer
+    assert not install(lark)
+    assert not isinstance(lark.parser.lexer, FastContextualLexer)
