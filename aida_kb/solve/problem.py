@@ -68,6 +68,13 @@ class Problem:
         """The name of part ``i`` (its role path if given, else ``part i``)."""
         return self.names[i] if i < len(self.names) else f"part {i}"
 
+    def describe(self, i: int) -> str:
+        """Constraint ``i`` for messages: its index, label and kind with its parts' names."""
+        c = self.constraints[i]
+        parts = ", ".join(self.part_name(int(p)) for p in c.parts)
+        label = f" '{c.label}'" if c.label else ""
+        return f"constraint {i}{label} ({c.kind} of {parts})"
+
     def with_frames(self, frames: PartFrames) -> Problem:
         """The same problem relative to new initial frames (e.g. `PartFrames.rebased`)."""
         return replace(self, frames=frames)
@@ -227,6 +234,14 @@ class Evaluation:
             self._cam_masks.append(cam_mask)
             row += M * k
         self.n_residuals = row
+        # the constraint of each residual row (messages about degenerate geometry)
+        self.constraint_of_row = (
+            np.concatenate(
+                [np.repeat(b.members, RESIDUAL_SIZE[b.kind]).astype(np.intp) for b in blocks]
+            )
+            if blocks
+            else np.zeros(0, dtype=np.intp)
+        )
         self.rows = np.concatenate(rows_all) if rows_all else np.zeros(0, dtype=np.intp)
         self.cols = np.concatenate(cols_all) if cols_all else np.zeros(0, dtype=np.intp)
         # the CSR structure once: entries sorted by (row, col), duplicates (a plane occurring
@@ -287,7 +302,9 @@ class Evaluation:
         js: list[FloatArray] = []
         jcs: list[FloatArray | None] = []
         for b in self.blocks:
-            r, J, Jc = b.evaluate(n, d, cameras)
+            # degenerate geometry gives non-finite values, which the callers check and name
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                r, J, Jc = b.evaluate(n, d, cameras)
             rs.append(r)
             if jacobian:
                 js.append(np.einsum("mkaf,mafq->mkaq", J, G[b.idx]))

@@ -112,7 +112,7 @@ def residual_report(
     for i, c in enumerate(problem.constraints):
         e = float(norms[i])
         if not math.isfinite(e):
-            raise SolveError(f"constraint {i} ({c.label or c.kind}): residual is not finite")
+            raise SolveError(f"{problem.describe(i)}: residual is not finite (degenerate geometry)")
         weight = c.effective_weight
         mult = c.position.w_c if c.position is not None else 1.0
         sigma = c.sigma if c.sigma is not None else 1.0 / math.sqrt(weight)

@@ -208,8 +208,12 @@ def solve(
             x0 = ev.x_from(params, cameras)
             f0 = ev.residuals(x0)
             if not np.all(np.isfinite(f0)):
-                bad = int(np.argmax(~np.isfinite(f0)))
-                raise SolveError(f"residual {bad} is not finite at the start (degenerate planes?)")
+                bad = int(ev.constraint_of_row[int(np.argmax(~np.isfinite(f0)))])
+                raise SolveError(
+                    f"{problem.describe(bad)}: no finite residual at the start: degenerate "
+                    "geometry (e.g. parallel planes where an edge is needed, opposite normals "
+                    "where a parallel constraint wants them alike)"
+                )
             linear = choose_tr_solver(ev.n_params, tr_solver)
             x, nfev, ok, message = _run(ev, x0, method, max_iterations, tolerance, linear)
             if method == "trf":

@@ -202,6 +202,7 @@ def test_robust_loss_limits_a_bad_measurement(house: SyntheticScene) -> None:
     cons = (*house.constraints[:k], bad, *house.constraints[k + 1 :])
     plain = solve(_build(house, cons))
     robust = solve(_build(house, cons), loss="soft_l1", f_scale=3.0)
+    huber = solve(_build(house, cons), loss="huber", f_scale=3.0)
     front = house.index("h0.body.front")
 
     def drag(result: SolveResult) -> float:
@@ -210,6 +211,8 @@ def test_robust_loss_limits_a_bad_measurement(house: SyntheticScene) -> None:
         return math.degrees(math.acos(min(1.0, cos)))
 
     assert drag(robust) < 0.5 * drag(plain)
+    assert drag(huber) < 0.5 * drag(plain)
+    assert huber.report.rows[k].exceeds
     assert robust.report.rows[k].exceeds
     assert not plain.report.rows[k - 1].exceeds
 
@@ -288,6 +291,55 @@ def test_degenerate_input_is_a_clear_solve_error(constraint: Constraint, message
     n = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
     with pytest.raises(SolveError, match=message):
         build_problem(n, np.ones(3), [constraint])
+
+
+@pytest.mark.parametrize(
+    ("constraint", "named"),
+    [
+        # the edge of two parallel planes has no direction
+        (Constraint(kind="parallel_edge", parts=(0, 1, 2, 3), sigma=0.01), "a, b, c, d"),
+        # "same facing" asked of opposite normals: the rotation between them has no axis
+        (Constraint(kind="parallel", parts=(0, 4), sigma=0.01, sign=1, label="p"), "'p'"),
+    ],
+)
+def test_degenerate_geometry_is_a_solve_error_naming_the_parts(
+    constraint: Constraint, named: str, recwarn: pytest.WarningsRecorder
+) -> None:
+    n = np.array([[0, 0, 1.0], [0, 0, 1.0], [1.0, 0, 0], [0, 1.0, 0], [0, 0, -1.0]])
+    names = ["a", "b", "c", "d", "e"]
+    problem = build_problem(n, np.arange(5.0), [constraint], names=names)
+    with pytest.raises(SolveError, match="degenerate geometry") as info:
+        solve(problem)
+    assert named in str(info.value)
+    assert ", ".join(names[p] for p in constraint.parts) in str(info.value)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+
+
+def test_weights_from_tolerances_or_explicit() -> None:
+    # two angle targets for one pair of walls: the solution is their weighted mean
+    n = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    deg = math.radians(1.0)
+
+    def meet(w90: dict[str, float], w100: dict[str, float]) -> float:
+        cons = [
+            Constraint(kind="angle", parts=(0, 1), value=math.radians(90), **w90),
+            Constraint(kind="angle", parts=(0, 1), value=math.radians(100), **w100),
+        ]
+        result = solve(build_problem(n, np.ones(2), cons, fixed_parts=[0]))
+        assert result.cost == pytest.approx(sum(r.cost for r in result.report.rows))
+        return math.degrees(meeting_angle(result.normals[:1], result.normals[1:])[0][0])
+
+    # sigma 1 and 2 degrees: weights 4:1
+    assert meet({"sigma": deg}, {"sigma": 2 * deg}) == pytest.approx(92.0, abs=1e-6)
+    # an explicit weight overrides the tolerance in the objective (1:1 here) ...
+    assert meet({"sigma": deg}, {"sigma": 2 * deg, "weight": 1 / deg**2}) == pytest.approx(
+        95.0, abs=1e-6
+    )
+    # ... while the tolerance still normalises the report
+    cons = [Constraint(kind="angle", parts=(0, 1), value=1.0, sigma=0.1, weight=7.0)]
+    row = solve(build_problem(n, np.ones(2), cons, fixed_parts=[0, 1])).report.rows[0]
+    assert row.cost == pytest.approx(7.0 * row.residual**2)
+    assert row.normalised_cost == pytest.approx(row.residual**2 / 0.01)
 
 
 def test_bad_planes_and_options_are_solve_errors() -> None:
