@@ -6,19 +6,22 @@ fixed model, view 00 the reference camera. Figures, all in degrees of turn about
 turntable axis against the truth:
 
 * ``max_error_deg``: views 85, 195 and 265 registered from simulated line segments at 0.5 px
-  image noise (every edge point, one per pixel, gets 2-D Gaussian noise of 0.5 px and the
-  segment is fitted to them; 30 % of the edges broken in two, 10 % missing, 40 clutter
-  segments), each with a rough initial turn 10 degrees off (the box is symmetric under a half
-  turn, so 195 and 85 degrees from the front look alike: some guess is needed past 90), 6 pose
-  parameters free. ``trials_max_error_deg`` / ``trials_median_error_deg``: the same over 10
-  noise draws (30 registrations).
+  image noise in both images of each view's stereo pair (every edge point, one per pixel, gets
+  2-D Gaussian noise of 0.5 px and the segment is fitted to them; 30 % of the edges broken in
+  two, 10 % missing, 40 clutter segments per image), each with a rough initial turn 10 degrees
+  off (the box is symmetric under a half turn, so 195 and 85 degrees from the front look
+  alike: some guess is needed past 90), the 6 pose parameters of the left camera free (the
+  right camera follows by the calibration). ``trials_max_error_deg`` /
+  ``trials_median_error_deg``: the same over 10 noise draws (30 registrations);
+  ``mono_*``: the same from the left images alone.
 * ``pnp_max_error_deg``: the anchor: `cv2.solvePnP` (SQPnP, no guess) given the true 2-D/3-D
   correspondences of the visible box corners, the same 0.5 px noise on the corners.
 * ``basin_deg``: the largest turn between two consecutive views (the reference and a view
   turned by 10, 15, ..., 90 degrees) up to which every registration with no initial guess
   lands within 0.1 degrees of the truth.
 * ``rendered_max_error_deg``: views 85, 195, 265 registered from the rendered images' own
-  evidence (`aida-kb evidence`: line detector, stereo regions), initial turn 10 degrees off.
+  evidence (`aida-kb evidence`: line detector on both images, stereo regions), initial turn
+  10 degrees off.
 
 Run: ``.venv/bin/python benchmarks/registration.py``. Prints details to stderr and ONE JSON
 line to stdout.
@@ -39,8 +42,15 @@ import numpy as np
 
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.scene import read_scene
-from aida_kb.register import RigidModel, angle_about, register_view, turned
-from aida_kb.register.evidence import register_evidence_view
+from aida_kb.register import (
+    Rig,
+    RigidModel,
+    StereoSegments,
+    angle_about,
+    register_view,
+    turned,
+)
+from aida_kb.register.evidence import register_evidence_view, right_segments
 from aida_kb.register.synthetic import simulated_segments
 from aida_kb.synth.scenes import preset, render_scene
 from aida_kb.vision.evidence import scene_evidence
@@ -104,15 +114,31 @@ def main() -> None:
         for a, t in zip(ANGLES, true_turn, strict=True):
             assert abs(_wrap(a - t)) < 1e-6, (a, t)
 
+        c = scene.calib
+        rig = Rig(c.K2, c.R, np.asarray(c.T).ravel(), w, h)
+
         # 1. Table 1 from simulated segments at 0.5 px, and over noise trials
         errors: list[list[float]] = []
+        mono: list[list[float]] = []
         pnp: list[float] = []
         for trial in range(TRIALS):
             rng = np.random.default_rng(trial)
             row = []
+            mono_row = []
             for k, a in enumerate(ANGLES, start=1):
                 p1, p2 = simulated_segments(model, cams[k], rng, noise_px=NOISE_PX)
-                reg = register_view(model, cams[0], p1, p2, init_angle_deg=a - GUESS_OFF_DEG)
+                r1, r2 = simulated_segments(model, rig.right_of(cams[k]), rng, noise_px=NOISE_PX)
+                guess = a - GUESS_OFF_DEG
+                reg = register_view(model, cams[0], p1, p2, init_angle_deg=guess)
+                mono_row.append(abs(_wrap(reg.angle_deg - a)))
+                reg = register_view(
+                    model,
+                    cams[0],
+                    p1,
+                    p2,
+                    init_angle_deg=guess,
+                    stereo=StereoSegments(rig, r1, r2),
+                )
                 row.append(abs(_wrap(reg.angle_deg - a)))
                 if trial == 0:
                     print(
@@ -123,8 +149,10 @@ def main() -> None:
                     )
                     pnp.append(_pnp_error(model, cams[0], cams[k], up, rng))
             errors.append(row)
+            mono.append(mono_row)
         table = errors[0]
         flat = np.array(errors).ravel()
+        mono_flat = np.array(mono).ravel()
         print(f"PnP anchor errors: {np.round(pnp, 4).tolist()}", file=sys.stderr)
 
         # 2. the convergence basin, no initial guess
@@ -133,8 +161,9 @@ def main() -> None:
         for a in np.arange(10.0, 90.0 + 1e-9, 5.0):
             cam = turned(cams[0], up, pivot, math.radians(float(a)))
             p1, p2 = simulated_segments(model, cam, rng, noise_px=NOISE_PX)
+            r1, r2 = simulated_segments(model, rig.right_of(cam), rng, noise_px=NOISE_PX)
             try:
-                reg = register_view(model, cams[0], p1, p2)
+                reg = register_view(model, cams[0], p1, p2, stereo=StereoSegments(rig, r1, r2))
                 err = abs(_wrap(reg.angle_deg - float(a)))
             except Exception as exc:  # a failed registration is a failed convergence
                 print(f"basin {a:.0f}: {exc}", file=sys.stderr)
@@ -145,11 +174,16 @@ def main() -> None:
             basin = float(a)
 
         # 3. the rendered images' own evidence
-        evidence, _ = scene_evidence(read_scene(scene_dir, with_truth=False))
+        blind = read_scene(scene_dir, with_truth=False)
+        evidence, _ = scene_evidence(blind)
         rendered = []
         for k, a in enumerate(ANGLES, start=1):
             reg = register_evidence_view(
-                model, cams[0], evidence.views[k], init_angle_deg=a - GUESS_OFF_DEG
+                model,
+                cams[0],
+                evidence.views[k],
+                init_angle_deg=a - GUESS_OFF_DEG,
+                stereo=right_segments(blind, evidence.views[k].id),
             )
             rendered.append(abs(_wrap(reg.angle_deg - a)))
             print(
@@ -167,6 +201,9 @@ def main() -> None:
                 "trials": TRIALS,
                 "trials_max_error_deg": round(float(flat.max()), 4),
                 "trials_median_error_deg": round(float(np.median(flat)), 4),
+                "mono_max_error_deg": round(max(mono[0]), 4),
+                "mono_trials_max_error_deg": round(float(mono_flat.max()), 4),
+                "mono_trials_median_error_deg": round(float(np.median(mono_flat)), 4),
                 "pnp_max_error_deg": round(max(pnp), 4),
                 "basin_deg": basin,
                 "rendered_max_error_deg": round(max(rendered), 4),

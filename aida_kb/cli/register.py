@@ -10,11 +10,12 @@ EXAMPLE = """\
 what it does:
   runs the vision front end on view NN of SCENE_DIR, then finds that view's camera pose
   with the model of MODEL (model.json) held fixed: a coarse search over the turn about the
-  model's vertical axis, then match model edges to image segments, solve for the 6 pose
-  parameters (edge constraints, and position constraints from the view's depth), re-match
-  and solve again. No initial guess is needed; --init-angle narrows the search to
-  +-30 degrees about a rough turn (for a symmetric object, the turn decides which of the
-  equally good poses is meant). The scene's truth.json is never read.
+  model's vertical axis, then match model edges to image segments of both images of the
+  stereo pair, solve for the 6 pose parameters (edge constraints, and position constraints
+  from the view's depth), re-match and solve again. No initial guess is needed;
+  --init-angle narrows the search to +-30 degrees about a rough turn (for a symmetric
+  object, the turn decides which of the equally good poses is meant). The scene's
+  truth.json is never read.
 
 prints:
   the pose (R_cam_world, t_cam_world, rotation vector and centre C in metres), the turn
@@ -58,6 +59,11 @@ def register(subparsers: Any) -> None:
         help="the model camera to start from (default: the model's first camera)",
     )
     p.add_argument("--no-regions", action="store_true", help="edge constraints only")
+    p.add_argument(
+        "--left-only",
+        action="store_true",
+        help="only the left image's segments (default: the right image's as well)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
@@ -72,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.io.model import read_model
     from aida_kb.io.scene import read_scene
     from aida_kb.register import RigidModel
-    from aida_kb.register.evidence import camera_of, register_evidence_view
+    from aida_kb.register.evidence import camera_of, register_evidence_view, right_segments
     from aida_kb.vision.evidence import scene_evidence
 
     if args.init_angle is not None and not math.isfinite(args.init_angle):
@@ -97,6 +103,7 @@ def run(args: argparse.Namespace) -> int:
         evidence.views[0],
         init_angle_deg=args.init_angle,
         use_regions=not args.no_regions,
+        stereo=None if args.left_only else right_segments(scene, args.view),
     )
     cam = reg.camera
     pose = cam.pose

@@ -34,13 +34,19 @@ from aida_kb.interpret.result import Interpretation
 from aida_kb.interpret.run import interpret
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import Cahv, ModelCamera, ModelPart, ReconstructedModel
+from aida_kb.io.scene import Scene
 from aida_kb.register import (
     RegistrationOptions,
     RigidModel,
     match_regions,
     match_segments,
 )
-from aida_kb.register.evidence import ViewMeasurements, measurements_of, register_evidence_view
+from aida_kb.register.evidence import (
+    ViewMeasurements,
+    measurements_of,
+    register_evidence_view,
+    right_segments,
+)
 from aida_kb.solve import build_problem, solve
 
 if TYPE_CHECKING:
@@ -225,9 +231,13 @@ def reconstruct_views(
     *,
     goal: str = "House",
     source: str = "",
+    scene: Scene | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Interpretation:
     """Interpret the first view, register the others, refine the model with all of them.
+
+    With the `scene` the evidence came from, registration also uses the segments of each
+    view's right image (`aida_kb.register.evidence.right_segments`).
 
     With one view (or no view of unknown pose) this is `interpret` itself. Otherwise the
     returned interpretation is the first view's, with the model replaced by the one refined
@@ -266,7 +276,8 @@ def reconstruct_views(
     for k, v in enumerate(later):
         if progress is not None:
             progress(f"registering view {v.id}")
-        reg = register_evidence_view(rigid, cams[-1], v)
+        stereo = None if scene is None else right_segments(scene, v.id)
+        reg = register_evidence_view(rigid, cams[-1], v, stereo=stereo)
         cams.append(reg.camera)
         if k == 0:
             # the first shape and the second view's pose in one joint optimisation

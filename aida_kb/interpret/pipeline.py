@@ -56,7 +56,12 @@ def reconstruct_scene(
         stage("-", "interpretation")
     progress = None if stage is None else (lambda what: stage("-", what))
     interp = reconstruct_views(
-        kb, evidence, goal=goal, source=str(Path(scene_dir) / "evidence"), progress=progress
+        kb,
+        evidence,
+        goal=goal,
+        source=str(Path(scene_dir) / "evidence"),
+        scene=scene,
+        progress=progress,
     )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from aida_kb.register.match import Matches, chamfer_cost, match_segments
 from aida_kb.register.model import RigidModel, VisibleEdges
-from aida_kb.register.pose import EdgeObservations, PoseFit, RegionObservations, fit_pose
+from aida_kb.register.pose import EdgeObservations, PoseFit, RegionObservations, Rig, fit_pose
 from aida_kb.register.register import (
     RegionMeasurements,
     Registration,
     RegistrationOptions,
+    StereoSegments,
     angle_about,
     match_regions,
     refine,
@@ -31,7 +32,9 @@ __all__ = [
     "RegionObservations",
     "Registration",
     "RegistrationOptions",
+    "Rig",
     "RigidModel",
+    "StereoSegments",
     "VisibleEdges",
     "angle_about",
     "chamfer_cost",

@@ -15,17 +15,26 @@ from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.evidence import ViewEvidence
 from aida_kb.io.model import ModelCamera
+from aida_kb.io.scene import Scene, read_image
 from aida_kb.register.model import RigidModel
+from aida_kb.register.pose import Rig
 from aida_kb.register.register import (
     RegionMeasurements,
     Registration,
     RegistrationOptions,
+    StereoSegments,
     register_view,
 )
 
 FloatArray = npt.NDArray[np.float64]
 
-__all__ = ["ViewMeasurements", "camera_of", "measurements_of", "register_evidence_view"]
+__all__ = [
+    "ViewMeasurements",
+    "camera_of",
+    "measurements_of",
+    "register_evidence_view",
+    "right_segments",
+]
 
 
 @dataclass(frozen=True)
@@ -73,6 +82,25 @@ def measurements_of(view: ViewEvidence) -> ViewMeasurements:
     )
 
 
+def right_segments(scene: Scene, view_id: str) -> StereoSegments:
+    """The line segments of a view's right image (undistorted with D2) and the rig's camera.
+
+    The evidence file holds the left image's segments only; the right image's are detected
+    here with the same detector (`aida_kb.vision.lines.detect_segments`).
+    """
+    from aida_kb.vision.lines import detect_segments
+
+    calib = scene.calib
+    grey = read_image(scene.view(view_id).right, grey=True)
+    seg = detect_segments(grey)
+    K2 = np.asarray(calib.K2, dtype=np.float64)
+    D2 = np.asarray(calib.D2, dtype=np.float64).ravel()
+    ends = undistorted(seg.reshape(-1, 2), K2, D2).reshape(-1, 2, 2)
+    w, h = calib.image_size
+    rig = Rig(K2, np.asarray(calib.R, dtype=np.float64), np.asarray(calib.T).ravel(), w, h)
+    return StereoSegments(rig, ends[:, 0], ends[:, 1])
+
+
 def camera_of(camera: ModelCamera) -> PinholeCamera:
     """The pinhole camera of a model file's camera entry."""
     return PinholeCamera(
@@ -91,9 +119,12 @@ def register_evidence_view(
     *,
     init_angle_deg: float | None = None,
     use_regions: bool = True,
+    stereo: StereoSegments | None = None,
     options: RegistrationOptions | None = None,
 ) -> Registration:
     """Register an evidence view (its segments and, if asked, its regions) against `model`.
+
+    `stereo`: the segments of the view's right image (`right_segments`), used as well.
 
     Raises SolveError naming the view when it cannot be registered.
     """
@@ -107,6 +138,7 @@ def register_evidence_view(
             regions=m.regions if use_regions and m.regions.size else None,
             intrinsics=(m.K, m.width, m.height),
             init_angle_deg=init_angle_deg,
+            stereo=stereo,
             options=options,
         )
     except SolveError as exc:

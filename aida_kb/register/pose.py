@@ -25,7 +25,62 @@ from aida_kb.register.model import RigidModel
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
-__all__ = ["EdgeObservations", "PoseFit", "RegionObservations", "fit_pose", "region_residuals"]
+__all__ = [
+    "EdgeObservations",
+    "PoseFit",
+    "RegionObservations",
+    "Rig",
+    "fit_pose",
+    "region_residuals",
+    "right_jacobian",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class Rig:
+    """The second camera of a stereo pair, rigidly attached to the first (the registered one).
+
+    K : (3, 3) its camera matrix; R (3, 3), T (3,) metres: ``x_right = R·x_left + T``
+    (`cv2.stereoCalibrate`); width, height : its image size, pixels.
+    """
+
+    K: FloatArray
+    R: FloatArray
+    T: FloatArray
+    width: int
+    height: int
+
+    def right_of(self, left: PinholeCamera) -> PinholeCamera:
+        """The second camera when the first is `left` (world frame)."""
+        return PinholeCamera(
+            self.K,
+            self.R @ left.R_cam_world,
+            self.R @ left.t_cam_world + self.T,
+            self.width,
+            self.height,
+        )
+
+
+def right_jacobian(rig: Rig, left_pose: FloatArray) -> tuple[PinholeCamera, FloatArray]:
+    """The second camera at a first-camera pose ``[rvec, C]`` and d(its pose)/d(that pose).
+
+    Returns the camera and the (6, 6) Jacobian of its pose ``[rvec_r, C_r]`` by the first
+    camera's pose: ``R_r = R_rig R`` (the rotation vectors' derivative solved from the matrix
+    derivatives) and ``C_r = C + R^T b`` with b the second centre in the first camera's frame.
+    """
+    R, dR = rotation_from_rvec_jacobian(left_pose[:3])
+    right = rig.right_of(PinholeCamera(rig.K, R, -R @ left_pose[3:], rig.width, rig.height))
+    _, dRr = rotation_from_rvec_jacobian(right.pose[:3])
+    # d R_r / d rvec_i = R_rig dR_i = sum_j dRr_j M[j, i]: solve for M (exact, 9 x 3 system)
+    A = dRr.reshape(9, 3)
+    B = np.einsum("ab,bci->aci", rig.R, dR).reshape(9, 3)
+    M = np.linalg.lstsq(A, B, rcond=None)[0]
+    b = -rig.R.T @ rig.T
+    J = np.zeros((6, 6))
+    J[:3, :3] = M
+    J[3:, :3] = np.einsum("j,jmi->mi", b, dR)
+    J[3:, 3:] = np.eye(3)
+    return right, J
 
 
 @dataclass(frozen=True)
@@ -153,6 +208,8 @@ def fit_pose(
     edges: EdgeObservations,
     regions: RegionObservations | None = None,
     *,
+    rig: Rig | None = None,
+    right_edges: EdgeObservations | None = None,
     sigma_px: float = 1.0,
     f_scale: float = 2.0,
     max_evaluations: int = 50,
@@ -164,6 +221,8 @@ def fit_pose(
     model : the fixed model; camera : the start (its intrinsics are kept).
     edges : matched segments (pixels of the undistorted image).
     regions : matched regions with depth, or None.
+    rig, right_edges : the stereo pair's second camera and the segments of its image matched
+        to model edges (its pose follows the first camera's), or None.
     sigma_px : the standard deviation of an edge point across its edge, pixels; a segment's
         end-point residuals are whitened by `EdgeObservations.whitening`.
     f_scale : the soft L1 threshold in multiples of sigma.
@@ -175,6 +234,9 @@ def fit_pose(
     """
     nr = 0 if regions is None else regions.size
     W = edges.whitening(sigma_px)
+    stereo = rig is not None and right_edges is not None and right_edges.size > 0
+    Wr = right_edges.whitening(sigma_px) if stereo and right_edges is not None else None
+    n_right = right_edges.size if stereo and right_edges is not None else 0
 
     def fun_jac(x: FloatArray) -> tuple[FloatArray, FloatArray]:
         try:
@@ -184,6 +246,11 @@ def fit_pose(
         r, Jc = _edge_residuals(model, cam, edges)
         rs = [np.einsum("mij,mj->mi", W, r).reshape(-1)]
         js = [np.einsum("mij,mjk->mik", W, Jc).reshape(-1, 6)]
+        if rig is not None and right_edges is not None and Wr is not None:
+            right, dpose = right_jacobian(rig, x)
+            rr, Jr = _edge_residuals(model, right, right_edges)
+            rs.append(np.einsum("mij,mj->mi", Wr, rr).reshape(-1))
+            js.append(np.einsum("mij,mjk,kl->mil", Wr, Jr, dpose).reshape(-1, 6))
         if regions is not None and nr:
             rp, Jp = region_residuals(model, x, regions)
             rs.append(rp.reshape(-1))
@@ -192,7 +259,7 @@ def fit_pose(
 
     cache: dict[str, FloatArray] = {}
 
-    n_res = 2 * edges.size + 3 * nr
+    n_res = 2 * edges.size + 2 * n_right + 3 * nr
 
     def fun(x: FloatArray) -> FloatArray:
         try:

@@ -29,7 +29,7 @@ from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.rotation import rotation_from_rvec, rvec_from_rotation
 from aida_kb.register.match import chamfer_cost, match_segments
 from aida_kb.register.model import RigidModel
-from aida_kb.register.pose import EdgeObservations, RegionObservations, fit_pose
+from aida_kb.register.pose import EdgeObservations, RegionObservations, Rig, fit_pose
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -38,6 +38,7 @@ __all__ = [
     "RegionMeasurements",
     "Registration",
     "RegistrationOptions",
+    "StereoSegments",
     "angle_about",
     "match_regions",
     "refine",
@@ -75,7 +76,8 @@ class RegistrationOptions:
     round, pixels — every start is refined with each schedule (a tight one first: it ignores
     clutter; a wide one catches a start further off); max_angle_deg : the matching direction
     tolerance; tie_tolerance : refined candidates whose cost is within this fraction (plus
-    `tie_floor`) of the best are equally good; sigma_px : the standard deviation of an edge
+    `tie_floor`) of the best are equally good (the one turned least from the start is taken,
+    then the cheapest within `span_deg` of it); sigma_px : the standard deviation of an edge
     point across its edge, pixels; min_segment_px : shorter segments are ignored;
     region_sigma_rel : the position constraints' distance sigma as a fraction of the model's
     size (at least the fit's RMS); region_sigma_deg : their normal's sigma.
@@ -198,6 +200,15 @@ def match_regions(
     )
 
 
+@dataclass(frozen=True)
+class StereoSegments:
+    """The second image of a stereo view: its camera (`Rig`) and its segments (S, 2) pixels."""
+
+    rig: Rig
+    p1: FloatArray
+    p2: FloatArray
+
+
 def _score(
     model: RigidModel,
     camera: PinholeCamera,
@@ -205,9 +216,28 @@ def _score(
     p2: FloatArray,
     cap_px: float,
     max_angle: float,
+    stereo: StereoSegments | None = None,
 ) -> float:
     vis = model.visible_edges(camera)
-    return chamfer_cost(vis.a, vis.b, p1, p2, cap_px=cap_px, max_angle_rad=max_angle)
+    cost = chamfer_cost(vis.a, vis.b, p1, p2, cap_px=cap_px, max_angle_rad=max_angle)
+    if stereo is None:
+        return cost
+    rv = model.visible_edges(stereo.rig.right_of(camera))
+    right = chamfer_cost(rv.a, rv.b, stereo.p1, stereo.p2, cap_px=cap_px, max_angle_rad=max_angle)
+    return 0.5 * (cost + right)
+
+
+def _matched(
+    model: RigidModel,
+    camera: PinholeCamera,
+    p1: FloatArray,
+    p2: FloatArray,
+    tol: float,
+    max_angle: float,
+) -> EdgeObservations:
+    vis = model.visible_edges(camera)
+    m = match_segments(vis.a, vis.b, p1, p2, max_distance_px=tol, max_angle_rad=max_angle)
+    return EdgeObservations(model.edge_faces[vis.index[m.edge]], p1[m.segment], p2[m.segment])
 
 
 def refine(
@@ -218,10 +248,12 @@ def refine(
     regions: RegionMeasurements | None = None,
     options: RegistrationOptions | None = None,
     schedule_px: tuple[float, ...] = (12.0, 6.0, 3.0, 2.0, 2.0),
+    stereo: StereoSegments | None = None,
 ) -> tuple[PinholeCamera, float, int, int]:
     """Match, solve, re-match: the pose from a start near it.
 
-    Each round matches with the next distance of ``schedule_px`` (pixels).
+    Each round matches with the next distance of ``schedule_px`` (pixels). With `stereo`, the
+    second image's segments are matched and solved for as well (its camera follows the first).
 
     Returns the camera, the RMS edge residual (pixels) and the numbers of matched segments and
     regions of the last round.
@@ -236,15 +268,27 @@ def refine(
     camera = start
     rms, n_edges, n_regions = math.inf, 0, 0
     for tol in schedule_px:
-        vis = model.visible_edges(camera)
-        m = match_segments(vis.a, vis.b, p1, p2, max_distance_px=tol, max_angle_rad=max_angle)
-        if m.size < 3:
-            raise SolveError(f"registration: only {m.size} segments match the model edges")
-        edges = EdgeObservations(model.edge_faces[vis.index[m.edge]], p1[m.segment], p2[m.segment])
+        edges = _matched(model, camera, p1, p2, tol, max_angle)
+        if edges.size < 3:
+            raise SolveError(f"registration: only {edges.size} segments match the model edges")
+        right = None
+        if stereo is not None:
+            right_cam = stereo.rig.right_of(camera)
+            right = _matched(model, right_cam, stereo.p1, stereo.p2, tol, max_angle)
         obs = match_regions(model, camera, regions, opts) if regions is not None else None
-        fit = fit_pose(model, camera, edges, obs, sigma_px=opts.sigma_px, f_scale=3.0)
+        fit = fit_pose(
+            model,
+            camera,
+            edges,
+            obs,
+            rig=None if stereo is None else stereo.rig,
+            right_edges=right,
+            sigma_px=opts.sigma_px,
+            f_scale=3.0,
+        )
         camera = fit.camera
-        rms, n_edges, n_regions = fit.rms_px, m.size, 0 if obs is None else obs.size
+        n_right = 0 if right is None else right.size
+        rms, n_edges, n_regions = fit.rms_px, edges.size + n_right, 0 if obs is None else obs.size
     return camera, rms, n_edges, n_regions
 
 
@@ -269,6 +313,7 @@ def register_view(
     intrinsics: tuple[FloatArray, int, int] | None = None,
     init_angle_deg: float | None = None,
     axis: FloatArray | None = None,
+    stereo: StereoSegments | None = None,
     options: RegistrationOptions | None = None,
 ) -> Registration:
     """The pose of a new view of a fixed model, found with no initial guess.
@@ -284,6 +329,7 @@ def register_view(
     init_angle_deg : a rough turn about the vertical from the reference; the search then spans
         ``options.span_deg`` about it instead of the whole circle.
     axis : the vertical (3,), world frame; default `vertical_axis`.
+    stereo : the view's second image (a stereo pair): its segments are used as well.
     options : tuning (`RegistrationOptions`).
 
     Raises
@@ -329,8 +375,8 @@ def register_view(
         start = turned(reference, up, pivot, math.radians(float(angles[i])))
         for schedule in opts.schedules_px:
             try:
-                cam, rms, ne, nr = refine(model, start, q1, q2, regions, opts, schedule)
-                cost = _score(model, cam, q1, q2, 2.0, max_angle)
+                cam, rms, ne, nr = refine(model, start, q1, q2, regions, opts, schedule, stereo)
+                cost = _score(model, cam, q1, q2, 2.0, max_angle, stereo)
             except (SolveError, GeometryError):
                 continue
             final = angle_about(reference, cam, up)
@@ -339,6 +385,10 @@ def register_view(
         raise SolveError("registration: no start converged to a pose that matches the image")
     best = min(r[0] for r in results)
     ties = [r for r in results if r[0] <= best * (1.0 + opts.tie_tolerance) + opts.tie_floor]
-    cost, final, cam, rms, ne, nr, _ = min(ties, key=lambda r: (abs(_wrap(r[1] - centre)), r[0]))
+    # equally good poses far apart (a symmetric object): the smallest turn from the start;
+    # then, near it, the lowest cost
+    near = min(ties, key=lambda r: (abs(_wrap(r[1] - centre)), r[0]))[1]
+    local = [r for r in results if abs(_wrap(r[1] - near)) <= opts.span_deg]
+    cost, final, cam, rms, ne, nr, _ = min(local, key=lambda r: r[0])
     cands = tuple((r[6], r[1], r[0]) for r in results)
     return Registration(cam, final, rms, cost, ne, nr, cands)

@@ -9,16 +9,19 @@ import pytest
 
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.geometry.rotation import rotation_from_rvec
 from aida_kb.register import (
     RegionObservations,
+    Rig,
     RigidModel,
+    StereoSegments,
     angle_about,
     match_segments,
     register_view,
     turned,
     vertical_axis,
 )
-from aida_kb.register.pose import region_residuals
+from aida_kb.register.pose import region_residuals, right_jacobian
 from aida_kb.register.synthetic import simulated_segments
 
 K = np.array([[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]])
@@ -148,3 +151,41 @@ def test_registration_with_a_guess_searches_near_it() -> None:
 def test_registration_with_too_few_segments_is_an_error() -> None:
     with pytest.raises(SolveError, match="only 1 usable line segments"):
         register_view(_box(), _reference(), [[0.0, 0.0]], [[50.0, 0.0]])
+
+
+def _rig() -> Rig:
+    R = rotation_from_rvec([0.0015, -0.0087, 0.0])
+    return Rig(K, R, -R @ np.array([0.12, 0.0, 0.0]), 640, 480)
+
+
+def test_right_camera_pose_jacobian_matches_finite_differences() -> None:
+    rig = _rig()
+    x = np.array([0.3, -1.2, 0.4, 0.5, -0.2, 1.0])
+    right, J = right_jacobian(rig, x)
+    np.testing.assert_allclose(
+        right.centre, rig.right_of(PinholeCamera.from_pose(K, x, 640, 480)).centre
+    )
+    eps = 1e-6
+    for i in range(6):
+        dx = np.zeros(6)
+        dx[i] = eps
+        fd = (right_jacobian(rig, x + dx)[0].pose - right_jacobian(rig, x - dx)[0].pose) / (2 * eps)
+        np.testing.assert_allclose(J[:, i], fd, rtol=1e-6, atol=1e-7)
+
+
+def test_stereo_registration_uses_both_images() -> None:
+    model = _box()
+    ref = _reference()
+    up = vertical_axis(model, ref)
+    rig = _rig()
+    truth = turned(ref, up, model.centroid, math.radians(50.0))
+    rng = np.random.default_rng(9)
+    p1, p2 = simulated_segments(model, truth, rng, noise_px=0.5)
+    r1, r2 = simulated_segments(model, rig.right_of(truth), rng, noise_px=0.5)
+    mono = register_view(model, ref, p1, p2, init_angle_deg=45.0)
+    both = register_view(
+        model, ref, p1, p2, init_angle_deg=45.0, stereo=StereoSegments(rig, r1, r2)
+    )
+    assert both.n_edges > mono.n_edges  # the right image's segments count too
+    assert abs(both.angle_deg - 50.0) < 0.05
+    assert np.linalg.norm(both.camera.centre - truth.centre) < 0.003
