@@ -342,6 +342,21 @@ def test_weights_from_tolerances_or_explicit() -> None:
     assert row.normalised_cost == pytest.approx(row.residual**2 / 0.01)
 
 
+def test_position_cost_is_the_papers_eq_4() -> None:
+    # region fit: normal +z, centre (0, 0, 5); the part tilted by theta about that centre's
+    # axis and moved s along the fit's normal
+    theta, s, w_c, w_n, sigma = 0.05, 0.3, 7.0, 4.0, 0.02
+    n = np.array([[math.sin(theta), 0.0, math.cos(theta)]])
+    d = n[0] @ np.array([0.0, 0.0, 5.0 + s])
+    region = PositionData(n_init=(0.0, 0.0, 1.0), c_init=(0.0, 0.0, 5.0), w_c=w_c, w_n=w_n)
+    c = Constraint(kind="position", parts=(0,), sigma=sigma, measurement=True, position=region)
+    row = solve(build_problem(n, [d], [c], fixed_parts=[0])).report.rows[0]
+    shift = s * math.cos(theta) ** 2  # the projected centre's move along the fit's normal
+    expected = w_c / sigma**2 * (theta**2 + w_n * shift**2)
+    assert row.cost == pytest.approx(expected, rel=1e-12)
+    assert row.normalised_cost == pytest.approx(expected, rel=1e-12)  # W = 1/sigma²
+
+
 def test_bad_planes_and_options_are_solve_errors() -> None:
     n = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
     good = [Constraint(kind="angle", parts=(0, 1), value=1.0, sigma=0.1)]
