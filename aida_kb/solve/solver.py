@@ -26,6 +26,7 @@ from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse as sp
 from scipy.optimize import least_squares, minimize
 
 from aida_kb.errors import SolveError
@@ -206,7 +207,12 @@ def solve(
             ev.base_params = params
             ev.base_cameras = cameras
             x0 = ev.x_from(params, cameras)
-            f0 = ev.residuals(x0)
+            linear = choose_tr_solver(ev.n_params, tr_solver)
+            dense = method == "trf" and linear == "exact"
+            start_eval = (
+                ev.residuals_and_dense_jacobian(x0) if dense else ev.residuals_and_jacobian(x0)
+            )
+            f0 = start_eval[0]
             if not np.all(np.isfinite(f0)):
                 bad = int(ev.constraint_of_row[int(np.argmax(~np.isfinite(f0)))])
                 raise SolveError(
@@ -214,8 +220,9 @@ def solve(
                     "geometry (e.g. parallel planes where an edge is needed, opposite normals "
                     "where a parallel constraint wants them alike)"
                 )
-            linear = choose_tr_solver(ev.n_params, tr_solver)
-            x, nfev, ok, message = _run(ev, x0, method, max_iterations, tolerance, linear)
+            x, nfev, ok, message = _run(
+                ev, x0, method, max_iterations, tolerance, linear, start_eval
+            )
             if method == "trf":
                 used.append(linear)
             params = ev.params(x)
@@ -249,7 +256,10 @@ def _run(
     max_iterations: int | None,
     tolerance: float,
     tr_solver: Literal["exact", "lsmr"],
+    start: tuple[FloatArray, FloatArray | sp.csr_matrix],
 ) -> tuple[FloatArray, int, bool, str]:
+    """Minimise from ``x0``; ``start`` is the evaluation at ``x0`` (residuals and the Jacobian,
+    dense for the exact path)."""
     if method == "cg":
         calls = [0]
 
@@ -268,7 +278,7 @@ def _run(
     # least_squares' calls at the same x (its first call; jac after an accepted step)
     dense = tr_solver == "exact"
     evaluate = ev.residuals_and_dense_jacobian if dense else ev.residuals_and_jacobian
-    f0, J0 = evaluate(x0)
+    f0, J0 = start
     cache: dict[str, object] = {"x": x0.copy(), "f": f0, "J": J0}
     n_res = ev.n_residuals
 
