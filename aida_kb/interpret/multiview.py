@@ -9,8 +9,11 @@ The sequence of the paper:
    of both views (image segments matched to model edges), the position constraints of both
    views' regions and the first shape's angles between adjacent parts (what the knowledge base
    imposed on it) are the constraints.
-3. Further views are registered, each starting from the previous one, against that model.
-4. The model is refined with all views at once (planes and every later view's pose).
+3. Further views are registered, each starting from the previous one and expecting the same
+   turn as the last (a symmetric model's pose is taken nearest to it), against that model;
+   after each, the model and the new pose are adjusted with all views so far.
+4. The model is refined with all views at once (planes and every later view's pose), twice
+   (the second time with the segments matched again at the adjusted poses).
 
 Only views whose poses are unknown (``frame = "camera"`` in the evidence) are registered; the
 poses in a scene's truth.json are never used.
@@ -62,6 +65,8 @@ JOINT_ANGLE_SIGMA_DEG = 0.3
 """The first shape's angles between adjacent parts, kept to this standard deviation."""
 JOINT_MATCH_PX = 3.0
 """Segments within this distance of a projected model edge are its evidence."""
+FINAL_ROUNDS = 2
+"""Adjustments of the model and every later pose at the end (each re-matches the segments)."""
 
 
 def _camera(view_left: object) -> PinholeCamera:
@@ -272,28 +277,31 @@ def reconstruct_views(
         c = _camera(v.left)
         cams.append(PinholeCamera(c.K, c.R_cam_world, c.t_cam_world, m.width, m.height))
     n_known = len(cams)
+    turn: float | None = None
     notes: list[str] = []
-    for k, v in enumerate(later):
+    for v in later:
         if progress is not None:
             progress(f"registering view {v.id}")
         stereo = None if scene is None else right_segments(scene, v.id)
-        reg = register_evidence_view(rigid, cams[-1], v, stereo=stereo)
+        # views of a sequence turn alike: the last turn is the expected one
+        reg = register_evidence_view(rigid, cams[-1], v, expected_turn_deg=turn, stereo=stereo)
+        turn = reg.angle_deg
         cams.append(reg.camera)
-        if k == 0:
-            # the first shape and the second view's pose in one joint optimisation
-            step = _adjusted(rigid, cams, views[: len(cams)], [len(cams) - 1], angles)
-            if isinstance(step, str):
-                notes.append(f"joint adjustment with view {v.id} skipped: {step}")
-            else:
-                rigid, polygons, cams = step
-    if len(later) > 1:
+        # the model and the new view's pose in one joint optimisation (for the second view:
+        # the first shape and the second pose), the views before it held where they are
+        step = _adjusted(rigid, cams, views[: len(cams)], [len(cams) - 1], angles)
+        if isinstance(step, str):
+            notes.append(f"joint adjustment with view {v.id} skipped: {step}")
+        else:
+            rigid, polygons, cams = step
+    for _ in range(FINAL_ROUNDS if len(later) > 1 else 0):
         if progress is not None:
             progress(f"refining the model with all {len(cams)} views")
         step = _adjusted(rigid, cams, views, list(range(n_known, len(cams))), angles)
         if isinstance(step, str):
             notes.append(f"refinement with all views skipped: {step}")
-        else:
-            rigid, polygons, cams = step
+            break
+        rigid, polygons, cams = step
     parts = []
     by_role = {p.role: p for p in model0.parts}
     for i, name in enumerate(rigid.names):

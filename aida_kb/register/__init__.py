@@ -20,6 +20,7 @@ from aida_kb.register.register import (
     match_regions,
     refine,
     register_view,
+    symmetry_order,
     turned,
     vertical_axis,
 )
@@ -43,6 +44,7 @@ __all__ = [
     "match_segments",
     "refine",
     "register_view",
+    "symmetry_order",
     "turned",
     "vertical_axis",
 ]

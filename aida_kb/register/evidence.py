@@ -118,6 +118,7 @@ def register_evidence_view(
     view: ViewEvidence,
     *,
     init_angle_deg: float | None = None,
+    expected_turn_deg: float | None = None,
     use_regions: bool = True,
     stereo: StereoSegments | None = None,
     options: RegistrationOptions | None = None,
@@ -138,6 +139,7 @@ def register_evidence_view(
             regions=m.regions if use_regions and m.regions.size else None,
             intrinsics=(m.K, m.width, m.height),
             init_angle_deg=init_angle_deg,
+            expected_turn_deg=expected_turn_deg,
             stereo=stereo,
             options=options,
         )

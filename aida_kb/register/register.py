@@ -12,8 +12,9 @@ with depth) of a known model, without an initial guess:
    to the segments by distance and direction, solve for the six pose parameters (edge and
    position constraints), match again with a tighter tolerance, and so on.
 3. **Choice by residual.** The refined candidate with the smallest chamfer cost wins; poses
-   that explain the image equally well (a symmetric model) are decided by the smallest turn
-   from the start.
+   that explain the image equally well are decided by the smallest turn from the start. A
+   model that looks the same turned by 360/n degrees (a box, a gable house: n = 2) is searched
+   over 360/n degrees about the expected turn only: its images cannot tell the others apart.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ __all__ = [
     "match_regions",
     "refine",
     "register_view",
+    "symmetry_order",
     "turned",
     "vertical_axis",
 ]
@@ -162,6 +164,24 @@ def angle_about(reference: PinholeCamera, camera: PinholeCamera, axis: FloatArra
     twist = 2.0 * math.atan2(float(v @ axis), w)
     deg = math.degrees(twist)
     return deg - 360.0 if deg > 180.0 else (deg + 360.0 if deg <= -180.0 else deg)
+
+
+def symmetry_order(
+    model: RigidModel, axis: FloatArray, pivot: FloatArray, tolerance: float = 0.03
+) -> int:
+    """n = 4, 2 or 1: the model's vertices are the same turned by 360/n degrees about `axis`.
+
+    Vertices match when each turned vertex lies within ``tolerance`` times the model's size of
+    an original one.
+    """
+    V = model.vertices - pivot
+    tol = tolerance * model.size
+    for n in (4, 2):
+        turned_v = V @ rotation_from_rvec(axis * (2.0 * math.pi / n)).T
+        gaps = np.linalg.norm(turned_v[:, None, :] - V[None, :, :], axis=2).min(axis=1)
+        if float(gaps.max()) <= tol:
+            return n
+    return 1
 
 
 def _wrap(deg: float) -> float:
@@ -312,6 +332,7 @@ def register_view(
     regions: RegionMeasurements | None = None,
     intrinsics: tuple[FloatArray, int, int] | None = None,
     init_angle_deg: float | None = None,
+    expected_turn_deg: float | None = None,
     axis: FloatArray | None = None,
     stereo: StereoSegments | None = None,
     options: RegistrationOptions | None = None,
@@ -328,6 +349,9 @@ def register_view(
     intrinsics : (K (3, 3), width, height) of the new camera if they differ from the reference.
     init_angle_deg : a rough turn about the vertical from the reference; the search then spans
         ``options.span_deg`` about it instead of the whole circle.
+    expected_turn_deg : without `init_angle_deg`, the turn a symmetric model's pose is taken
+        nearest to (default 0, the reference): a model that looks the same turned by
+        360/n degrees (`symmetry_order`) is searched over 360/n degrees about it.
     axis : the vertical (3,), world frame; default `vertical_axis`.
     stereo : the view's second image (a stereo pair): its segments are used as well.
     options : tuning (`RegistrationOptions`).
@@ -352,12 +376,15 @@ def register_view(
     up = vertical_axis(model, reference) if axis is None else np.asarray(axis, dtype=np.float64)
     up = up / np.linalg.norm(up)
     pivot = model.centroid
-    centre = 0.0 if init_angle_deg is None else float(init_angle_deg)
-    if init_angle_deg is None:
-        angles = np.arange(-180.0, 180.0, opts.step_deg)
-    else:
-        half = opts.span_deg
+    if init_angle_deg is not None:
+        centre, half = float(init_angle_deg), opts.span_deg
         angles = centre + np.arange(-half, half + 1e-9, opts.step_deg)
+    else:
+        # a model that looks the same turned by 360/n degrees cannot tell those poses apart:
+        # the search spans one n-th of the circle about the expected turn
+        centre = 0.0 if expected_turn_deg is None else float(expected_turn_deg)
+        half = 180.0 / symmetry_order(model, up, pivot)
+        angles = centre + np.arange(-half, half - 1e-9, opts.step_deg)
     max_angle = math.radians(opts.max_angle_deg)
     cap = max(max(s) for s in opts.schedules_px)
     costs = np.empty(angles.size)
@@ -383,6 +410,8 @@ def register_view(
             results.append((cost, final, cam, rms, ne, nr, float(angles[i])))
     if not results:
         raise SolveError("registration: no start converged to a pose that matches the image")
+    inside = [r for r in results if abs(_wrap(r[1] - centre)) <= half]
+    results = inside or results
     best = min(r[0] for r in results)
     ties = [r for r in results if r[0] <= best * (1.0 + opts.tie_tolerance) + opts.tie_floor]
     # equally good poses far apart (a symmetric object): the smallest turn from the start;

@@ -18,6 +18,7 @@ from aida_kb.register import (
     angle_about,
     match_segments,
     register_view,
+    symmetry_order,
     turned,
     vertical_axis,
 )
@@ -189,3 +190,14 @@ def test_stereo_registration_uses_both_images() -> None:
     assert both.n_edges > mono.n_edges  # the right image's segments count too
     assert abs(both.angle_deg - 50.0) < 0.05
     assert np.linalg.norm(both.camera.centre - truth.centre) < 0.003
+
+
+def test_symmetry_order_of_boxes() -> None:
+    up = np.array([0.0, -1.0, 0.0])
+    box = _box()
+    assert symmetry_order(box, up, box.centroid) == 2
+    cube = _box(0.3, 0.3, 0.25)
+    assert symmetry_order(cube, up, cube.centroid) == 4
+    # turned about another axis a box is no longer the same
+    assert symmetry_order(box, np.array([1.0, 0.0, 0.0]), box.centroid) == 2
+    assert symmetry_order(box, up, box.centroid + np.array([0.05, 0.0, 0.0])) == 1
