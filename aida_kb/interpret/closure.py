@@ -32,13 +32,18 @@ MIN_FACE_FRACTION = 0.01  # a face smaller than this fraction of the largest one
 
 @dataclass(frozen=True)
 class ClosingFace:
-    """A face that closes a structure: role path, concept, plane (unit n, d) and neighbours."""
+    """A face that closes a structure: role path, concept, plane (unit n, d) and neighbours.
+
+    ``source`` is the verified part whose plane it lies in (``body.floor``, ``body.front``):
+    the structure's parts meet that part along the closing face's edges.
+    """
 
     role: str
     concept: str
     normal: FloatArray  # (3,) unit, out of the structure's solid
     offset_m: float
     neighbours: tuple[str, ...]  # role paths of the structure's parts it meets
+    source: str
 
 
 def closing_faces(
@@ -71,7 +76,7 @@ def closing_faces(
         floors = sorted(r for r in fixed if r.rsplit(".", 1)[-1] == "floor")
         if floors:
             n, d = fixed[floors[0]]
-            out.append(ClosingFace(f"{root}.floor", "Floor", n, d, tuple(walls)))
+            out.append(ClosingFace(f"{root}.floor", "Floor", n, d, tuple(walls), floors[0]))
     if "back" not in names and "front" in names:
         front = f"{root}.front"
         candidates = [
@@ -84,7 +89,7 @@ def closing_faces(
             if score > 0.9:
                 n, d = fixed[wall]
                 around = tuple(r for r, _, _ in leaves if r != front) + tuple(c.role for c in out)
-                out.append(ClosingFace(f"{root}.back", "Wall", -n, -d, around))
+                out.append(ClosingFace(f"{root}.back", "Wall", -n, -d, around, wall))
     return out
 
 

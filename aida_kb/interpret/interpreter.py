@@ -20,7 +20,9 @@ evidence left unexplained; it is deterministic and counts the hypotheses it expa
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 import numpy.typing as npt
@@ -30,6 +32,8 @@ from aida_kb.interpret.closure import ClosingFace, close, closing_faces, inside_
 from aida_kb.interpret.edges import EdgeMatch, match_segments
 from aida_kb.interpret.hypotheses import (
     DEFAULT_PITCH_DEG,
+    DOWN_ROLES,
+    UP_ROLES,
     Frame,
     PlanarPart,
     candidates,
@@ -43,6 +47,7 @@ from aida_kb.interpret.observe import EvidenceView, RegionView, estimate_up, slo
 from aida_kb.interpret.result import INSERTED, HypothesisTrace, Instance
 from aida_kb.interpret.search import best_first
 from aida_kb.interpret.verify import (
+    BLAME_EVALUATIONS,
     EdgeEvidence,
     Outcome,
     PlaneInit,
@@ -59,6 +64,11 @@ FloatArray = npt.NDArray[np.float64]
 UNEXPLAINED_PENALTY = 4.0  # cost of leaving all evidence weight unexplained
 MAX_ASSIGNMENTS = 6  # alternatives of region assignment tried per structure and frame
 MIN_WALL_WEIGHT_FRACTION = 0.02  # a region lighter than this fraction of the total is clutter
+# ... unless it is evidence for a smaller part (an oriel's side) beside a verified body
+MIN_PART_WEIGHT_FRACTION = 0.01
+# a smaller part's face the camera should see may lack evidence (a grazing side of an oriel,
+# its region too small for a plane fit) if its image is below this fraction of its front's
+MAX_UNSEEN_SIDE_FRACTION = 0.35
 # segments are matched to the initial model within the first distance, then re-matched to
 # the adjusted model within the next (outliers of the first matching drop out)
 MATCH_DISTANCES_PX = (25.0, 8.0)
@@ -218,7 +228,11 @@ class Interpreter:
         body = state.levels[0]
         role, concept, _ = self.body_slot()
         used = {r for lv in state.levels for r in lv.binding}
-        free = [r for r in self.regions if r.id not in used and self._significant(r)]
+        free = [
+            r
+            for r in self.regions
+            if r.id not in used and self._significant(r, MIN_PART_WEIGHT_FRACTION)
+        ]
         walls = [r for r in free if abs(slope_deg(r.normal, self.up) - 90.0) <= 15.0]
         if not walls:
             return []
@@ -250,13 +264,17 @@ class Interpreter:
                         body_frame=body.frame,
                     )
                     if level is not None:
+                        # a verified smaller part costs its misfit in proportion to the
+                        # evidence it explains (the body's misfit counts whole): whether to
+                        # add it is decided by that evidence, not by its few constraints
                         levels = [*state.levels, level]
+                        share = sum(self.evidence.regions[r].weight for r in level.binding)
                         out.append(
                             (
                                 level,
                                 state.cost
                                 - self._unexplained(list(state.levels))
-                                + level.misfit
+                                + level.misfit * share / self.total_weight
                                 + self._unexplained(levels),
                             )
                         )
@@ -280,53 +298,76 @@ class Interpreter:
             x for x in (structure.describe(), *(f"{k}={r.id}" for k, r in forced.items())) if x
         )
         hid = self.trace.create(root.concept, root.role, parent, f"[{what}]")
-        assignments = self._assignments(structure, frame, forced, exclude)
+        smaller = bool(fixed)  # a part of a verified level (paper §5: smaller parts later)
+        assignments = self._assignments(structure, frame, forced, exclude, smaller=smaller)
         if isinstance(assignments, str):
             self.trace.reject(hid, f"[{what}] {assignments}")
             return None
         best: Level | None = None
-        last_reason: tuple[str, str | None, float | None] = ("no assignment verified", None, None)
+        # why each assignment fell; the trace names the first that a constraint felled (the
+        # assignments come heaviest evidence first), else the first. A contradiction's culprit
+        # is searched for (`_blame`, many solves) only when its reason is the one reported.
+        reasons: list[Reason | Callable[[], Reason]] = []
+        offered = {rid for binding in assignments for rid in binding}
         for binding in assignments:
             try:
-                outcome, inserted, loose = self._adjust(structure, frame, binding, fixed, choices)
+                outcome, inserted, loose, visible = self._adjust(
+                    structure, frame, binding, fixed, choices
+                )
             except _UnseenError as exc:
-                last_reason = (str(exc), None, None)
+                reasons.append((str(exc), None, None))
                 continue
             except AidaError as exc:
-                last_reason = (f"adjustment failed: {exc}", None, None)
+                reasons.append((f"adjustment failed: {exc}", None, None))
                 continue
             worst = outcome.worst_rejected()
             if outcome.cost > MAX_MEAN_COST:
                 # the constraints together do not fit: name the one to blame, which need not
                 # be the first over its threshold (the compromise spreads a contradiction)
-                reason, label, cost = self._blame(outcome)
-                if worst is not None:
-                    reason += f"; {_over(worst)}"
-                last_reason = (reason, label, cost)
+                reasons.append(partial(self._blame, outcome, self._last, worst))
                 continue
             if worst is not None:
-                last_reason = (_over(worst), worst.label, worst.normalised)
+                reasons.append((_over(worst), worst.label, worst.normalised))
                 continue
             try:
                 polygons, closing = self._close(structure, outcome, fixed)
             except GeometryError as exc:
-                last_reason = (f"its planes do not close a solid: {exc}", None, None)
+                reasons.append((f"its planes do not close a solid: {exc}", None, None))
                 continue
-            outside = self._outside(binding, polygons)
+            outside = self._outside(binding, polygons) or self._unseen(visible, polygons, forced)
             if outside:
-                last_reason = (outside, None, None)
+                reasons.append((outside, None, None))
                 continue
-            misfit = outcome.cost + SEGMENT_PENALTY * loose
+            # evidence an alternative could have bound but leaves out counts against it
+            left_out = sum(self.evidence.regions[r].weight for r in offered - set(binding))
+            misfit = (
+                outcome.cost
+                + SEGMENT_PENALTY * loose
+                + UNEXPLAINED_PENALTY * left_out / self.total_weight
+            )
             level = Level(
                 hid, structure, binding, inserted, outcome, frame, polygons, closing, misfit
             )
             if best is None or level.misfit < best.misfit:
                 best = level
         if best is None:
-            self.trace.reject(hid, f"[{what}] {last_reason[0]}", last_reason[1], last_reason[2])
+            why = _first_named(reasons)
+            self.trace.reject(hid, f"[{what}] {why[0]}", why[1], why[2])
             return None
         self.trace.verify(hid, f"[{what}] cost {best.misfit:.3g}")
         return best
+
+    def _level_with(
+        self, leaf: PlanarPart, regions: list[RegionView], forced: dict[str, RegionView]
+    ) -> list[RegionView]:
+        """The regions that can be a level part's evidence given the front: a top (a flat
+        roof, an oriel's top) lies above the front's centre, a floor or bottom below it (the
+        ground is neither)."""
+        front = forced.get("front")
+        if front is None or leaf.name not in (*UP_ROLES, *DOWN_ROLES):
+            return regions
+        sign = 1.0 if leaf.name in UP_ROLES else -1.0
+        return [r for r in regions if sign * float((r.centroid_m - front.centroid_m) @ self.up) > 0]
 
     def _assignments(
         self,
@@ -334,20 +375,45 @@ class Interpreter:
         frame: Frame,
         forced: dict[str, RegionView],
         exclude: set[str] | frozenset[str],
+        *,
+        smaller: bool = False,
     ) -> list[dict[str, str]] | str:
-        """Alternative bindings region id -> role path, or the reason there are none."""
+        """Alternative bindings region id -> role path, or the reason there are none.
+
+        For the smaller parts of a verified level (``smaller``) lighter regions count
+        (`MIN_PART_WEIGHT_FRACTION`), a part meeting the front must be seen beside it (its
+        region shares a segment with the front's), and each part may also be left unbound
+        (inserted; `_unseen` checks that the camera could miss it).
+        """
         options: list[list[RegionView | None]] = []
-        available = [r for r in self.regions if r.id not in exclude and self._significant(r)]
+        minimum = MIN_PART_WEIGHT_FRACTION if smaller else MIN_WALL_WEIGHT_FRACTION
+        available = [
+            r for r in self.regions if r.id not in exclude and self._significant(r, minimum)
+        ]
+        front = forced.get("front")
+        beside: set[str] = set()
+        if front is not None:
+            beside = {r for s in self.evidence.segments_of(front.id) for r in s.regions}
+        meets_front = {
+            b if a == join(structure.root, "front") else a
+            for a, b in structure.adjacency
+            if join(structure.root, "front") in (a, b)
+        }
         for leaf in structure.leaves:
             direct = leaf.role == join(structure.root, leaf.name)
             if direct and leaf.name in forced:
                 options.append([forced[leaf.name]])
                 continue
-            found: list[RegionView | None] = list(candidates(leaf, available, frame))
+            usable = self._level_with(leaf, available, forced)
+            if smaller and leaf.role in meets_front:
+                usable = [r for r in usable if r.id in beside]
+            found: list[RegionView | None] = list(candidates(leaf, usable, frame))
             if not found:
                 if leaf.name == "front" and direct:
                     return f"no evidence for {leaf.role} ({leaf.concept})"
                 found = [None]
+            elif smaller:
+                found.append(None)
             options.append(found)
         out: list[dict[str, str]] = []
         for combo in itertools.product(*options):
@@ -370,11 +436,14 @@ class Interpreter:
         binding: dict[str, str],
         fixed: dict[str, tuple[FloatArray, float]],
         choices: dict[str, str],
-    ) -> tuple[Outcome, tuple[str, ...], float]:
+    ) -> tuple[Outcome, tuple[str, ...], float, tuple[str, ...]]:
         """Initialise, match segments, adjust twice (re-matching in between).
 
-        Returns the outcome, the inserted role paths, and the fraction of the length of the
-        segments bordering bound regions that no edge of the structure explains.
+        Returns the outcome, the inserted role paths, the fraction of the length of the
+        segments bordering bound regions that no edge of the structure explains, and the
+        inserted parts of a smaller structure that would face the camera (to be checked by
+        their size once closed). An inserted part of the main body that would face the
+        camera rejects the alternative at once.
         """
         role_to_region = {role: self.evidence.regions[rid] for rid, role in binding.items()}
         pts = [self.evidence.points_on(rid) for rid in binding]
@@ -387,6 +456,7 @@ class Interpreter:
         pitch = float(np.mean(pitches)) if pitches else DEFAULT_PITCH_DEG
         planes: list[PlaneInit] = []
         inserted: list[str] = []
+        visible: list[str] = []
         for leaf in structure.leaves:
             region = role_to_region.get(leaf.role)
             if region is not None:
@@ -404,6 +474,10 @@ class Interpreter:
             centre = points.mean(axis=0) if len(points) else self.evidence.camera.centre_m
             on_plane = centre + (d - float(n @ centre)) * n
             if faces_camera(n, on_plane, self.evidence.camera):
+                if fixed:
+                    visible.append(leaf.role)
+                    planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
+                    continue
                 raise _UnseenError(
                     f"{leaf.role} ({leaf.concept}) would face camera {self.evidence.camera.view} "
                     "but no region fits it"
@@ -425,7 +499,14 @@ class Interpreter:
         fillers = {**choices, **dict(structure.choices)}
         root_role, root_concept, _ = self.body_slot()
         adjacency: dict[str, set[str]] = {}
-        for a, b in structure.adjacency:
+        # a smaller part also meets the verified part it stands on or out of (an oriel's
+        # sides meet the body's front wall): segments along those edges are its evidence too
+        front = join(structure.root, "front")
+        front_normal = next((p.normal for p in planes if p.role == front), self.up)
+        leaves = [(leaf.role, leaf.name, leaf.pitched) for leaf in structure.leaves]
+        closing = closing_faces(structure.root, leaves, front_normal, fixed)
+        pairs = [*structure.adjacency, *((n, c.source) for c in closing for n in c.neighbours)]
+        for a, b in pairs:
             adjacency.setdefault(a, set()).add(b)
             adjacency.setdefault(b, set()).add(a)
         adj = {k: frozenset(v) for k, v in adjacency.items()}
@@ -463,9 +544,9 @@ class Interpreter:
         ]
         total = sum(s.length_px for s in bordering)
         loose = sum(s.length_px for s in bordering if s.id not in matched)
-        return outcome, tuple(inserted), loose / total if total > 0 else 0.0
+        return outcome, tuple(inserted), loose / total if total > 0 else 0.0, tuple(visible)
 
-    def _blame(self, outcome: Outcome) -> tuple[str, str | None, float | None]:
+    def _blame(self, outcome: Outcome, full: Verification | None, worst: Residual | None) -> Reason:
         """The constraint that makes an inconsistent adjustment inconsistent.
 
         No single constraint is over its threshold, but together they do not fit (the
@@ -473,15 +554,15 @@ class Interpreter:
         the contradiction. Each internal constraint (with the others of its label and owner)
         and each region's position constraint is left out in turn; the one whose removal
         lowers the reduced cost most is blamed, with its normalised cost in the full
-        adjustment.
+        adjustment. ``worst`` (the first constraint over its threshold, if any) is named too.
         """
-        full = self._last
         head = (
             f"its constraints contradict each other (reduced normalised cost "
             f"{outcome.cost:.3g} > {MAX_MEAN_COST:g})"
         )
+        tail = f"; {_over(worst)}" if worst is not None else ""
         if full is None:
-            return head, None, None
+            return head + tail, None, None
         groups: dict[str, list[int]] = {}
         for i, src in enumerate(full.sources):
             if src.group:
@@ -489,17 +570,18 @@ class Interpreter:
         best: tuple[float, str, str] | None = None
         for name, members in sorted(groups.items()):
             try:
-                cost = verify(full.without(set(members), outcome.planes)).cost
+                trial = full.without(set(members), outcome.planes)
+                cost = verify(trial, BLAME_EVALUATIONS).cost
             except AidaError:
                 continue
             if best is None or cost < best[0]:
                 best = (cost, full.sources[members[0]].label, name)
         if best is None:
-            return head, None, None
+            return head + tail, None, None
         normalised = max(
             (r.normalised for r in outcome.residuals if r.label == best[1]), default=0.0
         )
-        return f"{head}; without {best[2]} it would be {best[0]:.3g}", best[1], normalised
+        return f"{head}; without {best[2]} it would be {best[0]:.3g}{tail}", best[1], normalised
 
     def _mirrored_back(
         self,
@@ -546,6 +628,31 @@ class Interpreter:
             centroid = self.evidence.regions[rid].centroid_m
             if not inside_face(face, centroid, margin=0.1):
                 return f"region {rid} lies outside the face of {role} in the closed model"
+        return ""
+
+    def _unseen(
+        self,
+        visible: tuple[str, ...],
+        polygons: dict[str, FloatArray],
+        forced: dict[str, RegionView],
+    ) -> str:
+        """Why an inserted part the camera should see cannot have been missed ('' if none).
+
+        Its closed face, projected into the reference camera, must be smaller than
+        `MAX_UNSEEN_SIDE_FRACTION` of the front's region.
+        """
+        front = forced.get("front")
+        camera = self.evidence.camera
+        for role in visible:
+            pixels = camera.pinhole.project(polygons[role])
+            x, y = pixels[:, 0], pixels[:, 1]
+            area = 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+            limit = MAX_UNSEEN_SIDE_FRACTION * (front.area_px if front is not None else 0.0)
+            if area > limit:
+                return (
+                    f"{role} would face camera {camera.view} ({area:.0f} px, more than "
+                    f"{limit:.0f}) but no region fits it"
+                )
         return ""
 
     def _close(
@@ -609,8 +716,8 @@ class Interpreter:
         return out
 
     # ---- costs ---------------------------------------------------------------------------------
-    def _significant(self, region: RegionView) -> bool:
-        return region.weight >= MIN_WALL_WEIGHT_FRACTION * self.total_weight
+    def _significant(self, region: RegionView, fraction: float = MIN_WALL_WEIGHT_FRACTION) -> bool:
+        return region.weight >= fraction * self.total_weight
 
     def _unexplained(self, levels: list[Level]) -> float:
         return self._unexplained_ids({r for lv in levels for r in lv.binding})
@@ -691,6 +798,21 @@ class Interpreter:
                         )
         del role, concept
         return out
+
+
+Reason = tuple[str, str | None, float | None]  # text, rejecting constraint, its normalised cost
+
+
+def _first_named(reasons: list[Reason | Callable[[], Reason]]) -> Reason:
+    """The first reason that names a constraint (evaluating deferred ones in turn), else the
+    first reason."""
+    first: Reason | None = None
+    for entry in reasons:
+        reason = entry() if callable(entry) else entry
+        if reason[1] is not None:
+            return reason
+        first = first or reason
+    return first or ("no assignment verified", None, None)
 
 
 def _over(r: Residual) -> str:

@@ -108,6 +108,7 @@ class EvidenceView:
     segments: tuple[SegmentView, ...]
     reference_view: str = "00"
     source: str = ""
+    outlines: dict[str, tuple[FloatArray, ...]] = field(default_factory=dict)
     _by_region: dict[str, tuple[SegmentView, ...]] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -133,17 +134,20 @@ class EvidenceView:
         return self._by_region.get(region_id, ())
 
     def points_on(self, region_id: str) -> FloatArray:
-        """3-D points on a region's plane: its centroid and its segments' back-projected ends.
+        """3-D points on a region's plane: its centroid, its segments' ends and its outline.
 
-        Returns (N, 3) world points, metres. Ends whose rays miss the plane (parallel or
-        behind the camera) are left out.
+        The segments' end points and the vertices of the region's outline polygons (where the
+        evidence gives them) are back-projected onto the region's plane. Returns (N, 3)
+        world points, metres. Points whose rays miss the plane (parallel or behind the
+        camera) are left out.
         """
         region = self.regions[region_id]
         pts = [region.centroid_m[None, :]]
         cam = self.cameras[region.view]
         segs = self.segments_of(region_id)
-        if segs:
-            pix = np.concatenate([s.ends_px for s in segs])
+        pixels = [s.ends_px for s in segs] + list(self.outlines.get(region_id, ()))
+        if pixels:
+            pix = np.concatenate(pixels)
             pts.append(intersect_rays_plane(cam.centre_m, cam.rays_world(pix), region))
         out = np.concatenate(pts)
         keep: FloatArray = out[np.all(np.isfinite(out), axis=1)]
@@ -271,6 +275,7 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
     cameras: dict[str, CameraView] = {}
     regions: dict[str, RegionView] = {}
     segments: list[SegmentView] = []
+    all_outlines: dict[str, list[FloatArray]] = {}
     for v in evidence.views:
         if v.frame != "world":
             continue
@@ -300,6 +305,7 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
         for c in v.contours:
             outline = _undistorted(np.array(c.points, dtype=np.float64), K, D)
             outlines.setdefault(c.region, []).append(outline)
+            all_outlines.setdefault(f"{v.id}/{c.region}", []).append(outline)
         for s in v.lines:
             ends = _undistorted(np.array([s.p1, s.p2], dtype=np.float64), K, D)
             borders = tuple(
@@ -314,4 +320,11 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
         raise InterpretError(
             f"{source or 'evidence'}: the first view {reference!r} is not in the world frame"
         )
-    return EvidenceView(cameras, regions, tuple(segments), reference, source)
+    return EvidenceView(
+        cameras,
+        regions,
+        tuple(segments),
+        reference,
+        source,
+        {r: tuple(o) for r, o in all_outlines.items() if r in regions},
+    )

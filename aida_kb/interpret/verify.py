@@ -45,6 +45,7 @@ FloatArray = npt.NDArray[np.float64]
 TILT_PX_PER_RAD = math.degrees(1.0)  # a region's tilt: one degree counts as one pixel
 TILT_SIGMAS = 5.0  # an attribute range's half-width is taken as this many sigma
 MAX_EVALUATIONS = 60  # a hypothesis that needs more is wrong; its residuals will say so
+BLAME_EVALUATIONS = 15  # a trial without one constraint starts at the full solution
 TOLERANCE = 1e-8  # the solver's ftol, xtol and gtol: far below what the verdicts can tell
 
 
@@ -316,8 +317,10 @@ def tilt_constraints(
     return out
 
 
-def verify(v: Verification) -> Outcome:
+def verify(v: Verification, max_evaluations: int = MAX_EVALUATIONS) -> Outcome:
     """Adjust the free planes (`aida_kb.solve.solve`) and report every constraint.
+
+    ``max_evaluations`` caps the solver's residual evaluations.
 
     Raises
     ------
@@ -334,7 +337,7 @@ def verify(v: Verification) -> Outcome:
         names=v.roles,
         cameras=v.cameras,
     )
-    result = solve(problem, max_iterations=MAX_EVALUATIONS, tolerance=TOLERANCE)
+    result = solve(problem, max_iterations=max_evaluations, tolerance=TOLERANCE)
     if not (np.all(np.isfinite(result.normals)) and np.all(np.isfinite(result.offsets))):
         raise SolveError("adjustment diverged (non-finite planes)")
     roles = v.roles

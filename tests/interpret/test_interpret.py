@@ -164,3 +164,40 @@ def test_unknown_goal_is_an_error(buildings_kb: object) -> None:
     evidence = read_evidence(FIXTURES / "no_house.json")
     with pytest.raises(InterpretError, match="goal 'Castle' is not a concept"):
         interpret(buildings_kb, evidence, goal="Castle")  # type: ignore[arg-type]
+
+
+def test_oriels_are_verified_after_the_body(interpreted: Get, generate: ModuleType) -> None:
+    interp = interpreted("oriel.json")
+    assert interp.accepted, interp.message
+    body = next(h for h in interp.trace if h.concept == "HouseBody" and h.status == "verified")
+    oriels = [h for h in interp.trace if h.concept == "Oriel" and h.status == "verified"]
+    # hierarchical (paper §5): each oriel is hypothesised under the verified body, later
+    assert oriels
+    assert all(h.parent == body.id and h.step > body.step for h in oriels)
+    for k in (0, 1):
+        oriel = interp.instance(f"body.oriels[{k}]")
+        assert (oriel.concept, oriel.parent, oriel.link) == ("Oriel", "body", "part-of")
+        for side in ("front", "left"):
+            region = interp.instance(f"body.oriels[{k}].{side}.region")
+            assert region.bindings[0].startswith("00/")
+        for hidden in ("right", "top", "bottom"):
+            assert interp.instance(f"body.oriels[{k}].{hidden}").bindings == [INSERTED]
+    # the oriel fronts are aligned with the fixed front wall; the body was not moved by them
+    aligned = [r for r in interp.residuals if r.label == "oriels_aligned"]
+    assert len(aligned) == 2
+    assert all(not r.rejected for r in interp.residuals)
+    # each oriel's back lies in the front wall (the truth's back is 0.3 m inside the wall)
+    world = generate.world_model("oriel.json")
+    truth = {f.role: f for f in world.faces}  # type: ignore[attr-defined]
+    assert interp.model is not None
+    worst_deg = worst_m = 0.0
+    for part in interp.model.parts:
+        if part.role.endswith(".back") and "oriels" in part.role:
+            continue
+        t = truth[part.role]
+        c = float(np.clip(np.dot(part.normal, t.normal), -1.0, 1.0))
+        worst_deg = max(worst_deg, math.degrees(math.acos(c)))
+        worst_m = max(worst_m, abs(part.offset_m - t.d))
+    assert worst_deg < 1.0
+    assert worst_m < 0.35
+    assert _closed(interp)
