@@ -72,6 +72,7 @@ MAX_UNSEEN_SIDE_FRACTION = 0.35
 # segments are matched to the initial model within the first distance, then re-matched to
 # the adjusted model within the next (outliers of the first matching drop out)
 MATCH_DISTANCES_PX = (25.0, 8.0)
+BLAME_CANDIDATES = 6  # constraints left out in turn to find a contradiction's culprit
 MAX_MEAN_COST = 1.0  # an adjustment whose constraints miss by more than sigma on average fails
 SEGMENT_PENALTY = 4.0  # cost of leaving every segment of the bound regions unexplained
 
@@ -552,9 +553,10 @@ class Interpreter:
         No single constraint is over its threshold, but together they do not fit (the
         report's reduced cost is above MAX_MEAN_COST): the least-squares compromise has spread
         the contradiction. Each internal constraint (with the others of its label and owner)
-        and each region's position constraint is left out in turn; the one whose removal
-        lowers the reduced cost most is blamed, with its normalised cost in the full
-        adjustment. ``worst`` (the first constraint over its threshold, if any) is named too.
+        and each region's position constraint is left out in turn — the `BLAME_CANDIDATES`
+        that miss most, relative to their thresholds — and the one whose removal lowers the
+        reduced cost most is blamed, with its normalised cost in the full adjustment.
+        ``worst`` (the first constraint over its threshold, if any) is named too.
         """
         head = (
             f"its constraints contradict each other (reduced normalised cost "
@@ -567,8 +569,15 @@ class Interpreter:
         for i, src in enumerate(full.sources):
             if src.group:
                 groups.setdefault(src.group, []).append(i)
+        misses: dict[str, float] = {}
+        for r in outcome.residuals:
+            owner = r.parts[0] if r.kind == "position" else (r.owner or "the goal")
+            key = f"'{r.label}' of {owner}"
+            misses[key] = max(misses.get(key, 0.0), r.normalised / r.threshold)
+        ranked = sorted(groups, key=lambda g: (-misses.get(g, 0.0), g))[:BLAME_CANDIDATES]
         best: tuple[float, str, str] | None = None
-        for name, members in sorted(groups.items()):
+        for name in sorted(ranked):
+            members = groups[name]
             try:
                 trial = full.without(set(members), outcome.planes)
                 cost = verify(trial, BLAME_EVALUATIONS).cost
