@@ -4,8 +4,9 @@ Visibility: every front-facing face is clipped to the view frustum, rasterised w
 ``cv2.fillPoly`` (sub-pixel vertex precision) and z-buffered with the exact depth of the ray
 through each pixel centre (OpenCV convention: pixel centres at integer coordinates). Colour:
 supersampled (default 2x2) and averaged down (anti-aliasing); albedo from procedural materials
-(aida_kb.synth.textures), Lambert sun plus sky light so that faces differ in brightness, a sky
-gradient, vignetting, sensor noise, and optional lens distortion with OpenCV's model.
+(aida_kb.synth.textures), prefiltered to each sample's footprint on the face (no texture
+moiré); Lambert sun plus sky light so that faces differ in brightness, a sky gradient,
+vignetting, sensor noise, and optional lens distortion with OpenCV's model.
 """
 
 from __future__ import annotations
@@ -250,21 +251,29 @@ def _albedo(
     s: Surface,
     X: FloatArray,
     seed: int,
+    footprint: FloatArray | None = None,
 ) -> npt.NDArray[np.float32]:
+    """Albedo (N, 3) of face `s` at world points X (N, 3); footprint (N,) the image sample
+    spacing on the face, metres (textures are prefiltered to it; None: point samples)."""
     tex = tx.texture_set(seed)
+    fp = footprint
+
+    def scaled(k: float) -> FloatArray | None:
+        return None if fp is None else fp * k
+
     rel = X - s.origin
     u = rel @ s.axis_u
     v = rel @ s.axis_v
     mat = s.material
     floor_h = s.params.get("floor_h", 3.0)
     if mat == "mixed":  # brick ground floor, plaster above
-        brick = tx.sample(*tex["brick"], u, -v)
-        plaster = tx.sample(*tex["plaster"], u, -v)
+        brick = tx.sample(*tex["brick"], u, -v, fp)
+        plaster = tx.sample(*tex["plaster"], u, -v, fp)
         alb = np.where((v < floor_h)[:, None], brick, plaster)
         band = np.abs(v - floor_h) < 0.12
         alb[band] = alb[band] * 0.8 + 0.15
     elif mat in ("tiles", "box", "table") or mat in tex:
-        alb = tx.sample(*tex[mat], u, -v)
+        alb = tx.sample(*tex[mat], u, -v, fp)
     elif mat == "chessboard":
         sq = s.params["square_m"]
         border = s.params["border_m"]
@@ -279,8 +288,8 @@ def _albedo(
         alb = np.full((len(u), 3), 0.6, np.float32)
     # fine grain and large-scale weathering on every material except the calibration target
     if mat != "chessboard":
-        g = tx.sample(*tex["grain"], u, v)[:, 0]
-        m = tx.sample(*tex["macro"], u * 0.25, v * 0.25)[:, 0]
+        g = tx.sample(*tex["grain"], u, v, fp)[:, 0]
+        m = tx.sample(*tex["macro"], u * 0.25, v * 0.25, scaled(0.25))[:, 0]
         alb = alb * (1.0 + 0.05 * g + 0.05 * m)[:, None]
     if "floors" in s.params and s.concept == "Wall":
         frame, glass, gy = tx.windows_mask(
@@ -294,7 +303,8 @@ def _albedo(
         alb[frame] = np.array([0.88, 0.88, 0.86], np.float32)
         if glass.any():
             gg = gy[glass]
-            refl = tx.sample(*tex["macro"], u[glass] * 2, v[glass] * 2)[:, 0]
+            fp_glass = None if fp is None else fp[glass] * 2
+            refl = tx.sample(*tex["macro"], u[glass] * 2, v[glass] * 2, fp_glass)[:, 0]
             col = np.stack([0.16 + 0.18 * gg, 0.20 + 0.20 * gg, 0.25 + 0.22 * gg], axis=1)
             alb[glass] = (col * (1.0 + 0.15 * refl)[:, None]).astype(np.float32)
     return np.asarray(alb, np.float32)
@@ -329,6 +339,7 @@ def shade(
     rays_cam = np.linalg.inv(K) @ pix  # z = 1
     rays_world = (R.T @ rays_cam).T
     C = -R.T @ t
+    f_px = float(np.sqrt(K[0, 0] * K[1, 1]))
     img = np.empty((H * W, 3), np.float32)
     lab = labels.ravel()
     order = np.argsort(lab, kind="stable")
@@ -343,8 +354,13 @@ def shade(
             img[idx] = _sky(rays_world[idx], light)
             continue
         s = by_label[int(lb)]
-        X = C + rays_world[idx] * zf[idx, None]
-        alb = _albedo(s, X, seed)
+        r = rays_world[idx]
+        X = C + r * zf[idx, None]
+        # sample spacing on the face: z / f across the ray, stretched by 1 / cos of the
+        # incidence along the slant; the geometric mean of the two (isotropic prefilter)
+        cos_in = np.abs(r @ s.normal) / np.linalg.norm(r, axis=1)
+        footprint = zf[idx] / (f_px * np.maximum(cos_in, 0.05))
+        alb = _albedo(s, X, seed, footprint)
         lam = max(float(s.normal @ light.sun), 0.0)
         sky = 0.5 + 0.5 * float(s.normal @ light.up)
         k = light.ambient * (0.55 + 0.45 * sky) + light.sun_intensity * lam

@@ -2,7 +2,8 @@
 
 Each material is built from tileable texture images generated once per seed (brick courses
 with per-brick colour, plaster noise, roof-tile courses, gravel, grass) and sampled with
-``cv2.remap`` (bilinear, wrapping), plus windows and doors drawn analytically from the wall's
+``cv2.remap`` (bilinear, wrapping; prefiltered to the camera's sample spacing when it is
+given, like mip-mapping), plus windows and doors drawn analytically from the wall's
 window grid. Textures are fixed on the surfaces (functions of world position), so both
 cameras of a stereo pair and all views see the same detail.
 """
@@ -164,18 +165,48 @@ def texture_set(seed: int) -> dict[str, tuple[F32, float]]:
     return out
 
 
-def sample(tex: F32, texel_m: float, u: FloatArray, v: FloatArray) -> F32:
-    """Sample a tileable texture at face coordinates (u, v) metres; returns (N, 3) RGB."""
+MIP_LEVELS = 10  # a texture and its halvings: footprints of 1, 2, 4, ... 512 texels
+_PYRAMIDS: dict[int, tuple[F32, list[F32]]] = {}
+
+
+def _pyramid(tex: F32) -> list[F32]:
+    """Mip-map of a square tile: level L has side size / 2^L, each level the previous one
+    low-passed with OpenCV's 5-tap Gaussian and decimated (``cv2.pyrDown``, periodic: the
+    tile is padded by wrapping). A smooth kernel keeps the levels nearly shift-invariant
+    (box averages would tie fine texture to the block grid). Cached per texture image."""
+    import cv2
+
+    cached = _PYRAMIDS.get(id(tex))
+    if cached is not None and cached[0] is tex:
+        return cached[1]
+    levels = [tex]
+    pad = 4
+    while len(levels) < MIP_LEVELS and levels[-1].shape[0] % 2 == 0 and levels[-1].shape[0] > 1:
+        prev = levels[-1]
+        half = prev.shape[0] // 2
+        wrapped = np.pad(prev, ((pad, pad), (pad, pad), (0, 0)), mode="wrap")
+        down = np.asarray(cv2.pyrDown(wrapped), np.float32)
+        levels.append(
+            np.ascontiguousarray(down[pad // 2 : pad // 2 + half, pad // 2 : pad // 2 + half])
+        )
+    if len(_PYRAMIDS) > 64:
+        _PYRAMIDS.clear()
+    _PYRAMIDS[id(tex)] = (tex, levels)
+    return levels
+
+
+def _remap(tex: F32, u_tex: FloatArray, v_tex: FloatArray) -> F32:
+    """Bilinear, wrapping lookup of `tex` at texel coordinates; (N, 3)."""
     import cv2
 
     size = tex.shape[0]
-    n = len(u)
+    n = len(u_tex)
     cols = 1024
     rows = -(-n // cols)
     mu = np.zeros(rows * cols, np.float32)
     mv = np.zeros(rows * cols, np.float32)
-    mu[:n] = np.mod(u / texel_m, size)
-    mv[:n] = np.mod(v / texel_m, size)
+    mu[:n] = np.mod(u_tex, size)
+    mv[:n] = np.mod(v_tex, size)
     res = cv2.remap(
         tex,
         mu.reshape(rows, cols),
@@ -184,6 +215,48 @@ def sample(tex: F32, texel_m: float, u: FloatArray, v: FloatArray) -> F32:
         borderMode=cv2.BORDER_WRAP,
     )
     return np.asarray(res, np.float32).reshape(-1, 3)[:n]
+
+
+def _coarser(x: FloatArray, level: int) -> FloatArray:
+    """Level-0 texel coordinates -> those of mip level `level` (cv2.pyrDown keeps every
+    second texel's position: texel i of level L sits at 2^L·i on level 0)."""
+    return x / 2.0**level
+
+
+def sample(
+    tex: F32,
+    texel_m: float,
+    u: FloatArray,
+    v: FloatArray,
+    footprint_m: FloatArray | None = None,
+) -> F32:
+    """Sample a tileable texture at face coordinates (u, v) metres; returns (N, 3) RGB.
+
+    footprint_m : (N,) the spacing of the image samples on the face, metres. Given, each sample
+    reads the texture prefiltered to that scale (trilinear between the levels of a mip-map),
+    as a camera integrates over its pixel: without it, fine periodic detail such as
+    mortar joints aliases into moiré that differs between the two cameras of a stereo pair.
+    """
+    u_tex = u / texel_m
+    v_tex = v / texel_m
+    if footprint_m is None:
+        return _remap(tex, u_tex, v_tex)
+    levels = _pyramid(tex)
+    top = len(levels) - 1
+    ell = np.clip(np.log2(np.maximum(footprint_m / texel_m, 1.0)), 0.0, float(top))
+    lo = np.minimum(np.floor(ell).astype(np.int64), max(top - 1, 0))
+    frac = np.clip(ell - lo, 0.0, 1.0).astype(np.float32)[:, None]
+    out = np.empty((len(u), 3), np.float32)
+    for level in np.unique(lo).tolist():
+        sel = lo == level
+        a = _remap(levels[level], _coarser(u_tex[sel], level), _coarser(v_tex[sel], level))
+        if level + 1 > top:
+            out[sel] = a
+            continue
+        nxt = level + 1
+        b = _remap(levels[nxt], _coarser(u_tex[sel], nxt), _coarser(v_tex[sel], nxt))
+        out[sel] = a + (b - a) * frac[sel]
+    return out
 
 
 def windows_mask(

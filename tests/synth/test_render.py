@@ -249,3 +249,22 @@ def test_bad_parameters_are_reported() -> None:
         preset("house", params={"colour": "red"})
     with pytest.raises(GeometryError, match="expected a number"):
         preset("house", params={"width": "wide"})
+
+
+def test_texture_prefilter_follows_the_footprint() -> None:
+    from aida_kb.synth import textures as tx
+
+    tex, texel = tx.texture_set(0)["brick"]
+    rng = np.random.default_rng(0)
+    u, v = rng.uniform(0, 5, 2000), rng.uniform(0, 5, 2000)
+    point = tx.sample(tex, texel, u, v)
+    # a footprint of one texel reads the texture itself
+    np.testing.assert_allclose(tx.sample(tex, texel, u, v, np.full(2000, texel)), point, atol=1e-6)
+    # 25 mm samples (a camera pixel at ~20 m): mortar joints blend into the bricks, so the
+    # samples vary less than point samples but keep the texture's mean
+    blurred = tx.sample(tex, texel, u, v, np.full(2000, 0.025))
+    assert blurred.std(axis=0).max() < 0.8 * point.std(axis=0).max()
+    np.testing.assert_allclose(blurred.mean(axis=0), point.mean(axis=0), atol=0.02)
+    # a footprint far beyond the tile: the tile's mean colour everywhere
+    flat = tx.sample(tex, texel, u, v, np.full(2000, 100.0))
+    np.testing.assert_allclose(flat, np.broadcast_to(tex.mean(axis=(0, 1)), flat.shape), atol=0.02)
