@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import numpy.typing as npt
 
@@ -96,6 +97,125 @@ def fit_disparity_plane(
     return DisparityPlane(
         a=a, b=b, g=g0 - a * uc - b * vc, inliers=inliers, weights=w, scale_px=scale
     )
+
+
+@dataclass(frozen=True)
+class PhotometricPair:
+    """A rectified pair prepared for direct plane alignment, all (H, W) float32.
+
+    left, right : the images normalised by the mean and standard deviation of a square
+    window around each pixel (removes gain and vignetting differences between the cameras).
+    right_dx : horizontal derivative of `right` (per pixel). window : the normalisation
+    window's side, pixels.
+    """
+
+    left: npt.NDArray[np.float32]
+    right: npt.NDArray[np.float32]
+    right_dx: npt.NDArray[np.float32]
+    window: int
+
+
+def photometric_pair(
+    left: npt.NDArray[np.generic], right: npt.NDArray[np.generic], window: int = 11
+) -> PhotometricPair:
+    """`PhotometricPair` of a rectified grey pair (H, W); `window` odd, pixels."""
+    if window < 3 or window % 2 == 0:
+        raise VisionError(f"photometric_pair: window must be odd and >= 3, got {window}")
+    ln, rn = (_local_normalise(np.asarray(x, np.float32), window) for x in (left, right))
+    dx = np.asarray(cv2.Sobel(rn, cv2.CV_32F, 1, 0, ksize=1, scale=0.5), np.float32)
+    return PhotometricPair(left=ln, right=rn, right_dx=dx, window=window)
+
+
+def _local_normalise(img: npt.NDArray[np.float32], window: int) -> npt.NDArray[np.float32]:
+    size = (window, window)
+    mu = cv2.boxFilter(img, cv2.CV_32F, size, borderType=cv2.BORDER_REFLECT_101)
+    sq = cv2.sqrBoxFilter(img, cv2.CV_32F, size, borderType=cv2.BORDER_REFLECT_101)
+    sd = np.sqrt(np.maximum(sq - mu * mu, 1.0))
+    return np.asarray((img - mu) / sd, np.float32)
+
+
+PHOTO_MAX_SHIFT_PX = 1.0  # the refinement may move the fitted plane by at most this much
+
+
+def refine_plane_photometric(
+    pair: PhotometricPair,
+    u: npt.NDArray[np.integer],
+    v: npt.NDArray[np.integer],
+    plane: DisparityPlane,
+    *,
+    iterations: int = 20,
+) -> DisparityPlane | None:
+    """Refine a disparity-space plane by aligning the images directly (no matcher in between).
+
+    Minimises sum w·(L(u, v) - R(u - d(u, v), v))² over the region's pixels (u, v) (integer
+    rectified pixel coordinates, (N,)), d = a·u + b·v + g, by Gauss-Newton with Tukey weights
+    (pixels occluded in the right image or off the plane drop out). Unlike the per-pixel
+    disparities, whose subpixel parabola is biased towards whole pixels ("pixel locking"),
+    this has no bias from the fractional disparity, which matters on narrow faces spanning
+    less than a pixel of disparity. Returns the refined plane (inliers and weights are those
+    of the photometric fit over u, v), or None when it does not converge or would move the
+    plane by more than PHOTO_MAX_SHIFT_PX anywhere in the region (no texture, bad start).
+    """
+    W = pair.left.shape[1]
+    uf, vf = np.asarray(u, np.float64), np.asarray(v, np.float64)
+    if len(uf) < 50:
+        return None
+    lv = pair.left[np.asarray(v, np.intp), np.asarray(u, np.intp)].astype(np.float64)
+    uc, vc = float(uf.mean()), float(vf.mean())
+    A = np.stack([uf - uc, vf - vc, np.ones_like(uf)], axis=1)
+    p0 = np.array([plane.a, plane.b, plane.a * uc + plane.b * vc + plane.g])
+    p = p0.copy()
+    w = np.ones_like(uf)
+    converged = False
+    for _ in range(iterations):
+        d = A @ p
+        xs = uf - d
+        rv = _sample(pair.right, xs, vf, cv2.INTER_CUBIC)
+        gx = _sample(pair.right_dx, xs, vf, cv2.INTER_LINEAR)
+        inside = (xs >= 1.0) & (xs <= W - 2.0)
+        r = lv - rv
+        mad = float(np.median(np.abs(r[inside]))) if inside.any() else 0.0
+        scale = max(1.4826 * mad, 1e-3)
+        t = r / (TUKEY_C * scale)
+        w = np.where(inside & (np.abs(t) < 1.0), (1.0 - t * t) ** 2, 0.0)
+        if np.count_nonzero(w) < 50:
+            return None
+        J = A * gx[:, None]
+        Jw = J * w[:, None]
+        try:
+            step = -np.linalg.solve(Jw.T @ J, Jw.T @ r)
+        except np.linalg.LinAlgError:
+            return None
+        p += step
+        if float(np.max(np.abs(A @ step))) < 1e-4:
+            converged = True
+            break
+    shift = float(np.max(np.abs(A @ (p - p0))))
+    if not (converged and np.all(np.isfinite(p)) and shift <= PHOTO_MAX_SHIFT_PX):
+        return None
+    a, b, g0 = (float(x) for x in p)
+    return DisparityPlane(
+        a=a, b=b, g=g0 - a * uc - b * vc, inliers=w > 0, weights=w, scale_px=plane.scale_px
+    )
+
+
+def _sample(img: npt.NDArray[np.float32], x: F64, y: F64, interpolation: int) -> F64:
+    """img at the points (x, y) (N,), interpolated; 0 outside. (cv2.remap limits a map's
+    side to 32767, so the points are laid out in rows of 1024.)"""
+    n = len(x)
+    cols = 1024
+    rows = max(1, -(-n // cols))
+    mx = np.zeros(rows * cols, np.float32)
+    my = np.zeros(rows * cols, np.float32)
+    mx[:n], my[:n] = x, y
+    out = cv2.remap(
+        img,
+        mx.reshape(rows, cols),
+        my.reshape(rows, cols),
+        interpolation,
+        borderMode=cv2.BORDER_CONSTANT,
+    )
+    return np.asarray(out, np.float64).reshape(-1)[:n]
 
 
 def plane_depth(rays: F64, n: F64, D: float) -> F64:

@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from aida_kb.errors import VisionError
-from aida_kb.vision.planes import fit_disparity_plane, pixel_areas_m2, plane_depth
+from aida_kb.vision.planes import (
+    DisparityPlane,
+    fit_disparity_plane,
+    photometric_pair,
+    pixel_areas_m2,
+    plane_depth,
+    refine_plane_photometric,
+)
 
 F, CX, CY, B = 500.0, 160.0, 120.0, 0.3
 
@@ -74,3 +81,55 @@ def test_pixel_areas_sum_to_the_area_of_a_tilted_square() -> None:
     inside = (np.abs(hit @ e1) <= 1.0) & (np.abs(hit @ e2) <= 1.0)
     total = pixel_areas_m2(rays[inside], n, D, fx, fy).sum()
     assert total == pytest.approx(4.0, rel=0.01)
+
+
+def _textured_plane_pair(a: float, b: float, g: float) -> tuple[np.ndarray, np.ndarray]:
+    """A rectified pair of a textured plane with disparity d(u, v) = a·u + b·v + g (pixels):
+    right(x, v) = left(x + d), d taken at the left pixel x + d (solved by fixed point)."""
+    import cv2
+
+    h, w = 120, 200
+    rng = np.random.default_rng(3)
+    tex = cv2.GaussianBlur(rng.normal(0.0, 1.0, (h, w + 40)).astype(np.float32), (0, 0), 1.3)
+    tex = 128.0 + 40.0 * tex / tex.std()
+    vs, xs = np.mgrid[0:h, 0:w].astype(np.float64)
+    ul = xs.copy()
+    for _ in range(30):  # u_l = x_r + d(u_l, v)
+        ul = xs + a * ul + b * vs + g
+    left = tex[:, :w]
+    right = cv2.remap(tex, ul.astype(np.float32), vs.astype(np.float32), cv2.INTER_CUBIC)
+    return left.astype(np.float32), np.asarray(right, np.float32)
+
+
+def test_photometric_refinement_recovers_a_slanted_plane() -> None:
+    a, b, g = 0.012, -0.006, 6.3
+    left, right = _textured_plane_pair(a, b, g)
+    pair = photometric_pair(left, right, 7)
+    vs, us = np.mgrid[15:105, 30:185]
+    # a start 0.4 px off at the corners, as a biased disparity fit would give
+    start = DisparityPlane(
+        a=a + 0.002,
+        b=b - 0.002,
+        g=g - 0.1,
+        inliers=np.ones(1, bool),
+        weights=np.ones(1),
+        scale_px=0.1,
+    )
+    ref = refine_plane_photometric(pair, us.ravel(), vs.ravel(), start)
+    assert ref is not None
+    assert ref.a == pytest.approx(a, abs=2e-4)
+    assert ref.b == pytest.approx(b, abs=2e-4)
+    assert ref.a * 100 + ref.b * 60 + ref.g == pytest.approx(a * 100 + b * 60 + g, abs=0.02)
+    assert ref.inliers.mean() > 0.95
+
+
+def test_photometric_refinement_gives_up_without_texture() -> None:
+    flat = np.full((80, 120), 90.0, np.float32)
+    pair = photometric_pair(flat, flat, 7)
+    vs, us = np.mgrid[10:70, 20:100]
+    start = DisparityPlane(
+        a=0.0, b=0.0, g=4.0, inliers=np.ones(1, bool), weights=np.ones(1), scale_px=0.1
+    )
+    assert refine_plane_photometric(pair, us.ravel(), vs.ravel(), start) is None
+    with pytest.raises(VisionError, match="odd"):
+        photometric_pair(flat, flat, 6)
