@@ -246,12 +246,8 @@ def reconstruct_views(
 
     With one view (or no view of unknown pose) this is `interpret` itself. Otherwise the
     returned interpretation is the first view's, with the model replaced by the one refined
-    with every view and a camera for every view.
-
-    Raises
-    ------
-    SolveError
-        A view that cannot be registered (named).
+    with every view and a camera for every view. A view that cannot be registered is left out
+    of the model (no camera), and the message names it and says why.
     """
     later = [v for v in evidence.views[1:] if v.frame == "camera"]
     known = [v for v in evidence.views if v.frame == "world"]
@@ -271,9 +267,10 @@ def reconstruct_views(
             }
         )
     angles = meeting_angles(rigid)
-    views = [measurements_of(v) for v in known + later]
+    views = [measurements_of(v) for v in known]
+    ids = [v.id for v in known]
     cams: list[PinholeCamera] = []
-    for v, m in zip(known, views, strict=False):
+    for v, m in zip(known, views, strict=True):
         c = _camera(v.left)
         cams.append(PinholeCamera(c.K, c.R_cam_world, c.t_cam_world, m.width, m.height))
     n_known = len(cams)
@@ -284,9 +281,15 @@ def reconstruct_views(
             progress(f"registering view {v.id}")
         stereo = None if scene is None else right_segments(scene, v.id)
         # views of a sequence turn alike: the last turn is the expected one
-        reg = register_evidence_view(rigid, cams[-1], v, expected_turn_deg=turn, stereo=stereo)
+        try:
+            reg = register_evidence_view(rigid, cams[-1], v, expected_turn_deg=turn, stereo=stereo)
+        except SolveError as exc:
+            notes.append(f"not registered: {exc}")  # the message names the view
+            continue
         turn = reg.angle_deg
         cams.append(reg.camera)
+        views.append(measurements_of(v))
+        ids.append(v.id)
         # the model and the new view's pose in one joint optimisation (for the second view:
         # the first shape and the second pose), the views before it held where they are
         step = _adjusted(rigid, cams, views[: len(cams)], [len(cams) - 1], angles)
@@ -294,7 +297,7 @@ def reconstruct_views(
             notes.append(f"joint adjustment with view {v.id} skipped: {step}")
         else:
             rigid, polygons, cams = step
-    for _ in range(FINAL_ROUNDS if len(later) > 1 else 0):
+    for _ in range(FINAL_ROUNDS if len(cams) - n_known > 1 else 0):
         if progress is not None:
             progress(f"refining the model with all {len(cams)} views")
         step = _adjusted(rigid, cams, views, list(range(n_known, len(cams))), angles)
@@ -316,14 +319,13 @@ def reconstruct_views(
                 polygon=[(float(p[0]), float(p[1]), float(p[2])) for p in poly],
             )
         )
-    ids = [v.id for v in known + later]
     model = ReconstructedModel(
         parts=parts, cameras=[_model_camera(i, c) for i, c in zip(ids, cams, strict=True)]
     )
     return interp.model_copy(
         update={
             "model": model,
-            "message": f"{interp.message}; {len(later)} more view(s) registered and the model "
-            f"refined with all {len(ids)}" + "".join(f"; {n}" for n in notes),
+            "message": f"{interp.message}; {len(cams) - n_known} more view(s) registered and "
+            f"the model refined with all {len(ids)}" + "".join(f"; {n}" for n in notes),
         }
     )

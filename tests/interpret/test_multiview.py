@@ -9,6 +9,7 @@ import pytest
 
 from aida_kb.interpret.evaluate import compare_with_truth
 from aida_kb.interpret.multiview import reconstruct_views
+from aida_kb.io.evidence import Evidence
 from aida_kb.io.scene import read_scene
 from aida_kb.synth.scenes import preset, render_scene
 from aida_kb.vision.evidence import scene_evidence
@@ -21,11 +22,14 @@ def house(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.fixture(scope="module")
+def evidence(house: Path) -> Evidence:
+    return scene_evidence(read_scene(house, with_truth=False))[0]
+
+
 def test_two_view_house_registers_the_second_view_and_refines_the_model(
-    house: Path, buildings_kb: object
+    house: Path, evidence: Evidence, buildings_kb: object
 ) -> None:
-    scene = read_scene(house, with_truth=False)
-    evidence, _ = scene_evidence(scene)
     assert [v.frame for v in evidence.views] == ["world", "camera"]  # view 01's pose unknown
     interp = reconstruct_views(buildings_kb, evidence)  # type: ignore[arg-type]
     assert interp.accepted
@@ -43,3 +47,14 @@ def test_two_view_house_registers_the_second_view_and_refines_the_model(
     assert np.linalg.norm(R.T @ t - Rt.T @ tt) < 0.2  # metres, at 30 m
     angle = np.degrees(np.arccos(np.clip((np.trace(R @ Rt.T) - 1) / 2, -1.0, 1.0)))
     assert angle < 0.5
+
+
+def test_a_view_that_cannot_be_registered_is_left_out_and_named(
+    evidence: Evidence, buildings_kb: object
+) -> None:
+    blind = evidence.views[1].model_copy(update={"lines": []})
+    bad = evidence.model_copy(update={"views": [evidence.views[0], blind]})
+    interp = reconstruct_views(buildings_kb, bad)  # type: ignore[arg-type]
+    assert interp.model is not None
+    assert [c.view for c in interp.model.cameras] == ["00"]
+    assert "view 01: registration: the view has only 0 usable line segments" in interp.message
