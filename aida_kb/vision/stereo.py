@@ -366,36 +366,50 @@ def _gradient_factor(img: F32, window: int, ws: _Workspace) -> F32:
     return g
 
 
-def _window_sums(
-    left: _Prepared, right: _Prepared, y0: int, d: int, dst: F32, ws: _Workspace
-) -> None:
-    """Window sums of corr_L(x) * corr_R(x - d) (exact mode: the zero-mean NCC) for the output
-    rows y0 .. y0 + h - 1 and columns d .. W - 1, written to `dst` (h, W - d), from one
-    integral image of the band's products."""
-    w = left.window
-    h, n = dst.shape
-    Lb = left.corr[y0 : y0 + h + w - 1]
-    Rb = right.corr[y0 : y0 + h + w - 1]
-    m = Lb.shape[1] - d
-    if not left.exact:
-        p = ws.get("prod", (h + w - 1, m), np.float32)
-        cv2.multiply(Lb[:, d:], Rb[:, :m], dst=p)
+class _WindowSums:
+    """Window sums of corr_L(x) * corr_R(x - d) for one band's output rows y0 .. y0 + h - 1
+    and columns d .. W - 1 (exact mode: the zero-mean NCC), from one integral image of the
+    band's products per disparity; the scratch arrays are taken once per band."""
+
+    def __init__(self, left: _Prepared, right: _Prepared, y0: int, h: int, ws: _Workspace) -> None:
+        w = left.window
+        self.left, self.right, self.y0, self.h, self.w = left, right, y0, h, w
+        self.Lb = left.corr[y0 : y0 + h + w - 1]
+        self.Rb = right.corr[y0 : y0 + h + w - 1]
+        wp = self.Lb.shape[1]
+        self.prod = ws.get("prod", (h + w - 1, wp), np.float32)
+        self.sums = ws.get("integral", (h + w, wp + 1), np.float32)
+        self.vert = ws.get("vertical", (h, wp + 1), np.float32)
+
+    def __call__(self, d: int, dst: F32) -> None:
+        """Write the sums for disparity d to `dst` (h, W - d)."""
+        w, h, n = self.w, self.h, dst.shape[1]
+        m = self.Lb.shape[1] - d
+        if self.left.exact:
+            self._exact(d, dst)
+            return
+        p = self.prod[:, :m]
+        cv2.multiply(self.Lb[:, d:], self.Rb[:, :m], dst=p)
         # float32 integral: the normalised products are ~1/w² each, so that a band's total
         # stays small enough for ~1e-5 absolute accuracy of the scores
-        s = ws.get("integral", (h + w, m + 1), np.float32)
+        s = self.sums[:, : m + 1]
         cv2.integral(p, sum=s, sdepth=cv2.CV_32F)
-        v = ws.get("vertical", (h, m + 1), np.float32)
+        v = self.vert[:, : m + 1]
         cv2.subtract(s[w : w + h], s[0:h], dst=v)
         cv2.subtract(v[:, w : w + n], v[:, 0:n], dst=dst)
-        return
-    # exact zero-mean NCC: raw products summed in float64, then the means and deviations
-    p64 = Lb[:, d:].astype(np.float64) * Rb[:, :m]
-    s64 = cv2.integral(p64, sdepth=cv2.CV_64F)
-    v64 = s64[w : w + h] - s64[0:h]
-    sums = v64[:, w : w + n] - v64[:, 0:n]
-    rows = slice(y0, y0 + h)
-    cov = sums / (w * w) - left.mu[rows, d:] * right.mu[rows, :n]
-    dst[:] = cov * left.inv_sd[rows, d:] * right.inv_sd[rows, :n]
+
+    def _exact(self, d: int, dst: F32) -> None:
+        # raw products summed in float64, then the means and deviations
+        w, h, n = self.w, self.h, dst.shape[1]
+        m = self.Lb.shape[1] - d
+        p64 = self.Lb[:, d:].astype(np.float64) * self.Rb[:, :m]
+        s64 = cv2.integral(p64, sdepth=cv2.CV_64F)
+        v64 = s64[w : w + h] - s64[0:h]
+        sums = v64[:, w : w + n] - v64[:, 0:n]
+        rows = slice(self.y0, self.y0 + h)
+        left, right = self.left, self.right
+        cov = sums / (w * w) - left.mu[rows, d:] * right.mu[rows, :n]
+        dst[:] = cov * left.inv_sd[rows, d:] * right.inv_sd[rows, :n]
 
 
 def _band(
@@ -437,15 +451,17 @@ def _band(
     best_r = ws.get("best_r", (h, W), np.int32)  # right image: its pixel xr = x - d
     best.fill(0)
     best_r.fill(0)
+    window_sums = _WindowSums(left, right, y0, h, ws)
+    clear = _scalar(not_k)
     for k in range(D):
         d = min_disp + k
         n = W - d
         keys[k + 1, :, : min(d, W)] = 0
         if n <= 0:
             continue
-        _window_sums(left, right, y0, d, vol[k + 1, :, d:W], ws)
+        window_sums(d, vol[k + 1, :, d:W])
         ks = keys[k + 1, :, d:W]
-        cv2.bitwise_and(ks, _scalar(not_k), dst=ks)
+        cv2.bitwise_and(ks, clear, dst=ks)
         cv2.bitwise_or(ks, _scalar(k), dst=ks)
         cv2.max(best[:, d:], ks, dst=best[:, d:])
         cv2.max(best_r[:, :n], ks, dst=best_r[:, :n])
