@@ -416,13 +416,20 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
     return Scene(root=root, name=index.name, calib=calib, views=tuple(views), truth=truth)
 
 
+def _existing_file(file: Path) -> Path:
+    """`file`, or a FormatError saying that there is none (before OpenCV logs its own)."""
+    if not file.is_file():
+        raise FormatError(f"{file}: no such file" if not file.exists() else f"{file}: not a file")
+    return file
+
+
 def read_image(path: str | os.PathLike[str], *, grey: bool = False) -> npt.NDArray[np.uint8]:
     """Load an 8-bit view image: (H, W) if grey, else (H, W, 3) BGR (grey files are expanded)."""
     import cv2
 
     file = Path(path)
     flag = cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR
-    img = cv2.imread(str(file), flag)
+    img = cv2.imread(str(_existing_file(file)), flag)
     if img is None:
         raise FormatError(f"{file}: not a readable image")
     if img.dtype != np.uint8:
@@ -435,7 +442,7 @@ def read_labels(path: str | os.PathLike[str]) -> npt.NDArray[np.uint16]:
     import cv2
 
     file = Path(path)
-    img = cv2.imread(str(file), cv2.IMREAD_UNCHANGED)
+    img = cv2.imread(str(_existing_file(file)), cv2.IMREAD_UNCHANGED)
     if img is None:
         raise FormatError(f"{file}: not a readable image")
     if img.ndim != 2:

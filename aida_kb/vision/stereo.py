@@ -105,13 +105,20 @@ def ncc_disparity(
     lr_tolerance_px : a left pixel keeps its disparity only if the right image's best match
         points back to within this many pixels (left-right consistency).
     workers : threads for the row bands (default: the number of CPUs).
+    exact : correlate each window with its own mean and deviation (true zero-mean NCC,
+        slower); default: correlate the images normalised pixel by pixel by the mean and
+        deviation of the window around each pixel (nearly the same scores).
+    adaptive_range : search each band of rows only over the disparities that a
+        half-resolution pass finds there (plus a margin), when num_disp >= 16 and the image
+        is at least 8 windows on each side; pixels whose match lies outside get none.
 
     Returns
     -------
     DisparityMap
-        Disparity (subpixel, parabola fit), certainty, NCC peak and distinctiveness. No
-        disparity where a window is flat (std < MIN_STD grey levels), where the peak lies on
-        the end of the range, or where the left-right check fails. Certainty =
+        Disparity (subpixel, parabola fit), certainty, NCC peak and distinctiveness, all
+        (H, W) float32 on the rectified left image. No disparity where a window is flat
+        (std < MIN_STD grey levels), where the peak lies on the end of the range, or where
+        the left-right check fails. Certainty =
         clip((peak - PEAK_FLOOR) / (1 - PEAK_FLOOR)) * clip(distinctiveness / DISTINCT_SCALE)
         * g² / (g² + GRADIENT_SCALE²), g the mean gradient magnitude in the window.
     """

@@ -56,7 +56,11 @@ def test_disparity_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     missing = tmp_path / "nope.png"
     out = tmp_path / "d.npy"
     assert main(["disparity", str(lp), str(missing), "-o", str(out)]) == 2
-    assert "nope.png" in capsys.readouterr().err
+    assert "nope.png: no such file" in capsys.readouterr().err
+    garbage = tmp_path / "garbage.png"
+    garbage.write_bytes(b"not a png")
+    assert main(["disparity", str(garbage), str(lp), "-o", str(out)]) == 2
+    assert "garbage.png: not a readable image" in capsys.readouterr().err
     small = tmp_path / "small.png"
     cv2.imwrite(str(small), np.zeros((10, 10), np.uint8))
     assert main(["disparity", str(lp), str(small), "-o", str(out)]) == 1
