@@ -382,8 +382,8 @@ class Interpreter:
         """Alternative bindings region id -> role path, or the reason there are none.
 
         For the smaller parts of a verified level (``smaller``) lighter regions count
-        (`MIN_PART_WEIGHT_FRACTION`), a part meeting the front must be seen beside it (its
-        region shares a segment with the front's), and each part may also be left unbound
+        (`MIN_PART_WEIGHT_FRACTION`), a part meeting the front must be seen beside it
+        (`EvidenceView.beside`), and each part may also be left unbound
         (inserted; `_unseen` checks that the camera could miss it).
         """
         options: list[list[RegionView | None]] = []
@@ -392,9 +392,6 @@ class Interpreter:
             r for r in self.regions if r.id not in exclude and self._significant(r, minimum)
         ]
         front = forced.get("front")
-        beside: set[str] = set()
-        if front is not None:
-            beside = {r for s in self.evidence.segments_of(front.id) for r in s.regions}
         meets_front = {
             b if a == join(structure.root, "front") else a
             for a, b in structure.adjacency
@@ -406,8 +403,8 @@ class Interpreter:
                 options.append([forced[leaf.name]])
                 continue
             usable = self._level_with(leaf, available, forced)
-            if smaller and leaf.role in meets_front:
-                usable = [r for r in usable if r.id in beside]
+            if smaller and front is not None and leaf.role in meets_front:
+                usable = [r for r in usable if self.evidence.beside(front.id, r.id)]
             found: list[RegionView | None] = list(candidates(leaf, usable, frame))
             if not found:
                 if leaf.name == "front" and direct:

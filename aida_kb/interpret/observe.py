@@ -153,6 +153,34 @@ class EvidenceView:
         keep: FloatArray = out[np.all(np.isfinite(out), axis=1)]
         return keep
 
+    def beside(self, a: str, b: str, within_px: float = 5.0) -> bool:
+        """True if regions `a` and `b` border each other in their image.
+
+        They do when a segment borders both, or when a vertex of one's outline lies within
+        `within_px` pixels of the other's outline (where the evidence gives outlines).
+        """
+        if any(b in s.regions for s in self.segments_of(a)):
+            return True
+        if self.regions[a].view != self.regions[b].view:
+            return False
+        oa, ob = self.outlines.get(a, ()), self.outlines.get(b, ())
+        return any(
+            _outline_gap(p, q) <= within_px or _outline_gap(q, p) <= within_px
+            for p in oa
+            for q in ob
+        )
+
+
+def _outline_gap(points: FloatArray, polygon: FloatArray) -> float:
+    """The smallest distance (px) from the points (N, 2) to the closed polygon (M, 2)."""
+    start = polygon
+    edge = np.roll(polygon, -1, axis=0) - start
+    length2 = np.maximum(np.sum(edge * edge, axis=1), 1e-12)
+    rel = points[:, None, :] - start[None, :, :]
+    t = np.clip(np.sum(rel * edge[None], axis=2) / length2[None], 0.0, 1.0)
+    gap = rel - t[..., None] * edge[None]
+    return float(np.sqrt(np.min(np.sum(gap * gap, axis=2))))
+
 
 def intersect_rays_plane(centre_m: FloatArray, rays: FloatArray, region: RegionView) -> FloatArray:
     """Points where rays from `centre_m` meet a region's plane, (N, 3); NaN where they miss."""
