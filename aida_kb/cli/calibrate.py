@@ -47,12 +47,14 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from aida_kb.errors import VisionError
+    from aida_kb.io.atomic import check_output
     from aida_kb.io.scene import write_calib
     from aida_kb.vision.calibration import calibrate_stereo, find_pairs
 
     cols, sep, rows = str(args.pattern).lower().partition("x")
     if not sep or not cols.isdigit() or not rows.isdigit():
         raise VisionError(f"--pattern {args.pattern!r}: expected COLSxROWS, e.g. 9x6")
+    check_output(args.output)
     pairs = find_pairs(args.directory)
     result = calibrate_stereo(pairs, (int(cols), int(rows)), float(args.square))
     write_calib(args.output, result.calib)

@@ -52,10 +52,13 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from aida_kb.errors import VisionError
-    from aida_kb.io.atomic import atomic_path
+    from aida_kb.io.atomic import atomic_path, check_output
     from aida_kb.io.scene import read_image
     from aida_kb.vision.stereo import ncc_disparity
 
+    for path in (args.output, args.certainty):
+        if path:
+            check_output(path)
     left = read_image(args.left, grey=True)
     right = read_image(args.right, grey=True)
     if left.shape != right.shape:

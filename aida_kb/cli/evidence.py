@@ -54,12 +54,17 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from aida_kb.errors import VisionError
+    from aida_kb.io.atomic import check_output, make_dirs
     from aida_kb.io.evidence import write_evidence
     from aida_kb.io.scene import read_scene
     from aida_kb.vision.debug import write_debug
     from aida_kb.vision.evidence import STAGES, VisionParams, scene_evidence
 
     scene = read_scene(args.scene, with_truth=False)
+    check_output(args.output)
+    if args.debug:
+        make_dirs(args.debug)
     views = [v.strip() for v in args.views.split(",")] if args.views else None
     params = VisionParams(num_disp=args.max_disp, window=args.window)
     n_views = len(views) if views is not None else len(scene.views)
@@ -80,13 +85,24 @@ def run(args: argparse.Namespace) -> int:
         evidence, products = scene_evidence(
             scene, views=views, params=params, segmentation=args.segmentation, stage=stage
         )
-    write_evidence(args.output, evidence)
     for view in evidence.views:
         console.print(
             f"view {view.id} ({view.frame} frame, {view.segmentation}): "
             f"{len(view.regions)} regions, {len(view.lines)} lines, "
             f"depth density {view.disparity_density:.2f}"
         )
+        if not view.regions:
+            console.print(
+                f"warning: view {view.id}: no planar region (featureless or unrelated images, "
+                "or a calibration that does not fit them?)",
+                markup=False,
+                soft_wrap=True,
+            )
+    if not any(view.regions for view in evidence.views):
+        raise VisionError(
+            f"{args.scene}: no planar region in any view; nothing written to {args.output}"
+        )
+    write_evidence(args.output, evidence)
     if args.debug:
         for prod in products:
             write_debug(args.debug, prod)

@@ -77,12 +77,14 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from aida_kb.errors import GeometryError
+    from aida_kb.io.atomic import make_dirs
     from aida_kb.synth.scenes import COMMON_KEYS, preset, render_scene
 
     if args.views is not None and args.views < 1:
         raise GeometryError("--views must be at least 1")
     settings = _parse_settings(args.settings)
     spec = preset(args.preset, seed=args.seed, views=args.views, params=settings)
+    make_dirs(args.output)  # before rendering: a wrong -o fails at once
     jobs = [(spec, Path(args.output))]
     if args.chessboard and args.preset != "chessboard":
         rig_keys = {k: v for k, v in settings.items() if k in COMMON_KEYS}

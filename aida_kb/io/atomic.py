@@ -11,6 +11,38 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from aida_kb.errors import FormatError
+
+
+def make_dirs(directory: str | os.PathLike[str]) -> Path:
+    """Create `directory` and its parents if missing; FormatError if that is impossible.
+
+    Fails with a message naming the path when a component is an existing file or the
+    location is not writable.
+    """
+    path = Path(directory)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        blocker = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+        why = f"{blocker} is a file, not a directory" if blocker is not None else exc.strerror
+        raise FormatError(f"{path}: cannot create the output directory: {why}") from None
+    return path
+
+
+def check_output(target: str | os.PathLike[str]) -> Path:
+    """Fail early (FormatError) if `target` cannot be written; create its folder if missing.
+
+    For commands that work for a while before writing: a wrong ``-o`` is reported at once.
+    """
+    path = Path(target)
+    if path.is_dir():
+        raise FormatError(f"{path}: cannot write the output: it is a directory")
+    folder = make_dirs(path.parent)
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise FormatError(f"{path}: cannot write the output: {folder} is not writable")
+    return path
+
 
 @contextlib.contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
@@ -26,10 +58,17 @@ def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
     ...     cv2.imwrite(str(tmp), image)
     """
     target_path = Path(target)
-    target_path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(
-        prefix=f".{target_path.name}.", suffix=f".tmp{target_path.suffix}", dir=target_path.parent
-    )
+    if target_path.is_dir():
+        raise FormatError(f"{target_path}: cannot write the output: it is a directory")
+    make_dirs(target_path.parent)
+    try:
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=f".{target_path.name}.",
+            suffix=f".tmp{target_path.suffix}",
+            dir=target_path.parent,
+        )
+    except OSError as exc:
+        raise FormatError(f"{target_path}: cannot write the output: {exc.strerror}") from None
     os.close(fd)
     tmp = Path(tmp_name)
     try:

@@ -17,12 +17,21 @@ from __future__ import annotations
 import json
 import math
 import os
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
 from aida_kb.io.jsonio import read_json_model, write_json_model
-from aida_kb.io.model import Cahv, Finite, Mat3, Vec3
+from aida_kb.io.model import (
+    Cahv,
+    Finite,
+    Int,
+    Mat3,
+    Vec3,
+    camera_centre,
+    check_camera,
+    number_only,
+)
 
 EVIDENCE_FORMAT: Literal["aida-kb-evidence"] = "aida-kb-evidence"
 EVIDENCE_VERSION: Literal[1] = 1
@@ -58,28 +67,27 @@ class EvidenceCamera(_Frozen):
     def _check(self) -> EvidenceCamera:
         if len(self.D) not in (0, 4, 5, 8, 12, 14):
             raise ValueError(f"D has {len(self.D)} coefficients; expected 0, 4, 5, 8, 12 or 14")
-        if self.K[0][0] <= 0 or self.K[1][1] <= 0 or tuple(self.K[2]) != (0.0, 0.0, 1.0):
-            raise ValueError("K must have fx, fy > 0 and last row 0 0 1")
-        r = self.R
-        for i in range(3):
-            for j in range(3):
-                dot = sum(r[i][k] * r[j][k] for k in range(3))
-                if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
-                    raise ValueError("R must be a rotation matrix (orthonormal)")
+        check_camera(self.K, self.R)
         _unit(self.cahv.A, "cahv.A")
+        centre = camera_centre(self.R, self.t)
+        scale = max(1.0, math.sqrt(sum(c * c for c in centre)))
+        if max(abs(a - b) for a, b in zip(self.cahv.C, centre, strict=True)) > 1e-6 * scale:
+            raise ValueError("cahv.C is not the centre -Rᵀ·t of the camera given by R and t")
+        if max(abs(a - b) for a, b in zip(self.cahv.A, self.R[2], strict=True)) > 1e-6:
+            raise ValueError("cahv.A is not the optical axis (third row of R)")
         return self
 
 
 class Region(_Frozen):
     """A segmented image region and the plane fitted to its depth (paper §4.5)."""
 
-    id: int = Field(ge=1, description="region id, unique in the view (the value in segmentation)")
-    label: int | None = Field(
-        default=None, ge=1, description="the labels.png id it came from; null if segmented"
+    id: Int = Field(ge=1, description="region id, unique in the view (the value in segmentation)")
+    label: Annotated[int, Field(ge=1), BeforeValidator(number_only)] | None = Field(
+        default=None, description="the labels.png id it came from; null if segmented"
     )
-    pixel_count: int = Field(ge=1, description="pixels of the region in the left image")
-    depth_pixel_count: int = Field(ge=0, description="region pixels with a depth value")
-    inlier_count: int = Field(ge=0, description="pixels the robust plane fit kept")
+    pixel_count: Int = Field(ge=1, description="pixels of the region in the left image")
+    depth_pixel_count: Int = Field(ge=0, description="region pixels with a depth value")
+    inlier_count: Int = Field(ge=0, description="pixels the robust plane fit kept")
     area_m2: Finite = Field(ge=0, description="area of the region on the fitted plane, m²")
     n_init: Vec3 = Field(description="unit plane normal, pointing towards the camera")
     d_init: Finite = Field(description="plane offset: n_init·x = d_init, metres")
@@ -87,11 +95,14 @@ class Region(_Frozen):
     w_c: Finite = Field(ge=0, description="sum of the certainty map over the region (eq. 4)")
     rms_m: Finite = Field(ge=0, description="weighted RMS distance of the inliers to the plane")
     mean_certainty: Finite = Field(ge=0, le=1, description="w_c / pixel_count")
-    bbox: tuple[int, int, int, int] = Field(description="x0 y0 x1 y1, pixels, inclusive")
+    bbox: tuple[Int, Int, Int, Int] = Field(description="x0 y0 x1 y1, pixels, inclusive")
 
     @model_validator(mode="after")
     def _check(self) -> Region:
         _unit(self.n_init, f"region {self.id}: n_init")
+        x0, y0, x1, y1 = self.bbox
+        if not (0 <= x0 <= x1 and 0 <= y0 <= y1):
+            raise ValueError(f"region {self.id}: bbox must be x0 y0 x1 y1, 0 <= x0 <= x1, y0 <= y1")
         if self.depth_pixel_count > self.pixel_count or self.inlier_count > self.depth_pixel_count:
             raise ValueError(
                 f"region {self.id}: need inlier_count <= depth_pixel_count <= pixel_count"
@@ -104,25 +115,37 @@ class Region(_Frozen):
 class LineSegment(_Frozen):
     """A straight image edge with subpixel end points (paper §4.6, p1 and p2)."""
 
-    id: int = Field(ge=1)
+    id: Int = Field(ge=1)
     p1: Point2 = Field(description="first end point, pixels (x, y)")
     p2: Point2 = Field(description="second end point, pixels (x, y)")
     length_px: Finite = Field(gt=0)
     contrast: Finite = Field(ge=0, description="mean grey-level step across the edge")
-    regions: list[int] = Field(
+    regions: list[Int] = Field(
         default_factory=list, description="ids of the regions it borders (0, 1 or 2)"
     )
-    left_region: int | None = Field(
+    left_region: Int | None = Field(
         default=None, description="region on the left of p1->p2 (image axes), if any"
     )
-    right_region: int | None = Field(default=None, description="region on the right, if any")
+    right_region: Int | None = Field(default=None, description="region on the right, if any")
+
+    @model_validator(mode="after")
+    def _check(self) -> LineSegment:
+        length = math.dist(self.p1, self.p2)
+        if length == 0.0:
+            raise ValueError(f"line {self.id}: p1 and p2 are the same point (zero length)")
+        if abs(self.length_px - length) > 0.05 + 1e-6 * length:  # rounded to 0.1 px is fine
+            raise ValueError(
+                f"line {self.id}: length_px {self.length_px:.6g} is not the distance "
+                f"{length:.6g} from p1 to p2"
+            )
+        return self
 
 
 class Contour(_Frozen):
     """A closed region boundary as a polygon in pixels (simplified, ~1 px tolerance)."""
 
-    id: int = Field(ge=1)
-    region: int = Field(ge=1, description="the region it bounds")
+    id: Int = Field(ge=1)
+    region: Int = Field(ge=1, description="the region it bounds")
     hole: bool = Field(default=False, description="True for an inner boundary")
     points: list[Point2] = Field(min_length=3, description="vertices (x, y), pixels")
 
@@ -134,8 +157,8 @@ class ViewEvidence(_Frozen):
     frame: Literal["world", "camera"] = Field(
         description="frame of 3-D quantities: world, or this view's own left camera"
     )
-    image_width: int = Field(gt=0)
-    image_height: int = Field(gt=0)
+    image_width: Int = Field(gt=0)
+    image_height: Int = Field(gt=0)
     left: EvidenceCamera
     right: EvidenceCamera
     segmentation: Literal["labels", "orientation"] = Field(
@@ -150,6 +173,7 @@ class ViewEvidence(_Frozen):
 
     @model_validator(mode="after")
     def _references(self) -> ViewEvidence:
+        self._check_geometry()
         ids = [r.id for r in self.regions]
         if len(set(ids)) != len(ids):
             raise ValueError(f"view {self.id}: region ids must be unique")
@@ -169,6 +193,37 @@ class ViewEvidence(_Frozen):
                     f"view {self.id}: contour {contour.id} names unknown region {contour.region}"
                 )
         return self
+
+    def _check_geometry(self) -> None:
+        """The stereo pair has a baseline; regions lie in the image, points near it."""
+        left_c = camera_centre(self.left.R, self.left.t)
+        right_c = camera_centre(self.right.R, self.right.t)
+        if math.dist(left_c, right_c) <= 1e-9:
+            raise ValueError(
+                f"view {self.id}: left and right cameras have the same centre (zero baseline)"
+            )
+        w, h = self.image_width, self.image_height
+        for r in self.regions:
+            if r.bbox[2] >= w or r.bbox[3] >= h:
+                raise ValueError(
+                    f"view {self.id}: region {r.id}: bbox {list(r.bbox)} exceeds the {w}x{h} image"
+                )
+
+        def far(p: Point2) -> bool:  # a margin of one image size: lines may be extrapolated
+            return not (-w <= p[0] <= 2 * w and -h <= p[1] <= 2 * h)
+
+        for line in self.lines:
+            if far(line.p1) or far(line.p2):
+                raise ValueError(
+                    f"view {self.id}: line {line.id}: an end point lies far outside the "
+                    f"{w}x{h} image"
+                )
+        for contour in self.contours:
+            if any(far(p) for p in contour.points):
+                raise ValueError(
+                    f"view {self.id}: contour {contour.id}: a point lies far outside the "
+                    f"{w}x{h} image"
+                )
 
     def region(self, region_id: int) -> Region:
         """The region with id `region_id` (KeyError if there is none)."""

@@ -19,17 +19,22 @@ def _field_path(loc: tuple[int | str, ...]) -> str:
     path = ""
     for part in loc:
         path += f"[{part}]" if isinstance(part, int) else (f".{part}" if path else str(part))
-    return path or "(top level)"
+    return path
 
 
-def describe_validation_error(source: str, exc: ValidationError, limit: int = 5) -> str:
-    """One readable message for a pydantic validation error: file, field path, what is wrong."""
-    lines = [f"{source}: {exc.error_count()} problem(s) in the file"]
-    for err in exc.errors()[:limit]:
-        lines.append(f"  {_field_path(tuple(err['loc']))}: {err['msg']}")
-    if exc.error_count() > limit:
-        lines.append(f"  ... and {exc.error_count() - limit} more")
-    return "\n".join(lines)
+def describe_validation_error(source: str, exc: ValidationError) -> str:
+    """One line for a pydantic validation error: file, field path of the first problem, what.
+
+    Further problems are counted, not listed (fixing the first often fixes the rest).
+    """
+    errors = exc.errors()
+    first = errors[0]
+    msg = str(first["msg"]).removeprefix("Value error, ").replace("\n", " ")
+    where = f" field {_field_path(tuple(first['loc']))}:" if first["loc"] else ""
+    line = f"{source}:{where} {msg}"
+    if len(errors) > 1:
+        line += f" (and {len(errors) - 1} more problem(s))"
+    return line
 
 
 def read_json_model(path: str | os.PathLike[str], model: type[ModelT]) -> ModelT:

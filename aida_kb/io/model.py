@@ -11,21 +11,63 @@ import math
 import os
 from typing import Annotated, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 
 from aida_kb.io.atomic import write_text_atomic
 from aida_kb.io.jsonio import read_json_model, write_json_model
+
+# Larger magnitudes are certainly wrong (metres, pixels, counts) and would overflow when squared.
+MAX_MAGNITUDE = 1e12
+
+
+def number_only(value: object) -> object:
+    """Refuse JSON strings and booleans where a number is wanted (pydantic would convert them)."""
+    if isinstance(value, (str, bool)):
+        raise ValueError(f"expected a number, got {type(value).__name__} {value!r}")
+    return value
 
 
 def _finite(value: float) -> float:
     if not math.isfinite(value):
         raise ValueError("must be a finite number (NaN and infinity are not allowed)")
+    if abs(value) > MAX_MAGNITUDE:
+        raise ValueError(f"magnitude {value:.3g} is beyond {MAX_MAGNITUDE:.0e}")
     return value
 
 
-Finite = Annotated[float, AfterValidator(_finite)]
+Finite = Annotated[float, BeforeValidator(number_only), AfterValidator(_finite)]
+"""A finite number (not NaN, not infinite, not absurdly large; not a string or boolean)."""
+Int = Annotated[int, BeforeValidator(number_only)]
+"""A whole number (not a string or boolean)."""
 Vec3 = tuple[Finite, Finite, Finite]
 Mat3 = tuple[Vec3, Vec3, Vec3]
+
+
+def check_camera(K: Mat3, R: Mat3) -> None:
+    """Raise ValueError unless K is a camera matrix and R a rotation (orthonormal, det +1)."""
+    if K[0][0] <= 0 or K[1][1] <= 0 or K[1][0] != 0 or tuple(K[2]) != (0.0, 0.0, 1.0):
+        raise ValueError("K must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0")
+    for i in range(3):
+        for j in range(3):
+            dot = sum(R[i][k] * R[j][k] for k in range(3))
+            if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
+                raise ValueError("R must be a rotation matrix (orthonormal)")
+    det = (
+        R[0][0] * (R[1][1] * R[2][2] - R[1][2] * R[2][1])
+        - R[0][1] * (R[1][0] * R[2][2] - R[1][2] * R[2][0])
+        + R[0][2] * (R[1][0] * R[2][1] - R[1][1] * R[2][0])
+    )
+    if det < 0:
+        raise ValueError("R must be a rotation matrix (determinant +1, not a reflection)")
+
+
+def camera_centre(R: Mat3, t: Vec3) -> Vec3:
+    """The camera centre C = -Rᵀ·t (metres, frame of R and t) of x_cam = R·x + t."""
+    return (
+        -(R[0][0] * t[0] + R[1][0] * t[1] + R[2][0] * t[2]),
+        -(R[0][1] * t[0] + R[1][1] * t[1] + R[2][1] * t[2]),
+        -(R[0][2] * t[0] + R[1][2] * t[1] + R[2][2] * t[2]),
+    )
 
 
 class _Frozen(BaseModel):
@@ -48,9 +90,17 @@ class ModelCamera(_Frozen):
     K: Mat3 = Field(description="intrinsic matrix, pixels")
     R: Mat3 = Field(description="rotation world -> camera")
     t: Vec3 = Field(description="translation world -> camera, metres")
-    image_width: int = Field(gt=0)
-    image_height: int = Field(gt=0)
+    image_width: Int = Field(gt=0)
+    image_height: Int = Field(gt=0)
     cahv: Cahv | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> ModelCamera:
+        try:
+            check_camera(self.K, self.R)
+        except ValueError as exc:
+            raise ValueError(f"camera of view {self.view!r}: {exc}") from None
+        return self
 
 
 class ModelPart(_Frozen):

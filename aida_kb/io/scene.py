@@ -28,11 +28,12 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from aida_kb.errors import FormatError
-from aida_kb.io.atomic import atomic_path, write_text_atomic
+from aida_kb.io.atomic import atomic_path, make_dirs, write_text_atomic
 from aida_kb.io.jsonio import describe_validation_error, read_json_model, write_json_model
+from aida_kb.io.model import Finite, Mat3, Vec3, check_camera
 
 SCENE_FORMAT = "aida-kb-scene"
 SCENE_VERSION = 1
@@ -83,13 +84,12 @@ class SceneIndex(BaseModel):
 # ---------------------------------------------------------------------------------------------
 # truth.json
 
-Vec3 = tuple[float, float, float]
-Mat3 = tuple[Vec3, Vec3, Vec3]
 
-
-def _finite(values: Sequence[float], what: str) -> None:
-    if not all(math.isfinite(v) for v in values):
-        raise ValueError(f"{what} must be finite numbers")
+def _unit(n: Vec3, what: str) -> Vec3:
+    norm = math.sqrt(sum(c * c for c in n))
+    if abs(norm - 1.0) > 1e-6:
+        raise ValueError(f"{what} must have unit length (has {norm:.6g})")
+    return n
 
 
 class PartTruth(BaseModel):
@@ -107,24 +107,13 @@ class PartTruth(BaseModel):
     label: int = Field(ge=1, le=65535)
     material: str = ""
     normal: Vec3
-    d: float
+    d: Finite
     polygon: list[Vec3] = Field(min_length=3)
 
     @field_validator("normal")
     @classmethod
     def _unit_normal(cls, n: Vec3) -> Vec3:
-        _finite(n, "normal")
-        norm = math.sqrt(sum(c * c for c in n))
-        if abs(norm - 1.0) > 1e-6:
-            raise ValueError(f"normal must have unit length (has {norm:.6g})")
-        return n
-
-    @field_validator("polygon")
-    @classmethod
-    def _finite_polygon(cls, poly: list[Vec3]) -> list[Vec3]:
-        for vertex in poly:
-            _finite(vertex, "polygon vertices")
-        return poly
+        return _unit(n, "normal")
 
 
 class GroundTruth(BaseModel):
@@ -134,7 +123,12 @@ class GroundTruth(BaseModel):
 
     label: int = Field(ge=1, le=65535)
     normal: Vec3
-    d: float
+    d: Finite
+
+    @field_validator("normal")
+    @classmethod
+    def _unit_normal(cls, n: Vec3) -> Vec3:
+        return _unit(n, "normal")
 
 
 class PoseTruth(BaseModel):
@@ -147,15 +141,10 @@ class PoseTruth(BaseModel):
     R: Mat3
     t: Vec3
 
-    @field_validator("R")
-    @classmethod
-    def _rotation(cls, R: Mat3) -> Mat3:
-        m = np.asarray(R, dtype=float)
-        if not np.all(np.isfinite(m)):
-            raise ValueError("R must be finite")
-        if np.abs(m @ m.T - np.eye(3)).max() > 1e-6 or np.linalg.det(m) < 0:
-            raise ValueError("R must be a rotation matrix (orthonormal, det +1)")
-        return R
+    @model_validator(mode="after")
+    def _camera(self) -> PoseTruth:
+        check_camera(self.K, self.R)
+        return self
 
 
 class SceneTruth(BaseModel):
@@ -236,12 +225,19 @@ def write_calib(path: str | os.PathLike[str], calib: StereoCalib) -> None:
 
 
 def _calib_matrix(fs: Any, file: Path, name: str, sizes: tuple[int, ...]) -> FloatArray:
+    import cv2
+
     node = fs.getNode(name)
     if node.empty():
         raise FormatError(f"{file}: field {name}: missing")
     if not node.isMap():
         raise FormatError(f"{file}: field {name}: not a matrix (expected an opencv-matrix)")
-    mat = node.mat()
+    try:
+        mat = node.mat()
+    except cv2.error:  # e.g. a truncated file: the node lacks its dt or data entries
+        raise FormatError(
+            f"{file}: field {name}: malformed opencv-matrix (needs rows, cols, dt and data)"
+        ) from None
     if mat is None:
         raise FormatError(f"{file}: field {name}: not a matrix (expected an opencv-matrix)")
     arr = np.asarray(mat, dtype=np.float64)
@@ -290,12 +286,24 @@ def read_calib(path: str | os.PathLike[str]) -> StereoCalib:
         D2 = _calib_matrix(fs, file, "D2", _D_LENGTHS).ravel()
         R = _calib_matrix(fs, file, "R", (9,)).reshape(3, 3)
         T = _calib_matrix(fs, file, "T", (3,)).ravel()
+    except cv2.error as exc:  # a truncated or hand-edited matrix node
+        text = str(exc).strip().splitlines()
+        raise FormatError(
+            f"{file}: malformed cv2.FileStorage content: {text[-1] if text else exc}"
+        ) from None
     finally:
         fs.release()
     for name, K in (("K1", K1), ("K2", K2)):
-        if K[0, 0] <= 0 or K[1, 1] <= 0 or abs(K[2, 2] - 1.0) > 1e-9 or np.any(K[2, :2] != 0):
+        if (
+            K[0, 0] <= 0
+            or K[1, 1] <= 0
+            or abs(K[2, 2] - 1.0) > 1e-9
+            or np.any(K[2, :2] != 0)
+            or K[1, 0] != 0
+        ):
             raise FormatError(
-                f"{file}: field {name}: not a camera matrix (need fx, fy > 0 and last row 0 0 1)"
+                f"{file}: field {name}: not a camera matrix "
+                "(need [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0)"
             )
     if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
         raise FormatError(f"{file}: field R: not a rotation matrix (orthonormal, det +1)")
@@ -428,12 +436,15 @@ def read_image(path: str | os.PathLike[str], *, grey: bool = False) -> npt.NDArr
     import cv2
 
     file = Path(path)
-    flag = cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR
-    img = cv2.imread(str(_existing_file(file)), flag)
+    # look at the stored depth first: IMREAD_COLOR would silently scale 16 bits down to 8
+    raw = cv2.imread(str(_existing_file(file)), cv2.IMREAD_UNCHANGED)
+    if raw is None:
+        raise FormatError(f"{file}: not a readable image")
+    if raw.dtype != np.uint8:
+        raise FormatError(f"{file}: expected an 8-bit image, got {raw.dtype}")
+    img = cv2.imread(str(file), cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR)
     if img is None:
         raise FormatError(f"{file}: not a readable image")
-    if img.dtype != np.uint8:
-        raise FormatError(f"{file}: expected an 8-bit image, got {img.dtype}")
     return np.asarray(img, dtype=np.uint8)
 
 
@@ -507,8 +518,7 @@ def write_scene(
 
     views : one `ViewData` per view; ids default to "00", "01", ...
     """
-    root = Path(directory)
-    root.mkdir(parents=True, exist_ok=True)
+    root = make_dirs(directory)
     ids = list(view_ids) if view_ids is not None else [f"{i:02d}" for i in range(len(views))]
     if len(ids) != len(views):
         raise ValueError("view_ids and views differ in length")

@@ -143,12 +143,47 @@ def _orbit(
     return poses
 
 
+# Allowed range of every numeric parameter: (low, high, integer). Units as in the key's name
+# (metres unless told; pixels for image_*, focal_px and noise_sigma; degrees for *_deg).
+_RANGES: dict[str, tuple[float, float, bool]] = {
+    "image_width": (32, 8192, True),
+    "image_height": (32, 8192, True),
+    "focal_px": (1.0, 1e6, False),
+    "baseline": (1e-3, 100.0, False),
+    "k1": (-1.0, 1.0, False),
+    "noise_sigma": (0.0, 100.0, False),
+    "width": (1e-2, 1000.0, False),
+    "depth": (1e-2, 1000.0, False),
+    "height": (1e-2, 1000.0, False),
+    "wing_width": (1e-2, 1000.0, False),
+    "wing_length": (1e-2, 1000.0, False),
+    "oriel_width": (1e-2, 1000.0, False),
+    "oriel_depth": (1e-2, 1000.0, False),
+    "distance": (1e-2, 1e5, False),
+    "floors": (1, 100, True),
+    "n_oriels": (0, 20, True),
+    "cols": (2, 100, True),
+    "rows": (2, 100, True),
+    "square_m": (1e-3, 10.0, False),
+}
+
+
 def _float(params: Mapping[str, str | float], key: str, default: float) -> float:
+    """Parameter `key` as a finite number inside its allowed range (GeometryError if not)."""
     value = params.get(key, default)
     try:
-        return float(value)
+        number = float(value)
     except ValueError:
         raise GeometryError(f"--set {key}={value}: expected a number") from None
+    if not math.isfinite(number):
+        raise GeometryError(f"--set {key}={value}: expected a finite number")
+    if key in _RANGES:
+        low, high, integer = _RANGES[key]
+        if integer and number != int(number):
+            raise GeometryError(f"--set {key}={value}: expected a whole number")
+        if not low <= number <= high:
+            raise GeometryError(f"--set {key}={value}: must be in [{low:g}, {high:g}]")
+    return number
 
 
 def _rig_from(params: Mapping[str, str | float], baseline: float) -> Rig:
@@ -188,6 +223,7 @@ KNOWN_KEYS = {
     "turntable": {"width", "depth", "height", "distance", "angles"},
     "chessboard": {"cols", "rows", "square_m"},
 }
+WALL_MATERIALS = ("mixed", "plaster", "brick")
 COMMON_KEYS = {"image_width", "image_height", "focal_px", "baseline", "k1", "noise_sigma"}
 
 
@@ -206,6 +242,9 @@ def preset(
         allowed = ", ".join(sorted(KNOWN_KEYS[name] | COMMON_KEYS))
         raise GeometryError(f"--set: unknown key(s) {', '.join(sorted(unknown))}; known: {allowed}")
     sigma = _float(p, "noise_sigma", 1.8)
+    wall = str(p.get("wall", "mixed"))
+    if wall not in WALL_MATERIALS:
+        raise GeometryError(f"--set wall={wall}: choose one of {', '.join(WALL_MATERIALS)}")
     if name == "house":
         model = bld.house(
             width=_float(p, "width", 16.0),
@@ -213,7 +252,7 @@ def preset(
             height=_float(p, "height", 9.0),
             roof=str(p.get("roof", "gable")),
             pitch_deg=_float(p, "pitch_deg", 35.0),
-            wall_material=str(p.get("wall", "mixed")),
+            wall_material=wall,
             floors=int(_float(p, "floors", 3)),
         )
         n = views or 2
@@ -273,9 +312,9 @@ def preset(
             try:
                 angles = [float(a) for a in str(p["angles"]).split(",")]
             except ValueError:
-                raise GeometryError(
-                    f"--set angles={p['angles']}: expected comma-separated degrees"
-                ) from None
+                angles = []
+            if not angles or not all(math.isfinite(a) for a in angles):
+                raise GeometryError(f"--set angles={p['angles']}: expected comma-separated degrees")
         else:
             angles = [0.0, 85.0, 195.0, 265.0]
         if views is not None:

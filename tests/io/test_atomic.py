@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from aida_kb.io.atomic import atomic_path, write_text_atomic
+from aida_kb.errors import FormatError
+from aida_kb.io.atomic import atomic_path, make_dirs, write_text_atomic
 
 
 def test_write_text_atomic_replaces_target(tmp_path: Path) -> None:
@@ -32,3 +33,20 @@ def test_temporary_keeps_suffix(tmp_path: Path) -> None:
         assert tmp.suffix == ".npy"
         tmp.write_bytes(b"x")
     assert (tmp_path / "depth.npy").read_bytes() == b"x"
+
+
+def test_output_below_a_file_is_a_format_error(tmp_path: Path) -> None:
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    with pytest.raises(FormatError, match=r"afile is a file, not a directory"):
+        write_text_atomic(blocker / "sub" / "out.json", "{}")
+    with pytest.raises(FormatError, match=r"afile is a file, not a directory"):
+        make_dirs(blocker / "scene")
+    assert blocker.read_text() == "x"
+
+
+def test_output_onto_a_directory_is_a_format_error(tmp_path: Path) -> None:
+    (tmp_path / "out").mkdir()
+    with pytest.raises(FormatError, match=r"out: cannot write the output: it is a directory"):
+        write_text_atomic(tmp_path / "out", "{}")
+    assert list((tmp_path / "out").iterdir()) == []

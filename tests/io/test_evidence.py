@@ -73,6 +73,16 @@ def _data() -> dict[str, Any]:
     return {"scene": "house", "views": [view]}
 
 
+def _view(d: dict[str, Any]) -> dict[str, Any]:
+    view: dict[str, Any] = d["views"][0]
+    return view
+
+
+def _line(d: dict[str, Any]) -> dict[str, Any]:
+    line: dict[str, Any] = _view(d)["lines"][0]
+    return line
+
+
 def test_round_trip(tmp_path: Path) -> None:
     ev = Evidence.model_validate(_data())
     path = tmp_path / "evidence.json"
@@ -93,12 +103,29 @@ def test_round_trip(tmp_path: Path) -> None:
         (lambda d: d["views"][0]["contours"][0].update(region=5), "views[0]", "unknown region"),
         (lambda d: d["views"][0]["regions"][1].update(id=1), "views[0]", "unique"),
         (lambda d: d["views"][0]["regions"][0].update(w_c=2000.0), "regions[0]", "w_c"),
-        (lambda d: d["views"][0]["regions"][0].update(c_init=[0, "nan", 1]), "c_init", "finite"),
+        (lambda d: d["views"][0]["regions"][0].update(c_init=[0, "nan", 1]), "c_init", "number"),
         (lambda d: d["views"][0].update(frame="site"), "views[0].frame", "world"),
         (lambda d: d["views"][0]["left"].update(D=[0.0, 1.0]), "views[0].left", "coefficients"),
         (lambda d: d["views"][0]["left"].update(R=[[2, 0, 0], I3[1], I3[2]]), "left", "rotation"),
-        (lambda d: d["views"].append(d["views"][0]), "(top level)", "view ids must be unique"),
+        (lambda d: d["views"].append(d["views"][0]), "json: view", "view ids must be unique"),
         (lambda d: d.update(format="something"), "format", "aida-kb-evidence"),
+        # regressions from the hardening review: each was accepted and flowed on silently
+        (lambda d: _line(d).update(p2=_line(d)["p1"]), "lines[0]", "zero length"),
+        (lambda d: _line(d).update(length_px=5.0), "lines[0]", "not the distance"),
+        (
+            lambda d: _line(d).update(p1=[5000, 20.5], p2=[5049.75, 20.75]),
+            "views[0]",
+            "far outside",
+        ),
+        (lambda d: _view(d)["regions"][0].update(bbox=[60, 20, 10, 70]), "regions[0]", "x0 <="),
+        (lambda d: _view(d)["regions"][0].update(bbox=[0, 0, 640, 9]), "region 1: bbox", "exceeds"),
+        (lambda d: _view(d)["regions"][0].update(c_init=[0, 1e300, 1]), "c_init[1]", "beyond"),
+        (lambda d: _view(d)["regions"][0].update(d_init="-20"), "d_init", "got str"),
+        (lambda d: _view(d).update(image_width=True), "image_width", "got bool"),
+        (lambda d: _view(d).update(right=_view(d)["left"]), "views[0]", "zero baseline"),
+        (lambda d: _view(d)["left"].update(t=[1.0, 0, 0]), "views[0].left", "cahv.C"),
+        (lambda d: _view(d)["left"].update(R=[I3[0], I3[1], [0, 0, -1]]), "left", "reflection"),
+        (lambda d: _view(d)["left"].update(K=[[0, 0, 0], [0, 0, 0], [0, 0, 1]]), "left", "fx, fy"),
     ],
 )
 def test_invalid_evidence_names_file_and_field(
@@ -111,7 +138,8 @@ def test_invalid_evidence_names_file_and_field(
     with pytest.raises(FormatError) as info:
         read_evidence(path)
     text = str(info.value)
-    assert str(path) in text
+    assert "\n" not in text, "one line"
+    assert text.startswith(str(path))
     assert field in text
     assert message in text
 

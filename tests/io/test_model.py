@@ -90,3 +90,50 @@ def test_malformed_json_names_line(tmp_path: Path) -> None:
         read_model(bad)
     with pytest.raises(FormatError, match="no such file"):
         read_model(tmp_path / "missing.json")
+
+
+def _camera(**change: object) -> dict[str, object]:
+    camera: dict[str, object] = {
+        "view": "00",
+        "K": [[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]],
+        "R": [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        "t": [0.0, 0.0, 0.0],
+        "image_width": 640,
+        "image_height": 480,
+    }
+    camera.update(change)
+    return camera
+
+
+@pytest.mark.parametrize(
+    ("camera", "field", "message"),
+    [
+        (_camera(K=[[0, 0, 0], [0, 0, 0], [0, 0, 1]]), "cameras[0]", "fx, fy > 0"),
+        (_camera(R=[[1, 0, 0], [0, 1, 0], [0, 0, -1]]), "cameras[0]", "reflection"),
+        (_camera(R=[[2, 0, 0], [0, 1, 0], [0, 0, 1]]), "cameras[0]", "rotation"),
+        (_camera(t=[0, 0, 1e300]), "cameras[0].t[2]", "beyond"),
+        (_camera(t=[0, "1", 0]), "cameras[0].t[1]", "got str"),
+        (_camera(image_width=False), "cameras[0].image_width", "got bool"),
+    ],
+)
+def test_bad_camera_is_rejected_in_one_line(
+    tmp_path: Path, camera: dict[str, object], field: str, message: str
+) -> None:
+    data = json.loads(_cube().model_dump_json())
+    data["cameras"] = [camera]
+    bad = tmp_path / "model.json"
+    bad.write_text(json.dumps(data))
+    with pytest.raises(FormatError) as info:
+        read_model(bad)
+    text = str(info.value)
+    assert text.startswith(f"{bad}: field {field}")
+    assert message in text
+    assert "\n" not in text
+
+
+def test_good_camera_is_read(tmp_path: Path) -> None:
+    data = json.loads(_cube().model_dump_json())
+    data["cameras"] = [_camera()]
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(data))
+    assert read_model(path).cameras[0].K[0][0] == 800.0

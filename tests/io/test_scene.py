@@ -219,3 +219,50 @@ def test_bad_images(tmp_path: Path) -> None:
     np.save(root / "views/00/depth_left.npy", np.zeros((3, 3, 3)))
     with pytest.raises(FormatError, match=r"depth_left\.npy"):
         read_depth(scene.views[0].depth_left or Path())
+
+
+def test_hardening_regressions(tmp_path: Path) -> None:
+    """Inputs that used to crash (cv2.error) or pass through silently."""
+    root = _write(tmp_path)
+    calib = root / "calib.yaml"
+    text = calib.read_text()
+    calib.write_text(text[: text.index("D1:") + 40])  # truncated inside the D1 node
+    _expect(root, "calib.yaml", "field D1", "malformed opencv-matrix")
+    calib.write_text(text)
+    cal = _calib()
+    singular = np.array([[500.0, 500.0, 31.5], [500.0, 500.0, 23.5], [0.0, 0.0, 1.0]])
+    fs = cv2.FileStorage(str(calib), cv2.FILE_STORAGE_WRITE)
+    for name, value in (("K1", singular), ("D1", cal.D1), ("K2", cal.K2), ("D2", cal.D2)):
+        fs.write(name, value)
+    fs.write("R", cal.R)
+    fs.write("T", cal.T)
+    fs.write("image_width", 64)
+    fs.write("image_height", 48)
+    fs.release()
+    _expect(root, "calib.yaml", "field K1", "not a camera matrix")
+    calib.write_text(text)
+    truth = root / "truth.json"
+    data = json.loads(truth.read_text())
+    data["ground"] = {"label": 9, "normal": [float("nan"), 0.0, 0.0], "d": 1.0}
+    truth.write_text(json.dumps(data))
+    _expect(root, "truth.json", "ground.normal[0]", "finite")
+    data["ground"] = None
+    data["views"][0]["K"] = [[500, 0, 31.5], [0, 500, 23.5], [0, 0, 0]]
+    truth.write_text(json.dumps(data))
+    _expect(root, "truth.json", "views[0]", "fx, fy > 0")
+
+
+def test_sixteen_bit_view_image_is_refused(tmp_path: Path) -> None:
+    """cv2.IMREAD_COLOR would scale a 16-bit image down to 8 bits without a word."""
+    path = tmp_path / "left.png"
+    cv2.imwrite(str(path), np.full((48, 64), 4000, np.uint16))
+    with pytest.raises(FormatError, match=r"left\.png: expected an 8-bit image, got uint16"):
+        read_image(path)
+    with pytest.raises(FormatError, match="8-bit"):
+        read_image(path, grey=True)
+
+
+def test_write_scene_into_a_file_is_a_format_error(tmp_path: Path) -> None:
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(FormatError, match="afile is a file, not a directory"):
+        write_scene(tmp_path / "afile", _calib(), [])

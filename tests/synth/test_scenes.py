@@ -1,0 +1,59 @@
+"""Preset parameters (`aida-kb synth --set`): bad values are a GeometryError, never a crash."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from aida_kb.cli.main import main
+from aida_kb.errors import GeometryError
+from aida_kb.synth.scenes import preset
+
+
+@pytest.mark.parametrize(
+    ("name", "key", "value", "message"),
+    [
+        ("house", "width", "nan", "finite"),
+        ("house", "width", "inf", "finite"),
+        ("house", "focal_px", "0", "must be in"),
+        ("house", "baseline", "0", "must be in"),
+        ("house", "baseline", "-0.5", "must be in"),
+        ("house", "image_width", "0", "must be in"),
+        ("house", "image_width", "1e9", "must be in"),
+        ("house", "k1", "nan", "finite"),
+        ("house", "noise_sigma", "-1", "must be in"),
+        ("house", "floors", "2.5", "whole number"),
+        ("house", "floors", "0", "must be in"),
+        ("house", "distance", "-10", "must be in"),
+        ("house", "height", "1e-9", "must be in"),
+        ("house", "wall", "nan", "choose one of"),
+        ("turntable", "angles", "0,nan", "comma-separated degrees"),
+        ("turntable", "angles", ",", "comma-separated degrees"),
+        ("chessboard", "cols", "1", "must be in"),
+        ("oriel", "n_oriels", "-1", "must be in"),
+    ],
+)
+def test_bad_parameter_is_a_geometry_error(name: str, key: str, value: str, message: str) -> None:
+    with pytest.raises(GeometryError, match=message) as info:
+        preset(name, params={key: value})
+    assert f"{key}={value}" in str(info.value)
+
+
+def test_good_parameters_are_used() -> None:
+    spec = preset("house", params={"width": "18", "floors": "2", "image_width": "320"})
+    assert spec.rig.size == (320, 480)
+    floor = spec.model.face("body.floor").polygon
+    assert floor[:, 0].max() - floor[:, 0].min() == pytest.approx(18.0)
+    assert len(preset("turntable", params={"angles": "0,90"}).views_site) == 2
+
+
+def test_cli_reports_a_bad_value_and_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "scene"
+    assert main(["synth", "house", "-o", str(out), "--set", "focal_px=nan", "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "focal_px=nan" in err
+    assert "internal error" not in err
+    assert not out.exists()
