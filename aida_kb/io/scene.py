@@ -287,10 +287,8 @@ def read_calib(path: str | os.PathLike[str]) -> StereoCalib:
         R = _calib_matrix(fs, file, "R", (9,)).reshape(3, 3)
         T = _calib_matrix(fs, file, "T", (3,)).ravel()
     except cv2.error as exc:  # a truncated or hand-edited matrix node
-        text = str(exc).strip().splitlines()
-        raise FormatError(
-            f"{file}: malformed cv2.FileStorage content: {text[-1] if text else exc}"
-        ) from None
+        last = (str(exc).strip().splitlines() or ["parse error"])[-1]
+        raise FormatError(f"{file}: malformed cv2.FileStorage content: {last}") from None
     finally:
         fs.release()
     for name, K in (("K1", K1), ("K2", K2)):
