@@ -7,8 +7,8 @@ The sequence of the paper:
    guess) and then the first shape and the second view's pose are adjusted in one joint
    optimisation: the model's planes and the camera pose are the unknowns; the edge constraints
    of both views (image segments matched to model edges), the position constraints of both
-   views' regions and the first shape's angles between adjacent parts (what the knowledge base
-   imposed on it) are the constraints.
+   views' regions, the knowledge base's internal constraints of the interpreted objects and,
+   loosely, the first shape's angles between adjacent parts are the constraints.
 3. Further views are registered, each starting from the previous one and expecting the same
    turn as the last (a symmetric model's pose is taken nearest to it), against that model;
    after each, the model and the new pose are adjusted with all views so far.
@@ -50,19 +50,28 @@ from aida_kb.register.evidence import (
     register_evidence_view,
     right_segments,
 )
-from aida_kb.solve import build_problem, solve
+from aida_kb.solve import build_problem, constraints_from_kb, solve
 
 if TYPE_CHECKING:
     from aida_kb.kb.model import KnowledgeBase
 
 FloatArray = npt.NDArray[np.float64]
 
-__all__ = ["JOINT_EDGE_SIGMA_PX", "joint_adjustment", "meeting_angles", "reconstruct_views"]
+__all__ = [
+    "JOINT_EDGE_SIGMA_PX",
+    "joint_adjustment",
+    "kb_constraints",
+    "meeting_angles",
+    "reconstruct_views",
+]
 
-JOINT_EDGE_SIGMA_PX = 1.0
-"""Edge constraints of the joint adjustment: standard deviation, pixels."""
+JOINT_EDGE_SIGMA_PX = 2.0
+"""Edge constraints of the joint adjustment: an edge point's standard deviation across its
+edge, pixels; a segment's end points get ``2 sigma / sqrt(length)`` (at least sigma/10)."""
 JOINT_ANGLE_SIGMA_DEG = 0.3
 """The first shape's angles between adjacent parts, kept to this standard deviation."""
+PRIOR_ANGLE_SIGMA_DEG = 2.0
+"""... or to this one, where the knowledge base's own constraints are in the adjustment."""
 JOINT_MATCH_PX = 3.0
 """Segments within this distance of a projected model edge are its evidence."""
 FINAL_ROUNDS = 2
@@ -105,6 +114,7 @@ def joint_adjustment(
     free_cameras: Sequence[int],
     *,
     angles: Mapping[tuple[int, int], float] | None = None,
+    internal: Sequence[Constraint] = (),
 ) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...]]:
     """Adjust the model's planes and the free cameras' poses to all views at once.
 
@@ -114,6 +124,8 @@ def joint_adjustment(
         rad, by the pair of part indices (a, b), a < b) are kept as soft constraints.
     cameras : one per view (world frame); views : their measurements.
     free_cameras : indices of the cameras whose poses are unknowns (the others fix the frame).
+    internal : the knowledge base's constraints among the parts (`kb_constraints`); with them
+        the first shape's angles are kept only loosely (`PRIOR_ANGLE_SIGMA_DEG`).
 
     Returns
     -------
@@ -142,7 +154,7 @@ def joint_adjustment(
                 Constraint(
                     kind="edge",
                     parts=(int(a), int(b)),
-                    sigma=JOINT_EDGE_SIGMA_PX,
+                    sigma=_segment_sigma(p, q),
                     unit="px",
                     measurement=True,
                     label=f"edge({model.names[a]}, {model.names[b]})@{m.view}",
@@ -173,13 +185,15 @@ def joint_adjustment(
             )
     if angles is None:
         angles = meeting_angles(model)
+    cons.extend(internal)
+    sigma_deg = PRIOR_ANGLE_SIGMA_DEG if internal else JOINT_ANGLE_SIGMA_DEG
     for (a, b), phi in angles.items():
         cons.append(
             Constraint(
                 kind="angle",
                 parts=(int(a), int(b)),
                 value=float(phi),
-                sigma=math.radians(JOINT_ANGLE_SIGMA_DEG),
+                sigma=math.radians(sigma_deg),
                 unit="rad",
                 label=f"first-shape angle({model.names[a]}, {model.names[b]})",
             )
@@ -194,6 +208,44 @@ def joint_adjustment(
     )
     result = solve(problem, loss="soft_l1", f_scale=2.0)
     return result.normals, result.offsets, result.cameras
+
+
+def _segment_sigma(p: FloatArray, q: FloatArray) -> float:
+    """A segment's end points' sigma across it: a line fitted to one point per pixel."""
+    length = max(float(np.hypot(*(q - p))), 4.0)
+    return max(2.0 * JOINT_EDGE_SIGMA_PX / math.sqrt(length), 0.1 * JOINT_EDGE_SIGMA_PX)
+
+
+def kb_constraints(
+    kb: KnowledgeBase, interp: Interpretation, names: Sequence[str]
+) -> list[Constraint]:
+    """The knowledge base's internal constraints (no measurements) among the model's parts.
+
+    For each object the interpretation found (an instance right under the goal, e.g. ``body``:
+    ``HouseBody``), `aida_kb.solve.constraints_from_kb` with the parts under it and the
+    concepts the interpretation chose for its roles (e.g. ``roof``: ``GableRoof``). Part
+    indices are positions in `names`. Objects whose constraints cannot be built are skipped.
+    """
+    out: list[Constraint] = []
+    index = {n: i for i, n in enumerate(names)}
+    for top in interp.instances:
+        if not top.role or "." in top.role:
+            continue
+        prefix = top.role + "."
+        assignment = {n[len(prefix) :]: i for n, i in index.items() if n.startswith(prefix)}
+        fillers = {
+            inst.role[len(prefix) :]: inst.concept
+            for inst in interp.instances
+            if inst.role.startswith(prefix)
+        }
+        if not assignment:
+            continue
+        try:
+            found = constraints_from_kb(kb, top.concept, assignment, fillers=fillers)
+        except SolveError:
+            continue
+        out.extend(c for c in found.constraints if not c.measurement)
+    return out
 
 
 def meeting_angles(model: RigidModel) -> dict[tuple[int, int], float]:
@@ -220,10 +272,13 @@ def _adjusted(
     views: Sequence[ViewMeasurements],
     free: Sequence[int],
     angles: Mapping[tuple[int, int], float],
+    internal: Sequence[Constraint],
 ) -> tuple[RigidModel, list[FloatArray], list[PinholeCamera]] | str:
     """`joint_adjustment` and the rebuilt model, or why it failed (the caller keeps the old)."""
     try:
-        n, d, adjusted = joint_adjustment(model, cameras, views, free, angles=angles)
+        n, d, adjusted = joint_adjustment(
+            model, cameras, views, free, angles=angles, internal=internal
+        )
         rigid, polygons = _rebuilt(model, n, d)
     except (GeometryError, SolveError) as exc:
         return str(exc)
@@ -267,6 +322,7 @@ def reconstruct_views(
             }
         )
     angles = meeting_angles(rigid)
+    internal = kb_constraints(kb, interp, rigid.names)
     views = [measurements_of(v) for v in known]
     ids = [v.id for v in known]
     cams: list[PinholeCamera] = []
@@ -292,7 +348,7 @@ def reconstruct_views(
         ids.append(v.id)
         # the model and the new view's pose in one joint optimisation (for the second view:
         # the first shape and the second pose), the views before it held where they are
-        step = _adjusted(rigid, cams, views[: len(cams)], [len(cams) - 1], angles)
+        step = _adjusted(rigid, cams, views[: len(cams)], [len(cams) - 1], angles, internal)
         if isinstance(step, str):
             notes.append(f"joint adjustment with view {v.id} skipped: {step}")
         else:
@@ -300,7 +356,7 @@ def reconstruct_views(
     for _ in range(FINAL_ROUNDS if len(cams) - n_known > 1 else 0):
         if progress is not None:
             progress(f"refining the model with all {len(cams)} views")
-        step = _adjusted(rigid, cams, views, list(range(n_known, len(cams))), angles)
+        step = _adjusted(rigid, cams, views, list(range(n_known, len(cams))), angles, internal)
         if isinstance(step, str):
             notes.append(f"refinement with all views skipped: {step}")
             break

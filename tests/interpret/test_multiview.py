@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from aida_kb.interpret.evaluate import compare_with_truth
-from aida_kb.interpret.multiview import reconstruct_views
+from aida_kb.interpret.multiview import kb_constraints, reconstruct_views
+from aida_kb.interpret.result import Interpretation
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.scene import read_scene
 from aida_kb.synth.scenes import preset, render_scene
@@ -58,3 +60,19 @@ def test_a_view_that_cannot_be_registered_is_left_out_and_named(
     assert interp.model is not None
     assert [c.view for c in interp.model.cameras] == ["00"]
     assert "view 01: registration: the view has only 0 usable line segments" in interp.message
+
+
+def test_kb_constraints_are_the_interpreted_objects_internal_ones(
+    interpreted: Callable[[str], Interpretation], buildings_kb: object
+) -> None:
+    interp = interpreted("house_correct.json")
+    assert interp.model is not None
+    names = [p.role for p in interp.model.parts]
+    cons = kb_constraints(buildings_kb, interp, names)  # type: ignore[arg-type]
+    labels = {c.label.split("(")[0] for c in cons}
+    assert {".:corner_fl", ".:opposite_fb", ".:ground", ".:eaves", ".:slopes"} <= labels
+    assert not any(c.measurement for c in cons)
+    front, left = names.index("body.front"), names.index("body.left")
+    corner = next(c for c in cons if c.label.startswith(".:corner_fl"))
+    assert corner.parts == (front, left)
+    assert corner.value == pytest.approx(np.pi / 2)
