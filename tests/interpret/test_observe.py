@@ -130,3 +130,19 @@ def test_evidence_pixels_are_undistorted_for_the_pinhole_camera() -> None:
     assert np.abs(distorted - ideal).max() > 4.0  # the lens moves the corners visibly
     np.testing.assert_allclose(_undistorted(distorted, K, D), ideal, atol=0.05)
     np.testing.assert_array_equal(_undistorted(ideal, K, np.zeros(5)), ideal)
+
+
+def test_regions_beside_each_other_by_segment_or_outline(synthetic: ModuleType) -> None:
+    from dataclasses import replace
+
+    view, _ = _house_view(synthetic)
+    ids = sorted(r for r in view.regions if r != "00/8")
+    front, left = ids[0], ids[1]  # the synthetic evidence shares the corner segment
+    assert view.beside(front, left)
+    # without segments, the outlines decide: touching squares, then squares 20 px apart
+    square = np.array([[0.0, 0.0], [50.0, 0.0], [50.0, 50.0], [0.0, 50.0]])
+    bare = replace(view, segments=(), _by_region={})
+    touching = replace(bare, outlines={front: (square,), left: (square + np.array([52.0, 10.0]),)})
+    assert touching.beside(front, left)
+    apart = replace(bare, outlines={front: (square,), left: (square + np.array([70.0, 0.0]),)})
+    assert not apart.beside(front, left)
