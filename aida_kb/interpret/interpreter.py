@@ -133,6 +133,7 @@ class Level:
     frame: Frame
     polygons: dict[str, FloatArray]  # role path -> closed face polygon (N, 3), world, metres
     closing: tuple[ClosingFace, ...]  # faces of its solid from the levels it belongs to
+    verification: Verification  # the problem it was verified by (its last adjustment)
     misfit: float  # adjustment cost plus the penalty for unexplained segments of bound regions
 
 
@@ -346,8 +347,18 @@ class Interpreter:
                 + SEGMENT_PENALTY * loose
                 + UNEXPLAINED_PENALTY * left_out / self.total_weight
             )
+            assert self._last is not None
             level = Level(
-                hid, structure, binding, inserted, outcome, frame, polygons, closing, misfit
+                hid,
+                structure,
+                binding,
+                inserted,
+                outcome,
+                frame,
+                polygons,
+                closing,
+                self._last,
+                misfit,
             )
             if best is None or level.misfit < best.misfit:
                 best = level

@@ -12,7 +12,7 @@ from aida_kb.interpret.interpreter import Interpreter, State
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
 from aida_kb.interpret.result import ConstraintResidual, Interpretation
-from aida_kb.interpret.verify import Outcome
+from aida_kb.interpret.verify import Outcome, verify_levels
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 
@@ -131,7 +131,10 @@ def interpret(
             trace=trace,
             expanded=expanded,
         )
-    residuals = [r for level in state.levels for r in _residuals(level.outcome)]
+    # the accepted levels solved once more as a whole, level by level (the main parts first,
+    # then fixed for the smaller ones): one residual report for the whole interpretation
+    whole = verify_levels([level.verification for level in state.levels])
+    residuals = _residuals(whole)
     choices = ", ".join(
         level.structure.describe() for level in state.levels if level.structure.describe()
     )

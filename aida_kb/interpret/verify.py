@@ -317,10 +317,15 @@ def tilt_constraints(
     return out
 
 
-def verify(v: Verification, max_evaluations: int = MAX_EVALUATIONS) -> Outcome:
+def verify(
+    v: Verification,
+    max_evaluations: int = MAX_EVALUATIONS,
+    levels: Sequence[Sequence[int]] | None = None,
+) -> Outcome:
     """Adjust the free planes (`aida_kb.solve.solve`) and report every constraint.
 
-    ``max_evaluations`` caps the solver's residual evaluations.
+    ``max_evaluations`` caps the solver's residual evaluations (per level); ``levels`` (part
+    indices) solves hierarchically, each level fixed before the next (`solve`'s levels).
 
     Raises
     ------
@@ -337,7 +342,7 @@ def verify(v: Verification, max_evaluations: int = MAX_EVALUATIONS) -> Outcome:
         names=v.roles,
         cameras=v.cameras,
     )
-    result = solve(problem, max_iterations=max_evaluations, tolerance=TOLERANCE)
+    result = solve(problem, max_iterations=max_evaluations, tolerance=TOLERANCE, levels=levels)
     if not (np.all(np.isfinite(result.normals)) and np.all(np.isfinite(result.offsets))):
         raise SolveError("adjustment diverged (non-finite planes)")
     roles = v.roles
@@ -374,3 +379,41 @@ def verify(v: Verification, max_evaluations: int = MAX_EVALUATIONS) -> Outcome:
         role: (result.normals[i].copy(), float(result.offsets[i])) for i, role in enumerate(roles)
     }
     return Outcome(planes, tuple(residuals), result.report.reduced_cost)
+
+
+def verify_levels(levels: Sequence[Verification]) -> Outcome:
+    """An accepted interpretation solved as a whole, level by level (paper §5).
+
+    ``levels`` are the verified levels' problems in order (the main body first; each later
+    one holds the earlier levels' parts as fixed planes). They are joined into one problem
+    whose parts are every level's own parts, started where each level's verification started,
+    and solved with `aida_kb.solve.solve`'s ``levels``: the main parts first, then fixed while
+    the smaller parts are adjusted against them. The outcome reports every constraint of the
+    interpretation at once.
+    """
+    if not levels:
+        raise SolveError("verify_levels: no level to solve")
+    planes: list[PlaneInit] = []
+    index: dict[str, int] = {}
+    members: list[list[int]] = []
+    for v in levels:
+        own = []
+        for p in v.planes:
+            if p.fixed:
+                if p.role not in index:
+                    raise SolveError(
+                        f"verify_levels: {p.role} is fixed but no earlier level has it"
+                    )
+                continue
+            index[p.role] = len(planes)
+            own.append(len(planes))
+            planes.append(p)
+        members.append(own)
+    constraints: list[Constraint] = []
+    sources: list[Source] = []
+    for v in levels:
+        for c, src in zip(v.constraints, v.sources, strict=True):
+            constraints.append(replace(c, parts=tuple(index[v.planes[i].role] for i in c.parts)))
+            sources.append(src)
+    joint = Verification(tuple(planes), tuple(constraints), tuple(sources), levels[0].cameras)
+    return verify(joint, levels=members)

@@ -165,3 +165,45 @@ def test_constraints_come_from_the_knowledge_base(buildings_kb: KnowledgeBase) -
     tilt = v.constraints[[s.owner for s in v.sources].index("body.wings[0].back")]
     assert tilt.sigma == pytest.approx(math.radians(1.0))
     assert tilt.reject_above == pytest.approx(math.radians(5.0))
+
+
+def test_levels_are_solved_main_parts_first() -> None:
+    from aida_kb.interpret.verify import verify_levels
+
+    front = np.array([0.0, 0.0, -1.0])
+    seen = _turn(front, 1.0)  # the body's region: 1 degree off
+    body = Verification(
+        (PlaneInit("body.front", "Wall", seen, float(seen @ [0, 0, 20.0])),),
+        (_position(0, _region("b", seen, [0, 0, 20.0]))[0],),
+        (Source("Region#1", "Region", "body.front.region", "'Region#1' of body.front"),),
+    )
+    main = verify(body)
+    n_main, d_main = main.planes["body.front"]
+    # the oriel's region is 3 degrees off the other way; the knowledge says parallel
+    oriel_seen = _turn(front, -3.0)
+    strict = Constraint(
+        kind="parallel", parts=(0, 1), sigma=math.radians(0.5), unit="rad", label="aligned"
+    )
+    pos, src = _position(1, _region("o", oriel_seen, [1.0, 0, 19.0]))
+    oriel = Verification(
+        (
+            PlaneInit("body.front", "Wall", n_main, d_main, fixed=True),
+            PlaneInit("body.oriels[0].front", "Wall", oriel_seen, float(oriel_seen @ [1, 0, 19])),
+        ),
+        (strict, pos),
+        (Source("aligned", "HouseBody", "body"), src),
+    )
+    small = verify(oriel)
+    whole = verify_levels([body, oriel])
+    # the body is solved first and fixed: the oriel aligns with it, it does not move the body
+    np.testing.assert_allclose(whole.planes["body.front"][0], n_main, atol=1e-9)
+    for role in ("body.front", "body.oriels[0].front"):
+        np.testing.assert_allclose(whole.planes[role][0], small.planes[role][0], atol=1e-7)
+    assert [r.label for r in whole.residuals] == ["Region#1", "aligned", "Region#1"]
+    # solved jointly instead, the oriel's evidence would pull the body's front
+    free = tuple(PlaneInit(p.role, p.concept, p.normal, p.offset_m) for p in oriel.planes)
+    joint = verify(
+        Verification(free, (body.constraints[0], strict, pos), (body.sources[0], *oriel.sources))
+    )
+    moved = math.degrees(math.acos(min(1.0, float(joint.planes["body.front"][0] @ n_main))))
+    assert moved > 0.1
