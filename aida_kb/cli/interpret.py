@@ -71,11 +71,11 @@ def print_interpretation(interp: Interpretation, *, explain: bool) -> None:
     for line in instance_tree(interp):
         print("  " + line)
     if interp.accepted and interp.residuals:
-        worst = max(interp.residuals, key=lambda r: r.normalised_cost)
+        worst = max(interp.residuals, key=lambda r: r.normalised_cost / r.threshold)
         print(
-            f"  {len(interp.residuals)} constraints; largest normalised residual "
-            f"{worst.normalised_cost:.2f} ({worst.label}, {worst.kind}, "
-            f"{', '.join(worst.parts)})"
+            f"  {len(interp.residuals)} constraints; closest to its threshold: {worst.label} "
+            f"({worst.kind}, {', '.join(worst.parts)}) normalised cost "
+            f"{worst.normalised_cost:.2f} of {worst.threshold:.3g}"
         )
     if explain:
         lines = explanation(interp)
