@@ -209,6 +209,9 @@ class PinholeCamera:
             raise GeometryError(f"K must have positive focal lengths, got {K[0, 0]}, {K[1, 1]}")
         R = _frozen(check_rotation(self.R_cam_world, "R_cam_world"), (3, 3), "R_cam_world")
         t = _frozen(self.t_cam_world, (3,), "t_cam_world")
+        for side in (self.width, self.height):
+            if isinstance(side, bool) or not np.isfinite(side) or side != int(side):
+                raise GeometryError(f"image size must be whole pixels, got {side!r}")
         if int(self.width) <= 0 or int(self.height) <= 0:
             raise GeometryError(f"image size must be positive, got {self.width}x{self.height}")
         object.__setattr__(self, "K", K)
@@ -318,6 +321,8 @@ class PinholeCamera:
         integers).
         """
         q = _pixels(pixels)
+        if not np.isfinite(margin):
+            raise GeometryError(f"margin must be a finite number of pixels, got {margin}")
         lo = -0.5 + margin
         return (
             (q[:, 0] >= lo)

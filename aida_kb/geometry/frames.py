@@ -53,6 +53,9 @@ def frame_axes(normals: FloatArray) -> FloatArray:
         the plane is not horizontal, else the world x axis projected onto the plane.
     """
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    _check_finite("plane normals", n)
+    if np.any(np.einsum("ij,ij->i", n, n) < 1e-24):
+        raise GeometryError("plane normals: a normal is the zero vector")
     w = -n
     u = np.cross(WORLD_UP, w)
     norm = np.linalg.norm(u, axis=1)

@@ -169,6 +169,16 @@ def intersect_planes_with_jacobians(
     return PlaneIntersection(x, d_n, d_off, r)
 
 
+def _finite_points(points: npt.ArrayLike, dim: int, what: str) -> FloatArray:
+    """`points` as a float (K, dim) array; GeometryError for another shape or NaN/infinity."""
+    p = np.asarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != dim:
+        raise GeometryError(f"{what} must have shape (K, {dim}), got {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise GeometryError(f"{what}: non-finite coordinates (NaN or infinity)")
+    return p
+
+
 def plane_basis(normal: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Two unit vectors (u, v) spanning a plane, with ``u x v = n`` (right-handed, n out).
 
@@ -190,7 +200,9 @@ def plane_basis(normal: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
 
 def plane_bases(normals: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
     """`plane_basis` for F unit normals (F, 3) at once: u, v as (F, 3) arrays."""
-    n = np.asarray(normals, dtype=np.float64)
+    n = _finite_points(normals, 3, "plane normals")
+    if np.any(np.einsum("fj,fj->f", n, n) < 1e-24):
+        raise GeometryError("a plane normal is the zero vector")
     e = np.zeros_like(n)
     e[np.arange(n.shape[0]), np.argmin(np.abs(n), axis=1)] = 1.0
     u = e - np.einsum("fj,fj->f", e, n)[:, None] * n
@@ -201,13 +213,13 @@ def plane_bases(normals: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
 def to_plane_2d(vertices: npt.ArrayLike, normal: npt.ArrayLike) -> FloatArray:
     """2-D coordinates (K, 2), metres, of points (K, 3) in the basis of `plane_basis`."""
     u, v = plane_basis(normal)
-    P = np.asarray(vertices, dtype=np.float64)
+    P = _finite_points(vertices, 3, "polygon vertices")
     return np.stack([P @ u, P @ v], axis=1)
 
 
 def signed_area_2d(points: npt.ArrayLike) -> float:
     """Signed area (shoelace) of a 2-D polygon (K, 2); positive when counter-clockwise."""
-    p = np.asarray(points, dtype=np.float64)
+    p = _finite_points(points, 2, "polygon vertices")
     q = np.roll(p, -1, axis=0)
     return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0]))
 
@@ -218,8 +230,8 @@ def polygon_area(vertices: npt.ArrayLike, normal: npt.ArrayLike) -> float:
     Positive for counter-clockwise (outward) order. The vertices need not lie exactly in a
     plane through the origin: the area is that of their projection along `normal`.
     """
-    P = np.asarray(vertices, dtype=np.float64)
-    n = np.asarray(normal, dtype=np.float64)
+    P = _finite_points(vertices, 3, "polygon vertices")
+    n = _finite_points(np.reshape(normal, (1, 3)), 3, "polygon normal")[0]
     return 0.5 * float(np.sum(np.cross(P, np.roll(P, -1, axis=0)) @ n))
 
 
@@ -228,8 +240,8 @@ def polygon_centroid(vertices: npt.ArrayLike, normal: npt.ArrayLike) -> FloatArr
 
     Raises `GeometryError` for a polygon of (near) zero area.
     """
-    P = np.asarray(vertices, dtype=np.float64)
-    n = np.asarray(normal, dtype=np.float64)
+    P = _finite_points(vertices, 3, "polygon vertices")
+    n = _finite_points(np.reshape(normal, (1, 3)), 3, "polygon normal")[0]
     o = P.mean(axis=0)
     a = P - o
     b = np.roll(a, -1, axis=0)
@@ -249,7 +261,9 @@ def self_intersections(points: npt.ArrayLike, tol: float = 0.0) -> list[tuple[in
     (metres) count as touching. An empty list means the polygon is simple (adjacent edges
     are not tested: collinear consecutive edges are allowed).
     """
-    p = np.asarray(points, dtype=np.float64)
+    p = _finite_points(points, 2, "polygon vertices")
+    if not np.isfinite(tol):
+        raise GeometryError(f"tolerance must be finite, got {tol}")
     k = p.shape[0]
     if k < 4:
         return []
@@ -265,6 +279,7 @@ def segments_touch(
     a1: FloatArray, b1: FloatArray, a2: FloatArray, b2: FloatArray, tol: float = 0.0
 ) -> npt.NDArray[np.bool_]:
     """(P,) bool: whether 2-D segments a1-b1 and a2-b2 (each (P, 2)) cross or come within `tol`."""
+    a1, b1, a2, b2 = (_finite_points(x, 2, "segment end points") for x in (a1, b1, a2, b2))
 
     def cross(o: FloatArray, s: FloatArray, t: FloatArray) -> FloatArray:
         r: FloatArray = (s[:, 0] - o[:, 0]) * (t[:, 1] - o[:, 1]) - (s[:, 1] - o[:, 1]) * (

@@ -554,6 +554,8 @@ class Polyhedron:
         `tol` defaults to ``RELATIVE_TOLERANCE * size``.
         """
         t = RELATIVE_TOLERANCE * self.size if tol is None else tol
+        if not np.isfinite(t):
+            raise GeometryError(f"tolerance must be a finite number of metres, got {t}")
         return bool(np.all(self.vertices @ self.normals.T - self.offsets <= t))
 
     def vertex_jacobians(self) -> list[VertexJacobians]:

@@ -31,6 +31,10 @@ def skew(v: npt.ArrayLike) -> FloatArray:
     (..., 3, 3) array
     """
     a = np.asarray(v, dtype=np.float64)
+    if a.ndim < 1 or a.shape[-1] != 3:
+        raise GeometryError(f"skew: vectors must have shape (..., 3), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise GeometryError("skew: vector has non-finite components")
     out = np.zeros((*a.shape[:-1], 3, 3))
     out[..., 0, 1] = -a[..., 2]
     out[..., 0, 2] = a[..., 1]

@@ -19,9 +19,9 @@ import math
 import os
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import BeforeValidator, Field, model_validator
 
-from aida_kb.io.jsonio import read_json_model, write_json_model
+from aida_kb.io.jsonio import FrozenModel, read_json_model, write_json_model
 from aida_kb.io.model import (
     Cahv,
     Finite,
@@ -45,8 +45,7 @@ def _unit(v: Vec3, what: str) -> None:
         raise ValueError(f"{what} must have unit length (has {norm:.6g})")
 
 
-class _Frozen(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid")
+_Frozen = FrozenModel
 
 
 class EvidenceCamera(_Frozen):

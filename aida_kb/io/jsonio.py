@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import contextvars
 import json
 import os
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from aida_kb.errors import FormatError
 from aida_kb.io.atomic import write_text_atomic
@@ -37,6 +38,43 @@ def describe_validation_error(source: str, exc: ValidationError) -> str:
     return line
 
 
+# How many FrozenModel validations are running in this context: only the outermost turns a
+# ValidationError into a FormatError (pydantic calls a custom __init__ for nested models too).
+_NESTING: contextvars.ContextVar[int] = contextvars.ContextVar("aida_kb_io_nesting", default=0)
+
+
+class FrozenModel(BaseModel):
+    """Base of the file-format models: immutable, no unknown fields.
+
+    Built in code with a bad value it raises `FormatError` naming the model and the field
+    (not pydantic's multi-line ValidationError), as reading a bad file does.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    def __init__(self, **data: Any) -> None:
+        token = _NESTING.set(_NESTING.get() + 1)
+        try:
+            super().__init__(**data)
+        except ValidationError as exc:
+            if _NESTING.get() > 1:
+                raise
+            raise FormatError(describe_validation_error(type(self).__name__, exc)) from None
+        finally:
+            _NESTING.reset(token)
+
+
+def validate_model(model: type[ModelT], data: object, source: str) -> ModelT:
+    """`data` (parsed JSON/YAML) validated as `model`; FormatError naming `source` and field."""
+    token = _NESTING.set(_NESTING.get() + 1)
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        raise FormatError(describe_validation_error(source, exc)) from None
+    finally:
+        _NESTING.reset(token)
+
+
 def read_json_model(path: str | os.PathLike[str], model: type[ModelT]) -> ModelT:
     """Load and validate a JSON file as `model`; raise FormatError naming the file and field."""
     file = Path(path)
@@ -50,10 +88,7 @@ def read_json_model(path: str | os.PathLike[str], model: type[ModelT]) -> ModelT
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise FormatError(f"{file}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}") from None
-    try:
-        return model.model_validate(data)
-    except ValidationError as exc:
-        raise FormatError(describe_validation_error(str(file), exc)) from None
+    return validate_model(model, data, str(file))
 
 
 def write_json_model(

@@ -11,10 +11,10 @@ import math
 import os
 from typing import Annotated, Literal
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
 from aida_kb.io.atomic import write_text_atomic
-from aida_kb.io.jsonio import read_json_model, write_json_model
+from aida_kb.io.jsonio import FrozenModel, read_json_model, write_json_model
 
 # Larger magnitudes are certainly wrong (metres, pixels, counts) and would overflow when squared.
 MAX_MAGNITUDE = 1e12
@@ -70,8 +70,7 @@ def camera_centre(R: Mat3, t: Vec3) -> Vec3:
     )
 
 
-class _Frozen(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid")
+_Frozen = FrozenModel
 
 
 class Cahv(_Frozen):

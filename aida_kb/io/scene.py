@@ -28,11 +28,16 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from aida_kb.errors import FormatError
 from aida_kb.io.atomic import atomic_path, make_dirs, write_text_atomic
-from aida_kb.io.jsonio import describe_validation_error, read_json_model, write_json_model
+from aida_kb.io.jsonio import (
+    FrozenModel,
+    read_json_model,
+    validate_model,
+    write_json_model,
+)
 from aida_kb.io.model import Finite, Mat3, Vec3, check_camera
 
 SCENE_FORMAT = "aida-kb-scene"
@@ -47,10 +52,8 @@ FloatArray = npt.NDArray[np.float64]
 # scene.yaml
 
 
-class ViewEntry(BaseModel):
+class ViewEntry(FrozenModel):
     """One view of scene.yaml: an id and its files, relative to the scene directory."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     id: str = Field(min_length=1)
     left: str = Field(min_length=1)
@@ -59,10 +62,8 @@ class ViewEntry(BaseModel):
     depth_left: str | None = None
 
 
-class SceneIndex(BaseModel):
+class SceneIndex(FrozenModel):
     """The content of scene.yaml."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     format: Literal["aida-kb-scene"] = "aida-kb-scene"
     version: Literal[1] = 1
@@ -92,15 +93,13 @@ def _unit(n: Vec3, what: str) -> Vec3:
     return n
 
 
-class PartTruth(BaseModel):
+class PartTruth(FrozenModel):
     """One planar face of the synthetic object, in world coordinates (metres).
 
     `normal` is the unit normal pointing out of the solid; the plane is normal·x = d.
     `polygon` lists the face's vertices in order, counter-clockwise seen from outside.
     `label` is the id used for this part in views/NN/labels.png.
     """
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     role: str = Field(min_length=1)
     concept: str = Field(min_length=1)
@@ -116,10 +115,8 @@ class PartTruth(BaseModel):
         return _unit(n, "normal")
 
 
-class GroundTruth(BaseModel):
+class GroundTruth(FrozenModel):
     """The ground plane (not a part of the object): normal·x = d, normal pointing up (out)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     label: int = Field(ge=1, le=65535)
     normal: Vec3
@@ -131,10 +128,8 @@ class GroundTruth(BaseModel):
         return _unit(n, "normal")
 
 
-class PoseTruth(BaseModel):
+class PoseTruth(FrozenModel):
     """The left camera of one view: x_cam = R·x_world + t, pixels = K·x_cam (before distortion)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     view: str = Field(min_length=1)
     K: Mat3
@@ -147,10 +142,8 @@ class PoseTruth(BaseModel):
         return self
 
 
-class SceneTruth(BaseModel):
+class SceneTruth(FrozenModel):
     """The content of truth.json (synthetic scenes only)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
     version: Literal[1] = 1
     object: str = Field(min_length=1, description="scene concept, e.g. House or ReferenceBox")
@@ -178,6 +171,9 @@ class SceneTruth(BaseModel):
 # calib.yaml
 
 
+_D_LENGTHS = (4, 5, 8, 12, 14)
+
+
 @dataclass(frozen=True)
 class StereoCalib:
     """A calibrated stereo rig in OpenCV's stereoCalibrate conventions.
@@ -195,13 +191,22 @@ class StereoCalib:
     T: FloatArray
     image_size: tuple[int, int]
 
+    def __post_init__(self) -> None:
+        sizes = {"K1": (9,), "D1": _D_LENGTHS, "K2": (9,), "D2": _D_LENGTHS, "R": (9,), "T": (3,)}
+        for name, allowed in sizes.items():
+            arr = np.asarray(getattr(self, name), dtype=np.float64)
+            if arr.size not in allowed:
+                raise FormatError(f"stereo calibration: field {name}: has {arr.size} elements")
+            if not np.all(np.isfinite(arr)):
+                raise FormatError(f"stereo calibration: field {name}: contains NaN or infinity")
+        w, h = self.image_size
+        if not (int(w) == w > 0 and int(h) == h > 0):
+            raise FormatError(f"stereo calibration: image size {w}x{h} is not positive pixels")
+
     @property
     def baseline_m(self) -> float:
         """Distance between the two camera centres, metres."""
         return float(np.linalg.norm(self.T))
-
-
-_D_LENGTHS = (4, 5, 8, 12, 14)
 
 
 def write_calib(path: str | os.PathLike[str], calib: StereoCalib) -> None:
@@ -359,10 +364,7 @@ def _read_index(file: Path) -> SceneIndex:
         raise FormatError(f"{file}{where}: not valid YAML: {problem}") from None
     if not isinstance(data, dict):
         raise FormatError(f"{file}: expected a mapping with fields format, version, views")
-    try:
-        return SceneIndex.model_validate(data)
-    except ValidationError as exc:
-        raise FormatError(describe_validation_error(str(file), exc)) from None
+    return validate_model(SceneIndex, data, str(file))
 
 
 def _resolve(root: Path, index_file: Path, field_name: str, rel: str) -> Path:
@@ -519,14 +521,14 @@ def write_scene(
     root = make_dirs(directory)
     ids = list(view_ids) if view_ids is not None else [f"{i:02d}" for i in range(len(views))]
     if len(ids) != len(views):
-        raise ValueError("view_ids and views differ in length")
+        raise FormatError(f"{root}: {len(ids)} view ids for {len(views)} views")
     width, height = calib.image_size
     entries = []
     for vid, view in zip(ids, views, strict=True):
         for what, img in (("left", view.left), ("right", view.right)):
             if img.dtype != np.uint8 or img.shape[:2] != (height, width):
-                raise ValueError(
-                    f"view {vid}: {what} image must be uint8 of size {width}x{height}, "
+                raise FormatError(
+                    f"{root}: view {vid}: {what} image must be uint8 of size {width}x{height}, "
                     f"got {img.dtype} {img.shape}"
                 )
         base = Path("views") / vid

@@ -137,3 +137,15 @@ def test_good_camera_is_read(tmp_path: Path) -> None:
     path = tmp_path / "model.json"
     path.write_text(json.dumps(data))
     assert read_model(path).cameras[0].K[0][0] == 800.0
+
+
+def test_building_a_part_with_nan_in_code_is_a_format_error() -> None:
+    """API level: the same one-line FormatError as for a file, not pydantic's ValidationError."""
+    with pytest.raises(FormatError, match=r"^ModelPart: field normal\[0\]: must be a finite"):
+        ModelPart(
+            role="a",
+            concept="Wall",
+            normal=(float("nan"), 0.0, 1.0),
+            offset_m=1.0,
+            polygon=[(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)],
+        )

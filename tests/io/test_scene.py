@@ -266,3 +266,20 @@ def test_write_scene_into_a_file_is_a_format_error(tmp_path: Path) -> None:
     (tmp_path / "afile").write_text("x")
     with pytest.raises(FormatError, match="afile is a file, not a directory"):
         write_scene(tmp_path / "afile", _calib(), [])
+
+
+def test_stereo_calib_with_nan_is_a_format_error() -> None:
+    good = _calib()
+    with pytest.raises(FormatError, match="field K2: contains NaN"):
+        StereoCalib(good.K1, good.D1, np.full((3, 3), np.nan), good.D2, good.R, good.T, (64, 48))
+    with pytest.raises(FormatError, match="field T: has 2 elements"):
+        StereoCalib(good.K1, good.D1, good.K2, good.D2, good.R, np.zeros(2), (64, 48))
+    with pytest.raises(FormatError, match="image size 0x48"):
+        StereoCalib(good.K1, good.D1, good.K2, good.D2, good.R, good.T, (0, 48))
+
+
+def test_write_scene_with_a_wrong_image_size_is_a_format_error(tmp_path: Path) -> None:
+    img = np.zeros((47, 64, 3), np.uint8)
+    with pytest.raises(FormatError, match="view 00: left image must be uint8 of size 64x48"):
+        write_scene(tmp_path / "s", _calib(), [ViewData(img, img)])
+    assert not (tmp_path / "s" / "scene.yaml").exists()
