@@ -44,6 +44,7 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Calibrate and write calib.yaml."""
+    import math
     import sys
 
     from aida_kb.errors import VisionError
@@ -54,6 +55,10 @@ def run(args: argparse.Namespace) -> int:
     cols, sep, rows = str(args.pattern).lower().partition("x")
     if not sep or not cols.isdigit() or not rows.isdigit():
         raise VisionError(f"--pattern {args.pattern!r}: expected COLSxROWS, e.g. 9x6")
+    if int(cols) < 2 or int(rows) < 2:
+        raise VisionError(f"--pattern {args.pattern!r}: need at least 2x2 inner corners")
+    if not (math.isfinite(args.square) and args.square > 0):
+        raise VisionError(f"--square {args.square}: expected a positive side length in metres")
     check_output(args.output)
     pairs = find_pairs(args.directory)
     result = calibrate_stereo(pairs, (int(cols), int(rows)), float(args.square))

@@ -66,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
     if args.debug:
         make_dirs(args.debug)
     views = [v.strip() for v in args.views.split(",")] if args.views else None
+    if views is not None and ("" in views or len(set(views)) != len(views)):
+        raise VisionError(f"--views {args.views!r}: expected distinct comma-separated view ids")
     params = VisionParams(num_disp=args.max_disp, window=args.window)
     n_views = len(views) if views is not None else len(scene.views)
     console = Console(stderr=True)

@@ -53,3 +53,13 @@ def test_view_image_of_the_wrong_size(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "right.png" in err
     assert "internal error" not in err
     assert not (tmp_path / "ev.json").exists()
+
+
+@pytest.mark.parametrize("views", ["00,00", "00,,01"])
+def test_views_option_must_name_distinct_views(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], views: str
+) -> None:
+    scene = _scene(tmp_path, 128)
+    code = main(["evidence", str(scene), "-o", str(tmp_path / "ev.json"), "--views", views])
+    assert code == 1
+    assert "expected distinct comma-separated view ids" in capsys.readouterr().err
