@@ -259,11 +259,39 @@ def meeting_angles(model: RigidModel) -> dict[tuple[int, int], float]:
 def _rebuilt(
     model: RigidModel, normals: FloatArray, offsets: FloatArray
 ) -> tuple[RigidModel, list[FloatArray]]:
-    """The model with moved planes and its polygons, recomputed as a closed polyhedron."""
-    adjacency = [(model.names[a], model.names[b]) for a, b in model.edge_faces]
-    poly = Polyhedron.from_adjacency(model.names, normals, offsets, adjacency)
-    polygons = [poly.polygon(f) for f in model.names]
-    return RigidModel.from_polygons(model.names, poly.normals, poly.offsets, polygons), polygons
+    """The model with moved planes and its polygons: one closed polyhedron per solid.
+
+    The solids are the connected groups of parts that share edges (a house body, each wing).
+
+    Raises
+    ------
+    GeometryError
+        A part on no edge, or a solid that does not close (naming its faces).
+    """
+    P = model.n_parts
+    label = np.arange(P)
+    for _ in range(P):  # label propagation over the edges: P rounds at most, each vectorised
+        a, b = model.edge_faces[:, 0], model.edge_faces[:, 1]
+        low = np.minimum(label[a], label[b])
+        before = label.copy()
+        np.minimum.at(label, a, low)
+        np.minimum.at(label, b, low)
+        if np.array_equal(label, before):
+            break
+    lonely = sorted(set(range(P)) - set(model.edge_faces.ravel().tolist()))
+    if lonely:
+        raise GeometryError(f"part {model.names[lonely[0]]} shares no edge with another part")
+    polygons: list[FloatArray] = [np.zeros((0, 3))] * P
+    for solid in np.unique(label):
+        faces = np.flatnonzero(label == solid)
+        names = [model.names[i] for i in faces]
+        inside = np.isin(model.edge_faces[:, 0], faces)
+        adjacency = [(model.names[a], model.names[b]) for a, b in model.edge_faces[inside]]
+        poly = Polyhedron.from_adjacency(names, normals[faces], offsets[faces], adjacency)
+        for i, name in zip(faces, names, strict=True):
+            polygons[int(i)] = poly.polygon(name)
+    n = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    return RigidModel.from_polygons(model.names, n, offsets, polygons), polygons
 
 
 def _adjusted(
@@ -318,7 +346,7 @@ def reconstruct_views(
         return interp.model_copy(
             update={
                 "message": f"{interp.message}; views {', '.join(v.id for v in later)} not "
-                f"registered: the model is not one closed solid ({exc})"
+                f"registered: the model's solids do not close ({exc})"
             }
         )
     angles = meeting_angles(rigid)

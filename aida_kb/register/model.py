@@ -49,6 +49,7 @@ class RigidModel:
     normals : (P, 3) unit normals out of the solid; offsets : (P,) metres.
     edge_ends : (E, 2, 3) the end points of every edge; edge_faces : (E, 2) its two parts.
     vertices : (V, 3) the distinct polygon vertices.
+    polygons : the P parts' polygons (K, 3), for occlusion tests.
     """
 
     names: tuple[str, ...]
@@ -57,6 +58,7 @@ class RigidModel:
     edge_ends: FloatArray
     edge_faces: IntArray
     vertices: FloatArray
+    polygons: tuple[FloatArray, ...] = ()
 
     @classmethod
     def from_polygons(
@@ -112,7 +114,7 @@ class RigidModel:
         edge_faces = np.stack([face[i], face[j]], axis=1).astype(np.intp)
         keys = np.round(starts / tol).astype(np.int64)
         _, first = np.unique(keys, axis=0, return_index=True)
-        return cls(tuple(names), N, d, edge_ends, edge_faces, starts[np.sort(first)])
+        return cls(tuple(names), N, d, edge_ends, edge_faces, starts[np.sort(first)], tuple(polys))
 
     @classmethod
     def from_model(cls, model: ReconstructedModel) -> RigidModel:
@@ -145,13 +147,47 @@ class RigidModel:
         out: BoolArray = self.normals @ centre - self.offsets > 0.0
         return out
 
+    def _unoccluded(
+        self, centre: FloatArray, front: BoolArray, A: FloatArray, B: FloatArray, index: IntArray
+    ) -> tuple[FloatArray, FloatArray, IntArray]:
+        """The edges (A, B (E, 3)) cut to the stretch no front-facing part hides."""
+        K = OCCLUSION_SAMPLES
+        s = (np.arange(K) + 0.5) / K
+        pts = A[:, None, :] + s[None, :, None] * (B - A)[:, None, :]  # (E, K, 3)
+        flat = pts.reshape(-1, 3)
+        ray = flat - centre
+        hidden = np.zeros(flat.shape[0], dtype=bool)
+        own = self.edge_faces[index]  # (E, 2)
+        for f in np.flatnonzero(front):  # a dozen parts at most; all samples at once
+            n, d = self.normals[f], self.offsets[f]
+            denom = ray @ n
+            ok = np.abs(denom) > 1e-12
+            t = np.where(ok, (d - centre @ n) / np.where(ok, denom, 1.0), -1.0)
+            cand = ok & (t > 1e-6) & (t < 1.0 - 1e-6)
+            cand &= ~np.repeat(np.any(own == f, axis=1), K)
+            if not np.any(cand):
+                continue
+            sel = np.flatnonzero(cand)
+            hit = centre + t[sel, None] * ray[sel]
+            hidden[sel[_inside_polygon(hit, self.polygons[f], n)]] = True
+        shown = ~hidden.reshape(-1, K)
+        keep = shown.mean(axis=1) >= 0.5
+        first = np.argmax(shown, axis=1)
+        last = K - 1 - np.argmax(shown[:, ::-1], axis=1)
+        lo = np.where(first > 0, s[first] - 0.5 / K, 0.0)
+        hi = np.where(last < K - 1, s[last] + 0.5 / K, 1.0)
+        D = B - A
+        return (A + lo[:, None] * D)[keep], (A + hi[:, None] * D)[keep], index[keep]
+
     def visible_edges(
         self, camera: PinholeCamera, *, min_length_px: float = 8.0, margin_px: float = 0.0
     ) -> VisibleEdges:
         """The edges `camera` can see: at least one of their parts faces it, clipped to z > 0.
 
-        Occlusion by other parts is not tested (exact for convex models). An edge is kept when
-        its projection, clipped to the image shrunk by ``margin_px``, is at least
+        Edges hidden behind parts facing the camera (a non-convex model: a wing, an L-shape) are
+        cut to the stretch between their first and last unhidden samples (of
+        `OCCLUSION_SAMPLES`), or dropped when fewer than half of the samples show. An edge is
+        kept when its projection, clipped to the image shrunk by ``margin_px``, is at least
         ``min_length_px`` long; its end points are the clipped ones.
         """
         front = self.front_facing(camera.centre)
@@ -172,6 +208,8 @@ class RigidModel:
         B = np.where(
             (z[:, 1] < z_min)[:, None], E[:, 0] + s[:, None] * (E[:, 1] - E[:, 0]), E[:, 1]
         )
+        if index.size and self.polygons:
+            A, B, index = self._unoccluded(camera.centre, front, A, B, index)
         if index.size == 0:
             empty = np.zeros((0, 2))
             return VisibleEdges(index, empty, empty, np.zeros(0))
@@ -181,6 +219,26 @@ class RigidModel:
         length = np.linalg.norm(qb - qa, axis=1)
         sel = inside & (length >= min_length_px)
         return VisibleEdges(index[sel], qa[sel], qb[sel], length[sel])
+
+
+OCCLUSION_SAMPLES = 9
+
+
+def _inside_polygon(points: FloatArray, polygon: FloatArray, normal: FloatArray) -> BoolArray:
+    """(N,) True for points (N, 3) on a polygon's plane that lie inside it (even-odd rule)."""
+    k = int(np.argmax(np.abs(normal)))
+    axes = [i for i in range(3) if i != k]
+    p = points[:, axes]
+    q = polygon[:, axes]
+    r = np.roll(q, -1, axis=0)
+    inside = np.zeros(points.shape[0], dtype=bool)
+    for (x1, y1), (x2, y2) in zip(q, r, strict=True):  # the polygon's few sides
+        if y2 == y1:  # a side along x crosses no horizontal ray
+            continue
+        crosses = (y1 > p[:, 1]) != (y2 > p[:, 1])
+        x_at = x1 + (p[:, 1] - y1) * (x2 - x1) / (y2 - y1)
+        inside ^= crosses & (p[:, 0] < x_at)
+    return inside
 
 
 def _clip_to_image(

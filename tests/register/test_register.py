@@ -28,9 +28,14 @@ from aida_kb.register.synthetic import simulated_segments
 K = np.array([[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]])
 
 
-def _box(w: float = 0.4, d: float = 0.3, h: float = 0.25) -> RigidModel:
+def _box(
+    w: float = 0.4,
+    d: float = 0.3,
+    h: float = 0.25,
+    centre: tuple[float, float, float] = (0, 0.3, 1.4),
+) -> RigidModel:
     """A box on the floor of a y-down world, 1.4 m in front of the origin."""
-    c = np.array([0.0, 0.3, 1.4])
+    c = np.array(centre, dtype=float)
     x, y, z = w / 2, h / 2, d / 2
     corners = {
         (sx, sy, sz): c + np.array([sx * x, sy * y, sz * z])
@@ -201,3 +206,30 @@ def test_symmetry_order_of_boxes() -> None:
     # turned about another axis a box is no longer the same
     assert symmetry_order(box, np.array([1.0, 0.0, 0.0]), box.centroid) == 2
     assert symmetry_order(box, up, box.centroid + np.array([0.05, 0.0, 0.0])) == 1
+
+
+def test_edges_hidden_behind_another_solid_are_cut() -> None:
+    back = _box(centre=(0.0, 0.3, 2.0))
+    front = _box(0.1, 0.1, 0.6, centre=(-0.13, 0.3, 1.2))  # a post before the box's left end
+    both = RigidModel.from_polygons(
+        [f"b.{n}" for n in back.names] + [f"f.{n}" for n in front.names],
+        np.concatenate([back.normals, front.normals]),
+        np.concatenate([back.offsets, front.offsets]),
+        list(back.polygons) + list(front.polygons),
+    )
+    cam = _reference()
+    alone = back.visible_edges(cam)
+    seen = both.visible_edges(cam)
+    top = {
+        i
+        for i, f in enumerate(both.edge_faces)
+        if {both.names[f[0]], both.names[f[1]]} == {"b.front", "b.top"}
+    }
+    (edge,) = top
+    assert edge in seen.index
+    # the post hides the left part of the box's front top edge: the right stretch is kept
+    k = int(np.flatnonzero(seen.index == edge)[0])
+    j = int(np.flatnonzero(alone.index == edge)[0])
+    assert 0.5 * alone.length_px[j] < seen.length_px[k] < 0.9 * alone.length_px[j]
+    right_end = max(alone.a[j, 0], alone.b[j, 0])
+    assert max(seen.a[k, 0], seen.b[k, 0]) == pytest.approx(right_end)
