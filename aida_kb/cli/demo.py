@@ -156,11 +156,12 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.interpret.evaluate import compare_with_truth
     from aida_kb.interpret.pipeline import reconstruct_scene
     from aida_kb.interpret.report import explanation, instance_tree
+    from aida_kb.io.atomic import make_dirs
     from aida_kb.io.scene import read_scene
     from aida_kb.synth.scenes import preset, render_scene
 
     path = Path(args.kb) if args.kb else packaged_kb("buildings.kb")
-    root = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="aida-kb-demo-"))
+    root = make_dirs(args.out) if args.out else Path(tempfile.mkdtemp(prefix="aida-kb-demo-"))
     console = Console(highlight=False)
     console.width = max(console.width, 100)
     console.rule("[bold]aida-kb demo[/bold]: a house from two stereo views, as in the paper")

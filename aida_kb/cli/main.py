@@ -63,6 +63,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def describe_os_error(exc: OSError) -> str:
+    """One line for an operating-system error: the file first, then what went wrong."""
+    if exc.filename is None:
+        return str(exc)
+    what = exc.strerror or type(exc).__name__
+    if isinstance(exc, FileExistsError):
+        what += " (a file is in the way of a directory to create)"
+    elif isinstance(exc, NotADirectoryError):
+        what += " (a file is where a directory is expected)"
+    target = f" -> {exc.filename2}" if exc.filename2 is not None else ""
+    return f"{exc.filename}{target}: {what}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit code."""
     parser = build_parser()
@@ -87,7 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
     except OSError as exc:
-        print(f"aida-kb: error: {exc}", file=sys.stderr)
+        print(f"aida-kb: error: {describe_os_error(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except Exception as exc:  # a bug in aida-kb: still no traceback unless asked for
         if os.environ.get("AIDA_KB_DEBUG"):

@@ -86,3 +86,32 @@ def test_a_closed_output_pipe_ends_quietly() -> None:
     proc.stderr.close()
     assert proc.wait(timeout=60) == 141
     assert err == ""
+
+
+def test_os_errors_are_one_line_naming_the_file() -> None:
+    from aida_kb.cli.main import describe_os_error
+
+    assert describe_os_error(FileExistsError(17, "File exists", "out")) == (
+        "out: File exists (a file is in the way of a directory to create)"
+    )
+    assert describe_os_error(PermissionError(13, "Permission denied", "a", None, "b")) == (
+        "a -> b: Permission denied"
+    )
+    assert describe_os_error(OSError("disk on fire")) == "disk on fire"
+
+
+def test_an_os_error_in_a_command_is_a_usage_error(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import aida_kb.cli.schema as schema
+
+    def fail(args: object) -> int:
+        raise NotADirectoryError(20, "Not a directory", "x/y.json")
+
+    monkeypatch.setattr(schema, "run", fail)
+    assert main(["schema"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err
+        == "aida-kb: error: x/y.json: Not a directory (a file is where a directory is expected)\n"
+    )
