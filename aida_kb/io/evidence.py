@@ -102,6 +102,8 @@ class Region(_Frozen):
         x0, y0, x1, y1 = self.bbox
         if not (0 <= x0 <= x1 and 0 <= y0 <= y1):
             raise ValueError(f"region {self.id}: bbox must be x0 y0 x1 y1, 0 <= x0 <= x1, y0 <= y1")
+        if self.pixel_count > (x1 - x0 + 1) * (y1 - y0 + 1):
+            raise ValueError(f"region {self.id}: pixel_count exceeds the area of its bbox")
         if self.depth_pixel_count > self.pixel_count or self.inlier_count > self.depth_pixel_count:
             raise ValueError(
                 f"region {self.id}: need inlier_count <= depth_pixel_count <= pixel_count"

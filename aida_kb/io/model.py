@@ -35,6 +35,10 @@ def _finite(value: float) -> float:
     return value
 
 
+# A part's vertices lie on its plane to this (metres per metre of distance from the origin):
+# a vertex is where planes meet, so only rounding separates it from the plane.
+ON_PLANE_TOLERANCE_M = 1e-4
+
 Finite = Annotated[float, BeforeValidator(number_only), AfterValidator(_finite)]
 """A finite number (not NaN, not infinite, not absurdly large; not a string or boolean)."""
 Int = Annotated[int, BeforeValidator(number_only)]
@@ -113,9 +117,24 @@ class ModelPart(_Frozen):
 
     @model_validator(mode="after")
     def _unit_normal(self) -> ModelPart:
-        norm = math.sqrt(sum(c * c for c in self.normal))
+        n = self.normal
+        norm = math.sqrt(sum(c * c for c in n))
         if abs(norm - 1.0) > 1e-6:
             raise ValueError(f"normal of part {self.role!r} has length {norm:.6g}, not 1")
+        for k, v in enumerate(self.polygon):
+            off = n[0] * v[0] + n[1] * v[1] + n[2] * v[2] - self.offset_m
+            if abs(off) > ON_PLANE_TOLERANCE_M * max(1.0, math.sqrt(sum(c * c for c in v))):
+                raise ValueError(
+                    f"part {self.role!r}: polygon vertex {k} lies {off:.3g} m off the part's plane"
+                )
+        # Newell's vector: twice the area vector of the (planar) polygon
+        area2 = [0.0, 0.0, 0.0]
+        for a, b in zip(self.polygon, self.polygon[1:] + self.polygon[:1], strict=True):
+            area2[0] += (a[1] - b[1]) * (a[2] + b[2])
+            area2[1] += (a[2] - b[2]) * (a[0] + b[0])
+            area2[2] += (a[0] - b[0]) * (a[1] + b[1])
+        if math.sqrt(sum(c * c for c in area2)) <= 2e-12:
+            raise ValueError(f"part {self.role!r}: polygon has zero area")
         return self
 
 
@@ -128,6 +147,17 @@ class ReconstructedModel(_Frozen):
     frame: str = "world = left camera of view 00; OpenCV axes (x right, y down, z forward)"
     parts: list[ModelPart]
     cameras: list[ModelCamera] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _unique(self) -> ReconstructedModel:
+        for what, keys in (
+            ("part roles", [p.role for p in self.parts]),
+            ("camera views", [c.view for c in self.cameras]),
+        ):
+            repeated = sorted({k for k in keys if keys.count(k) > 1})
+            if repeated:
+                raise ValueError(f"{what} must be unique; repeated: {', '.join(repeated)}")
+        return self
 
 
 def read_model(path: str | os.PathLike[str]) -> ReconstructedModel:

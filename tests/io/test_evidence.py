@@ -120,6 +120,7 @@ def test_round_trip(tmp_path: Path) -> None:
         (lambda d: _view(d)["regions"][0].update(bbox=[60, 20, 10, 70]), "regions[0]", "x0 <="),
         (lambda d: _view(d)["regions"][0].update(bbox=[0, 0, 640, 9]), "region 1: bbox", "exceeds"),
         (lambda d: _view(d)["regions"][0].update(c_init=[0, 1e300, 1]), "c_init[1]", "beyond"),
+        (lambda d: _view(d)["regions"][0].update(pixel_count=10**9), "regions[0]", "its bbox"),
         (lambda d: _view(d)["regions"][0].update(d_init="-20"), "d_init", "got str"),
         (lambda d: _view(d).update(image_width=True), "image_width", "got bool"),
         (lambda d: _view(d).update(right=_view(d)["left"]), "views[0]", "zero baseline"),

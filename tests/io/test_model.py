@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -149,3 +151,33 @@ def test_building_a_part_with_nan_in_code_is_a_format_error() -> None:
             offset_m=1.0,
             polygon=[(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)],
         )
+
+
+@pytest.mark.parametrize(
+    ("edit", "field", "message"),
+    [
+        (lambda m: m["parts"][0].update(offset_m=50.0), "parts[0]", "off the part's plane"),
+        (
+            lambda m: m["parts"][0].update(polygon=[m["parts"][0]["polygon"][0]] * 3),
+            "parts[0]",
+            "zero area",
+        ),
+        (lambda m: m["parts"].append(m["parts"][0]), "part roles must be unique", "box.x0"),
+        (
+            lambda m: m.update(cameras=[_camera(), _camera()]),
+            "camera views must be unique",
+            "00",
+        ),
+    ],
+)
+def test_inconsistent_model_is_rejected(
+    tmp_path: Path, edit: Callable[[dict[str, Any]], None], field: str, message: str
+) -> None:
+    data = json.loads(_cube().model_dump_json())
+    edit(data)
+    bad = tmp_path / "model.json"
+    bad.write_text(json.dumps(data))
+    with pytest.raises(FormatError) as info:
+        read_model(bad)
+    assert field in str(info.value)
+    assert message in str(info.value)
