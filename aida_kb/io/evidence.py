@@ -28,6 +28,7 @@ from aida_kb.io.model import (
     Int,
     Mat3,
     Vec3,
+    ViewId,
     camera_centre,
     check_camera,
     number_only,
@@ -154,7 +155,7 @@ class Contour(_Frozen):
 class ViewEvidence(_Frozen):
     """The evidence of one stereo view."""
 
-    id: str = Field(min_length=1, description="view id of scene.yaml")
+    id: ViewId
     frame: Literal["world", "camera"] = Field(
         description="frame of 3-D quantities: world, or this view's own left camera"
     )

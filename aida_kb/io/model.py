@@ -35,6 +35,16 @@ def _finite(value: float) -> float:
     return value
 
 
+ViewId = Annotated[
+    str,
+    Field(
+        pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$",
+        max_length=64,
+        description="view id: letters, digits, '_', '.', '-' (it names output files)",
+    ),
+]
+"""A view id such as ``00``; safe as a part of a file name (no path separators)."""
+
 # A part's vertices lie on its plane to this (metres per metre of distance from the origin):
 # a vertex is where planes meet, so only rounding separates it from the plane.
 ON_PLANE_TOLERANCE_M = 1e-4
@@ -89,7 +99,7 @@ class Cahv(_Frozen):
 class ModelCamera(_Frozen):
     """One view's left camera: x_cam = R·x_world + t (R_cam_world, t_cam_world in metres)."""
 
-    view: str = Field(description="view id, e.g. '00'")
+    view: ViewId
     K: Mat3 = Field(description="intrinsic matrix, pixels")
     R: Mat3 = Field(description="rotation world -> camera")
     t: Vec3 = Field(description="translation world -> camera, metres")

@@ -38,7 +38,7 @@ from aida_kb.io.jsonio import (
     validate_model,
     write_json_model,
 )
-from aida_kb.io.model import Finite, Mat3, Vec3, check_camera
+from aida_kb.io.model import Finite, Mat3, Vec3, ViewId, check_camera
 
 SCENE_FORMAT = "aida-kb-scene"
 SCENE_VERSION = 1
@@ -55,7 +55,7 @@ FloatArray = npt.NDArray[np.float64]
 class ViewEntry(FrozenModel):
     """One view of scene.yaml: an id and its files, relative to the scene directory."""
 
-    id: str = Field(min_length=1)
+    id: ViewId
     left: str = Field(min_length=1)
     right: str = Field(min_length=1)
     labels: str | None = None
@@ -131,7 +131,7 @@ class GroundTruth(FrozenModel):
 class PoseTruth(FrozenModel):
     """The left camera of one view: x_cam = R·x_world + t, pixels = K·x_cam (before distortion)."""
 
-    view: str = Field(min_length=1)
+    view: ViewId
     K: Mat3
     R: Mat3
     t: Vec3
@@ -407,6 +407,11 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
                 else _resolve(root, index_file, f"{prefix}.depth_left", v.depth_left),
             )
         )
+    for i, view in enumerate(views):
+        if view.left.resolve() == view.right.resolve():
+            raise FormatError(
+                f"{index_file}: field views[{i}].right: the same file as the left image"
+            )
     truth = None
     if with_truth and index.truth is not None:
         truth_file = _resolve(root, index_file, "truth", index.truth)

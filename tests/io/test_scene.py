@@ -283,3 +283,14 @@ def test_write_scene_with_a_wrong_image_size_is_a_format_error(tmp_path: Path) -
     with pytest.raises(FormatError, match="view 00: left image must be uint8 of size 64x48"):
         write_scene(tmp_path / "s", _calib(), [ViewData(img, img)])
     assert not (tmp_path / "s" / "scene.yaml").exists()
+
+
+def test_view_id_cannot_escape_and_right_is_not_left(tmp_path: Path) -> None:
+    """A view id names debug files: '../x' wrote outside the debug folder."""
+    root = _write(tmp_path)
+    index = root / "scene.yaml"
+    text = index.read_text()
+    index.write_text(text.replace("id: '00'", "id: ../../escaped"))
+    _expect(root, "scene.yaml", "views[0].id", "pattern")
+    index.write_text(text.replace("right: views/00/right.png", "right: views/00/left.png"))
+    _expect(root, "scene.yaml", "views[0].right", "same file as the left image")
