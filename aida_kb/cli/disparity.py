@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
 
     for path in (args.output, args.certainty):
         if path:
-            check_output(path)
+            check_output(path, (args.left, args.right))
     left = read_image(args.left, grey=True)
     right = read_image(args.right, grey=True)
     if left.shape != right.shape:

@@ -62,7 +62,9 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.vision.evidence import STAGES, VisionParams, scene_evidence
 
     scene = read_scene(args.scene, with_truth=False)
-    check_output(args.output)
+    inputs = [scene.root / "scene.yaml"]
+    inputs += [p for v in scene.views for p in (v.left, v.right, v.labels, v.depth_left) if p]
+    check_output(args.output, inputs)
     if args.debug:
         make_dirs(args.debug)
     views = [v.strip() for v in args.views.split(",")] if args.views else None

@@ -8,7 +8,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from aida_kb.errors import FormatError
@@ -30,12 +30,18 @@ def make_dirs(directory: str | os.PathLike[str]) -> Path:
     return path
 
 
-def check_output(target: str | os.PathLike[str]) -> Path:
+def check_output(
+    target: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]] = ()
+) -> Path:
     """Fail early (FormatError) if `target` cannot be written; create its folder if missing.
 
     For commands that work for a while before writing: a wrong ``-o`` is reported at once.
+    `inputs` are the files the command reads; writing over one of them is refused too.
     """
     path = Path(target)
+    for source in inputs:
+        if Path(source).exists() and path.exists() and path.samefile(source):
+            raise FormatError(f"{path}: cannot write the output over the input file {source}")
     if path.is_dir():
         raise FormatError(f"{path}: cannot write the output: it is a directory")
     folder = make_dirs(path.parent)

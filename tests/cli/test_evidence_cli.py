@@ -63,3 +63,14 @@ def test_views_option_must_name_distinct_views(
     code = main(["evidence", str(scene), "-o", str(tmp_path / "ev.json"), "--views", views])
     assert code == 1
     assert "expected distinct comma-separated view ids" in capsys.readouterr().err
+
+
+def test_output_over_an_input_file_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = _scene(tmp_path, 128)
+    index = (scene / "scene.yaml").read_text()
+    code = main(["evidence", str(scene), "-o", str(scene / "scene.yaml"), "--quiet"])
+    assert code == 2
+    assert "over the input file" in capsys.readouterr().err
+    assert (scene / "scene.yaml").read_text() == index

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from aida_kb.errors import FormatError
-from aida_kb.io.atomic import atomic_path, make_dirs, write_text_atomic
+from aida_kb.io.atomic import atomic_path, check_output, make_dirs, write_text_atomic
 
 
 def test_write_text_atomic_replaces_target(tmp_path: Path) -> None:
@@ -50,3 +50,13 @@ def test_output_onto_a_directory_is_a_format_error(tmp_path: Path) -> None:
     with pytest.raises(FormatError, match=r"out: cannot write the output: it is a directory"):
         write_text_atomic(tmp_path / "out", "{}")
     assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_check_output_refuses_an_input_and_creates_the_folder(tmp_path: Path) -> None:
+    source = tmp_path / "left.png"
+    source.write_bytes(b"png")
+    with pytest.raises(FormatError, match="over the input file"):
+        check_output(tmp_path / "." / "left.png", [source])
+    assert check_output(tmp_path / "new" / "d.npy", [source]) == tmp_path / "new" / "d.npy"
+    assert (tmp_path / "new").is_dir()
+    assert source.read_bytes() == b"png"
