@@ -5,9 +5,9 @@ with depth) of a known model, without an initial guess:
 
 1. **Coarse search.** The new camera is assumed to have moved about the model's vertical axis
    (a turntable, or a walk around a building): candidate poses are the reference camera turned
-   about the vertical through the model's centroid, every few degrees over the whole circle
-   (or about ``init_angle_deg``). Each candidate is scored by the chamfer distance of its
-   projected model edges to the image segments.
+   about the vertical through the point it looks at (`orbit_pivot`), every few degrees over
+   the whole circle (or about ``init_angle_deg``). Each candidate is scored by the chamfer
+   distance of its projected model edges to the image segments.
 2. **Refinement** from the best few distinct candidates: project the model edges, match them
    to the segments by distance and direction, solve for the six pose parameters (edge and
    position constraints), match again with a tighter tolerance, and so on.
@@ -42,6 +42,7 @@ __all__ = [
     "StereoSegments",
     "angle_about",
     "match_regions",
+    "orbit_pivot",
     "refine",
     "register_view",
     "symmetry_order",
@@ -164,6 +165,19 @@ def angle_about(reference: PinholeCamera, camera: PinholeCamera, axis: FloatArra
     twist = 2.0 * math.atan2(float(v @ axis), w)
     deg = math.degrees(twist)
     return deg - 360.0 if deg > 180.0 else (deg + 360.0 if deg <= -180.0 else deg)
+
+
+def orbit_pivot(model: RigidModel, reference: PinholeCamera) -> FloatArray:
+    """(3,) the point the search turns the camera about: where the reference camera looks.
+
+    The point of the reference camera's optical axis nearest the model's centroid (a camera
+    walked around an object keeps it in the middle of the image: the vertical it turns about
+    runs through the point it looks at).
+    """
+    A = reference.optical_axis
+    C = reference.centre
+    out: FloatArray = C + A * float((model.centroid - C) @ A)
+    return out
 
 
 def symmetry_order(
@@ -375,7 +389,7 @@ def register_view(
         reference = PinholeCamera(K, reference.R_cam_world, reference.t_cam_world, w, h)
     up = vertical_axis(model, reference) if axis is None else np.asarray(axis, dtype=np.float64)
     up = up / np.linalg.norm(up)
-    pivot = model.centroid
+    pivot = orbit_pivot(model, reference)
     if init_angle_deg is not None:
         centre, half = float(init_angle_deg), opts.span_deg
         angles = centre + np.arange(-half, half + 1e-9, opts.step_deg)

@@ -17,6 +17,7 @@ from aida_kb.register import (
     StereoSegments,
     angle_about,
     match_segments,
+    orbit_pivot,
     register_view,
     symmetry_order,
     turned,
@@ -233,3 +234,12 @@ def test_edges_hidden_behind_another_solid_are_cut() -> None:
     assert 0.5 * alone.length_px[j] < seen.length_px[k] < 0.9 * alone.length_px[j]
     right_end = max(alone.a[j, 0], alone.b[j, 0])
     assert max(seen.a[k, 0], seen.b[k, 0]) == pytest.approx(right_end)
+
+
+def test_the_search_turns_about_the_point_the_reference_looks_at() -> None:
+    model = _box(centre=(0.3, 0.3, 1.4))
+    ref = _reference()
+    p = orbit_pivot(model, ref)
+    # on the optical axis, level with the centroid along it
+    np.testing.assert_allclose(np.cross(p - ref.centre, ref.optical_axis), 0.0, atol=1e-12)
+    assert float((model.centroid - p) @ ref.optical_axis) == pytest.approx(0.0, abs=1e-12)
