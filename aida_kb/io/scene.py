@@ -479,6 +479,9 @@ def read_depth(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
         raise FormatError(
             f"{file}: expected a 2-D float32 depth map, got {arr.dtype} of shape {arr.shape}"
         )
+    known = arr[~np.isnan(arr)]
+    if known.size and not (np.all(np.isfinite(known)) and known.min() > 0):
+        raise FormatError(f"{file}: depths must be positive finite metres (NaN = no surface)")
     return np.asarray(arr, dtype=np.float32)
 
 

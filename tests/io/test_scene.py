@@ -294,3 +294,16 @@ def test_view_id_cannot_escape_and_right_is_not_left(tmp_path: Path) -> None:
     _expect(root, "scene.yaml", "views[0].id", "pattern")
     index.write_text(text.replace("right: views/00/right.png", "right: views/00/left.png"))
     _expect(root, "scene.yaml", "views[0].right", "same file as the left image")
+
+
+@pytest.mark.parametrize("bad", [np.inf, -2.0, 0.0])
+def test_depth_map_values_are_positive_metres(tmp_path: Path, bad: float) -> None:
+    depth = np.full((4, 5), np.nan, np.float32)
+    depth[1, 1] = 10.0
+    path = tmp_path / "depth_left.npy"
+    np.save(path, depth)
+    assert read_depth(path)[1, 1] == 10.0
+    depth[2, 2] = bad
+    np.save(path, depth)
+    with pytest.raises(FormatError, match="positive finite metres"):
+        read_depth(path)
