@@ -223,6 +223,7 @@ KNOWN_KEYS = {
     "turntable": {"width", "depth", "height", "distance", "angles"},
     "chessboard": {"cols", "rows", "square_m"},
 }
+MAX_SEED = 2**31 - 1  # seeds are offset per texture and view; this keeps them in numpy's range
 WALL_MATERIALS = ("mixed", "plaster", "brick")
 COMMON_KEYS = {"image_width", "image_height", "focal_px", "baseline", "k1", "noise_sigma"}
 
@@ -235,6 +236,8 @@ def preset(
     Raises GeometryError for an unknown preset, an unknown key or an impossible value.
     """
     p: dict[str, str | float] = dict(params or {})
+    if not 0 <= seed <= MAX_SEED:
+        raise GeometryError(f"--seed {seed}: must be in [0, {MAX_SEED}]")
     if name not in KNOWN_KEYS:
         raise GeometryError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
     unknown = set(p) - KNOWN_KEYS[name] - COMMON_KEYS

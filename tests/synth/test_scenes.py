@@ -57,3 +57,19 @@ def test_cli_reports_a_bad_value_and_writes_nothing(
     assert "focal_px=nan" in err
     assert "internal error" not in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("seed", [-1, 2**31, 10**23])
+def test_seed_out_of_range_is_a_geometry_error(seed: int) -> None:
+    with pytest.raises(GeometryError, match=f"--seed {seed}: must be in"):
+        preset("house", seed=seed)
+
+
+def test_largest_seed_renders(tmp_path: Path) -> None:
+    from aida_kb.synth.scenes import MAX_SEED, render_scene
+
+    spec = preset(
+        "house", seed=MAX_SEED, views=1, params={"image_width": "48", "image_height": "32"}
+    )
+    render_scene(spec, tmp_path / "s", supersample=1)
+    assert (tmp_path / "s" / "scene.yaml").is_file()
