@@ -38,7 +38,12 @@ def register(subparsers: Any) -> None:
         "preset", choices=("house", "turntable", "lshape", "oriel", "chessboard"), help="scene"
     )
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="scene directory to write")
-    p.add_argument("--seed", type=int, default=0, help="random seed (textures, noise), 0 .. 2147483647; default 0")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="random seed (textures, noise), 0 .. 2147483647; default 0",
+    )
     p.add_argument("--views", type=int, default=None, metavar="N", help="number of views")
     p.add_argument(
         "--set",
