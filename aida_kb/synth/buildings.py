@@ -413,6 +413,12 @@ def oriel_house(
     body = house(width, depth, height, "gable", pitch_deg, "plaster", "tiles", floors)
     if oriel_top > height or oriel_bottom >= oriel_top:
         raise GeometryError("oriel: need oriel_bottom < oriel_top <= eaves height")
+    spacing = width / (n_oriels + 1)
+    if n_oriels and oriel_width >= (spacing if n_oriels > 1 else 2 * spacing):
+        raise GeometryError(
+            f"oriel: {n_oriels} oriels {oriel_width:g} m wide do not fit side by side on a "
+            f"{width:g} m front wall"
+        )
     solids = [body.solids[0]]
     inset = 0.3  # the box reaches this far into the wall (hidden)
     z0, z1 = depth / 2 - inset, depth / 2 + oriel_depth

@@ -73,3 +73,16 @@ def test_largest_seed_renders(tmp_path: Path) -> None:
     )
     render_scene(spec, tmp_path / "s", supersample=1)
     assert (tmp_path / "s" / "scene.yaml").is_file()
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"n_oriels": "20"}, "20 oriels 3 m wide do not fit side by side on a 14 m front wall"),
+        ({"n_oriels": "1", "oriel_width": "100"}, "1 oriels 100 m wide do not fit"),
+    ],
+)
+def test_oriels_that_overlap_are_refused(params: dict[str, str], message: str) -> None:
+    with pytest.raises(GeometryError, match=message):
+        preset("oriel", params=params)
+    assert len(preset("oriel", params={"n_oriels": "3"}).model.solids) == 4
