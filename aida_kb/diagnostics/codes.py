@@ -132,6 +132,12 @@ BAD_QUALIFIER = register(
 NO_ATTRIBUTE_VALUE = register(
     "KB138", _E, "a relation uses an attribute that has no value in some concept"
 )
+DEGENERATE_ADJACENCY = register(
+    "KB139",
+    _E,
+    "an adjacency is degenerate: a ring of fewer than three parts, a part repeated in a ring "
+    "or paired with itself, or a ring entry with several fillers",
+)
 # instances
 ABSTRACT_INSTANCE = register("KB140", _E, "an instance is declared of an abstract concept")
 MISSING_ROLE = register("KB141", _E, "an instance leaves an obligatory role unbound")

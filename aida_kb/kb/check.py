@@ -178,13 +178,17 @@ def check_attributes(table: Table, info: CInfo) -> Iterator[Diagnostic]:
 
 
 def check_adjacency(table: Table, info: CInfo) -> Iterator[Diagnostic]:
-    """Adjacency entries must be role paths of the concept (``KB102``, ``KB131``)."""
+    """Adjacency entries must be role paths of the concept (``KB102``, ``KB131``).
+
+    Degenerate adjacencies are ``KB139``: a ring of fewer than three parts, a part repeated in
+    a ring or paired with itself, a ring entry whose part has several fillers.
+    """
     cname = info.node.name.text
     for m in info.node.members:
         if not isinstance(m, ast.Adjacency):
             continue
         for group in m.groups:
-            for path in group:
+            for i, path in enumerate(group):
                 res = table.resolve_path(cname, path)
                 if isinstance(res, Diagnostic):
                     yield res
@@ -196,6 +200,59 @@ def check_adjacency(table: Table, info: CInfo) -> Iterator[Diagnostic]:
                         f"'{path.dotted}' is no part: only parts can be adjacent",
                         path.span,
                     )
+                elif (
+                    m.kind == "ring"
+                    and isinstance(res, PathRes)
+                    and res.slot is not None
+                    and res.slot.max != 1
+                ):
+                    card = "*" if res.slot.max is None else str(res.slot.max)
+                    before, after = group[i - 1].dotted, group[(i + 1) % len(group)].dotted
+                    yield diag(
+                        codes.DEGENERATE_ADJACENCY,
+                        f"'{path.dotted}' has up to {card} fillers: a ring entry must be one plane",
+                        path.span,
+                        f"declare its edges in pairs, which stand for each filler: "
+                        f"adjacent pairs(({before}, {path.dotted}), ({path.dotted}, {after}))",
+                    )
+        yield from _degenerate_groups(m)
+
+
+def _degenerate_groups(m: ast.Adjacency) -> Iterator[Diagnostic]:
+    """``KB139`` for repeated entries and rings too short to enclose anything."""
+    for group in m.groups:
+        seen: set[str] = set()
+        repeated = False
+        for path in group:
+            if path.dotted in seen:
+                repeated = True
+                what = (
+                    "paired with itself: a plane is not adjacent to itself"
+                    if m.kind == "pairs"
+                    else "repeated in the ring: a ring passes each plane once"
+                )
+                yield diag(
+                    codes.DEGENERATE_ADJACENCY,
+                    f"'{path.dotted}' is {what}",
+                    path.span,
+                    "remove the repetition"
+                    if m.kind == "ring"
+                    else f"remove the pair ({path.dotted}, {path.dotted})",
+                )
+            seen.add(path.dotted)
+        if m.kind == "ring" and not repeated and len(group) < 3:
+            names = ", ".join(p.dotted for p in group)
+            if len(group) == 1:
+                problem, hint = "declares no edge", "name at least three parts in a ring"
+            else:
+                problem = "declares one edge twice"
+                hint = f"write adjacent pairs(({names}))"
+            yield diag(
+                codes.DEGENERATE_ADJACENCY,
+                f"ring({names}) {problem}: a ring needs at least three parts",
+                m.span,
+                hint,
+            )
 
 
 def check_rules(table: Table, info: CInfo, used: set[str]) -> Iterator[Diagnostic]:

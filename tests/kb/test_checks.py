@@ -327,6 +327,13 @@ CASES = [
         3,
         15,
     ),
+    (
+        "degenerate-ring",
+        H + "concept W in world { }\nconcept A in world { part f: W\n adjacent ring(f) }",
+        "KB139",
+        4,
+        2,
+    ),
     ("unknown-instance-concept", H + "instance w of Wal { }", "KB100", 2, 15),
     (
         "missing-role",
@@ -467,3 +474,59 @@ def test_internal_errors_become_diagnostics(monkeypatch: pytest.MonkeyPatch) -> 
     assert [d.code for d in result.diagnostics] == ["KB399"]
     assert "boom" in result.diagnostics[0].message
     assert result.kb is None
+
+
+def _adjacency_diags(body: str) -> list[tuple[str, int, int, str]]:
+    text = (
+        H + "concept W in world { }\n"
+        "concept A in world {\n part f, l, r: W\n part posts: W [2..4]\n"
+        " optional part canopy: W\n" + body + "\n}"
+    )
+    result = compile_text(text, "adj.kb")
+    return [
+        (d.code, d.span.line, d.span.column, d.message) for d in result.diagnostics if d.is_error
+    ]
+
+
+@pytest.mark.parametrize(
+    ("body", "column", "message"),
+    [
+        ("adjacent ring(f)", 1, "ring(f) declares no edge: a ring needs at least three parts"),
+        (
+            "adjacent ring(f, l)",
+            1,
+            "ring(f, l) declares one edge twice: a ring needs at least three parts",
+        ),
+        (
+            "adjacent ring(f, l, f)",
+            21,
+            "'f' is repeated in the ring: a ring passes each plane once",
+        ),
+        (
+            "adjacent ring(f, posts, r)",
+            18,
+            "'posts' has up to 4 fillers: a ring entry must be one plane",
+        ),
+        (
+            "adjacent pairs((f, l), (r, r))",
+            28,
+            "'r' is paired with itself: a plane is not adjacent to itself",
+        ),
+    ],
+    ids=["one-part", "two-parts", "repeated", "multi-filler", "self-pair"],
+)
+def test_degenerate_adjacency_is_kb139(body: str, column: int, message: str) -> None:
+    assert _adjacency_diags(body) == [("KB139", 7, column, message)]
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        "adjacent ring(f, l, r)",
+        "adjacent ring(f, canopy, r)",  # optional: the ring is open where it is absent
+        "adjacent pairs((f, posts), (l, canopy))",  # each post; the canopy when present
+    ],
+    ids=["ring-of-three", "ring-with-optional", "pairs-with-several-fillers"],
+)
+def test_legal_adjacency_has_no_diagnostic(body: str) -> None:
+    assert _adjacency_diags(body) == []
