@@ -239,6 +239,7 @@ class Interpreter:
         if not walls:
             return []
         fixed_planes = {k: v for lv in state.levels for k, v in lv.outcome.planes.items()}
+        guessed = frozenset(r for lv in state.levels for r in lv.inserted)
         choices = {r: c for lv in state.levels for r, c in lv.structure.choices}
         out: list[tuple[Level, float]] = []
         for slot in self.knowledge.concept(concept).slots:
@@ -264,6 +265,7 @@ class Interpreter:
                         forced={"front": front},
                         exclude=used,
                         body_frame=body.frame,
+                        guessed=guessed,
                     )
                     if level is not None:
                         # a verified smaller part costs its misfit in proportion to the
@@ -294,6 +296,7 @@ class Interpreter:
         forced: dict[str, RegionView],
         exclude: set[str] | frozenset[str] = frozenset(),
         body_frame: Frame | None = None,
+        guessed: frozenset[str] = frozenset(),
     ) -> Level | None:
         root = structure.nodes[0]
         what = "; ".join(
@@ -314,7 +317,7 @@ class Interpreter:
         for binding in assignments:
             try:
                 outcome, inserted, loose, visible = self._adjust(
-                    structure, frame, binding, fixed, choices
+                    structure, frame, binding, fixed, choices, guessed
                 )
             except _UnseenError as exc:
                 reasons.append((str(exc), None, None))
@@ -445,8 +448,15 @@ class Interpreter:
         binding: dict[str, str],
         fixed: dict[str, tuple[FloatArray, float]],
         choices: dict[str, str],
+        guessed: frozenset[str] = frozenset(),
     ) -> tuple[Outcome, tuple[str, ...], float, tuple[str, ...]]:
         """Initialise, match segments, adjust twice (re-matching in between).
+
+        ``guessed``: fixed parts of verified levels that were inserted from knowledge, not
+        seen. A segment on the edge between such a part and one of this structure explains
+        that segment but is not taken as a measurement: its position would measure the guess
+        (a wing's foot on the body's inserted floor, seen at a grazing angle, moved the wing's
+        seen front wall 1.7 m away from its own stereo evidence).
 
         Returns the outcome, the inserted role paths, the fraction of the length of the
         segments bordering bound regions that no edge of the structure explains, and the
@@ -535,7 +545,9 @@ class Interpreter:
                 planes,
                 fillers,
                 positions,
-                self._edge_evidence(matches, binding),
+                self._edge_evidence(
+                    [m for m in matches if not guessed.intersection(m.parts)], binding
+                ),
                 declared,
                 self._pinholes,
                 tilts,
