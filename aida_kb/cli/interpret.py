@@ -87,10 +87,14 @@ def print_interpretation(interp: Interpretation, *, explain: bool) -> None:
 def run(args: argparse.Namespace) -> int:
     """Interpret; print the tree; write interpretation.json when asked."""
     from aida_kb.interpret.result import write_interpretation
-    from aida_kb.interpret.run import interpret
+    from aida_kb.interpret.run import check_goal, interpret
+    from aida_kb.io.atomic import check_output
     from aida_kb.io.evidence import read_evidence
 
+    if args.output:
+        check_output(args.output, [args.kb, args.evidence])
     kb = load_kb(args.kb)
+    check_goal(kb, args.goal)
     evidence = read_evidence(args.evidence)
     interp = interpret(kb, evidence, goal=args.goal, source=args.evidence)
     print_interpretation(interp, explain=args.explain)

@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING
 
 from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
+from aida_kb.interpret.run import check_goal
+from aida_kb.io.atomic import make_dirs
 from aida_kb.io.evidence import Evidence, write_evidence
 from aida_kb.io.model import write_model, write_obj
 from aida_kb.io.scene import read_scene
@@ -50,6 +52,8 @@ def reconstruct_scene(
     """
     from aida_kb.vision.evidence import scene_evidence
 
+    check_goal(kb, goal)
+    out = make_dirs(out_dir)
     scene = read_scene(scene_dir, with_truth=False)
     evidence, _ = scene_evidence(scene, views=views, stage=stage)
     if stage is not None:
@@ -63,8 +67,6 @@ def reconstruct_scene(
         scene=scene,
         progress=progress,
     )
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=".reconstruct-", dir=out))
     try:
         write_evidence(work / "evidence.json", evidence)

@@ -87,6 +87,26 @@ def model_of(state: State, evidence: Evidence) -> ReconstructedModel:
     return ReconstructedModel(parts=parts, cameras=_cameras(evidence))
 
 
+def check_goal(kb: KnowledgeBase, goal: str) -> None:
+    """Refuse (InterpretError) a goal that is not a concept of the knowledge base's top layer.
+
+    The goal of an interpretation is a scene object (e.g. House): a concept of the first layer
+    of ``layers scene > world > image``. Cheap; commands call it before any long work.
+    """
+    top = kb.layers[0] if kb.layers else "scene"
+    scene = ", ".join(sorted(n for n, c in kb.concepts.items() if c.layer == top)) or "none"
+    concept = kb.concepts.get(goal)
+    if concept is None:
+        raise InterpretError(
+            f"goal {goal!r} is not a concept of the knowledge base ({top} concepts: {scene})"
+        )
+    if concept.layer != top:
+        raise InterpretError(
+            f"goal {goal!r} is a concept of the {concept.layer} layer; the goal must be a "
+            f"{top}-layer concept ({scene})"
+        )
+
+
 def interpret(
     kb: KnowledgeBase,
     evidence: Evidence,
@@ -99,15 +119,10 @@ def interpret(
 
     Returns the interpretation: accepted with instances, model, residuals and trace, or not
     accepted (no instances, no model) with a message saying why. Raises InterpretError when the
-    goal is not a concept of the knowledge base.
+    goal is not a concept of the knowledge base's top (scene) layer (`check_goal`).
     """
+    check_goal(kb, goal)
     knowledge = Knowledge.from_kb(kb)
-    if goal not in knowledge.concepts:
-        scene = sorted(n for n, c in knowledge.concepts.items() if c.layer == "scene")
-        raise InterpretError(
-            f"goal {goal!r} is not a concept of the knowledge base "
-            f"(scene concepts: {', '.join(scene) or 'none'})"
-        )
     view = view_of(evidence, source)
     interpreter = Interpreter(knowledge, view, goal)
     if progress is not None:

@@ -398,6 +398,8 @@ def scene_evidence(
     """
     ids = list(views) if views is not None else [v.id for v in scene.views]
     known = {v.id for v in scene.views}
+    if len(set(ids)) != len(ids):
+        raise VisionError(f"views {', '.join(ids)}: a view is given more than once")
     missing = [i for i in ids if i not in known]
     if missing:
         raise VisionError(f"{scene.root}: no view(s) {', '.join(missing)}")

@@ -70,3 +70,33 @@ def test_bad_evidence_is_a_usage_error(tmp_path: Path, capsys: pytest.CaptureFix
 def test_unknown_goal_fails(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["interpret", KB, str(FIXTURES / "no_house.json"), "--goal", "Castle"]) == 1
     assert "goal 'Castle' is not a concept" in capsys.readouterr().err
+
+
+def test_output_that_is_a_directory_is_refused_before_interpreting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the evidence does not even exist: the output is checked first
+    code = main(["interpret", KB, str(tmp_path / "missing.json"), "-o", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.strip() == f"aida-kb: error: {tmp_path}: cannot write the output: it is a directory"
+
+
+@pytest.mark.parametrize(
+    ("goal", "expected"),
+    [
+        ("Wall", "goal 'Wall' is a concept of the world layer; the goal must be a scene-layer"),
+        ("Castle", "goal 'Castle' is not a concept of the knowledge base (scene concepts: "),
+    ],
+)
+def test_a_goal_outside_the_scene_layer_is_refused_up_front(
+    goal: str, expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = main(["interpret", KB, str(tmp_path / "missing.json"), "--goal", goal])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert captured.out == ""
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1
+    assert expected in lines[0]
+    assert "House" in lines[0]
