@@ -49,6 +49,16 @@ def register(subparsers: Any) -> None:
     p.set_defaults(run=run)
 
 
+def parse_views(option: str | None) -> list[str] | None:
+    """The ``--views`` option as a list of view ids (None: all); VisionError if malformed."""
+    from aida_kb.errors import VisionError
+
+    views = [v.strip() for v in option.split(",")] if option else None
+    if views is not None and ("" in views or len(set(views)) != len(views)):
+        raise VisionError(f"--views {option!r}: expected distinct comma-separated view ids")
+    return views
+
+
 def run(args: argparse.Namespace) -> int:
     """Compute and write the evidence (and the debug images)."""
     from rich.console import Console
@@ -67,9 +77,7 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output, inputs)
     if args.debug:
         make_dirs(args.debug)
-    views = [v.strip() for v in args.views.split(",")] if args.views else None
-    if views is not None and ("" in views or len(set(views)) != len(views)):
-        raise VisionError(f"--views {args.views!r}: expected distinct comma-separated view ids")
+    views = parse_views(args.views)
     params = VisionParams(num_disp=args.max_disp, window=args.window)
     n_views = len(views) if views is not None else len(scene.views)
     console = Console(stderr=True)

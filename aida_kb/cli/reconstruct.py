@@ -49,15 +49,13 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress, TextColumn, TimeElapsedColumn
 
+    from aida_kb.cli.evidence import parse_views
     from aida_kb.cli.interpret import load_kb, print_interpretation
-    from aida_kb.errors import VisionError
     from aida_kb.interpret.pipeline import reconstruct_scene
     from aida_kb.interpret.run import check_goal
     from aida_kb.io.atomic import make_dirs
 
-    views = [v.strip() for v in args.views.split(",")] if args.views else None
-    if views is not None and ("" in views or len(set(views)) != len(views)):
-        raise VisionError(f"--views {args.views!r}: expected distinct comma-separated view ids")
+    views = parse_views(args.views)
     make_dirs(args.output)
     kb = load_kb(args.kb)
     check_goal(kb, args.goal)
