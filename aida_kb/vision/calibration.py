@@ -9,6 +9,7 @@ calibrated alone (k1 k2 p1 p2, k3 fixed at 0), then the pair with fixed intrinsi
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -89,7 +90,7 @@ def calibrate_stereo(
     at least MIN_VIEWS must remain. Raises VisionError otherwise, FormatError for unreadable
     images.
     """
-    if pattern[0] < 2 or pattern[1] < 2 or square_m <= 0:
+    if pattern[0] < 2 or pattern[1] < 2 or not (math.isfinite(square_m) and square_m > 0):
         raise VisionError(f"bad chessboard: {pattern[0]}x{pattern[1]} corners, square {square_m} m")
     obj = board_points(pattern, square_m)
     pts_l: list[F32] = []

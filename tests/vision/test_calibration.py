@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 
 from aida_kb.cli.main import main
+from aida_kb.errors import VisionError
 from aida_kb.io.scene import read_calib
+from aida_kb.vision.calibration import calibrate_stereo
 
 
 def test_calibrate_recovers_the_rig(
@@ -53,3 +55,13 @@ def test_calibrate_bad_input(
     assert main(["calibrate", str(broken), "-o", str(out)]) == 2
     assert "left.png" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("square_m", [float("nan"), float("inf"), 0.0, -0.03])
+def test_calibrate_refuses_a_square_size_that_is_not_a_positive_number(
+    square_m: float, tmp_path: Path
+) -> None:
+    # refused before any image is read: the pair need not exist
+    pair = (tmp_path / "left.png", tmp_path / "right.png")
+    with pytest.raises(VisionError, match=r"bad chessboard: 9x6 corners, square"):
+        calibrate_stereo([pair], (9, 6), square_m)
