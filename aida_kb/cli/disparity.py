@@ -56,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.io.scene import read_image
     from aida_kb.vision.stereo import ncc_disparity
 
+    if args.window < 3 or args.window % 2 == 0:
+        raise VisionError(f"--window {args.window}: the window must be odd and >= 3 pixels")
     for path in (args.output, args.certainty):
         if path:
             check_output(path, (args.left, args.right))

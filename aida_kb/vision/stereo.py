@@ -133,8 +133,16 @@ def ncc_disparity(
             f"need min_disp >= 0 and 3 <= num_disp <= 256, got {min_disp}, {num_disp}"
         )
     H, W = L.shape
-    if min_disp + window >= W or window > H:
-        raise VisionError(f"image of {W}x{H} pixels is too small for the disparity range")
+    if window >= min(W, H):
+        raise VisionError(
+            f"window {window} does not fit the {W}x{H} image: it must be odd, >= 3 and "
+            f"smaller than the image"
+        )
+    if min_disp + window >= W:
+        raise VisionError(
+            f"image of {W}x{H} pixels is too small for the disparity range: min_disp {min_disp} "
+            f"+ window {window} must be below the width"
+        )
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
     args = (L, R, min_disp, num_disp, window, lr_tolerance_px, exact, adaptive_range)
     if n_workers <= 1:

@@ -68,3 +68,23 @@ def test_disparity_bad_input(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert main(["disparity", str(lp), str(lp), "-o", str(out), "--window", "4"]) == 1
     assert "odd" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("window", "message"),
+    [
+        ("99999", "window 99999 does not fit the 140x80 image: it must be odd, >= 3 and sma"),
+        ("8", "--window 8: the window must be odd and >= 3 pixels"),
+        ("1", "--window 1: the window must be odd and >= 3 pixels"),
+    ],
+)
+def test_a_wrong_window_is_reported_as_such(
+    window: str, message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    lp, rp = _pair(tmp_path)
+    out = tmp_path / "d.npy"
+    assert main(["disparity", str(lp), str(rp), "-o", str(out), "--window", window]) == 1
+    err = capsys.readouterr().err
+    assert err.strip().startswith(f"aida-kb: error: {message}")
+    assert len(err.strip().splitlines()) == 1
+    assert not out.exists()

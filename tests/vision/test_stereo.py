@@ -124,6 +124,13 @@ def test_bad_images() -> None:
         ncc_disparity(np.zeros((40, 20), np.uint8), np.zeros((40, 20), np.uint8), min_disp=15)
 
 
+@pytest.mark.parametrize("window", [41, 99999])
+def test_a_window_larger_than_the_image_is_named_as_the_problem(window: int) -> None:
+    img = np.zeros((40, 60), np.uint8)
+    with pytest.raises(VisionError, match=rf"window {window} does not fit the 60x40 image"):
+        ncc_disparity(img, img, window=window)
+
+
 def test_rendered_house_against_truth(small_house: Path) -> None:
     scene = read_scene(small_house)
     assert scene.truth is not None
