@@ -15,7 +15,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from aida_kb.io.jsonio import read_json_model, write_json_model
-from aida_kb.io.model import ReconstructedModel
+from aida_kb.io.model import Finite, FiniteCost, ReconstructedModel
 
 INSERTED = "inserted"
 """The binding of a part the views cannot see: inserted from the knowledge base."""
@@ -47,14 +47,14 @@ class ConstraintResidual(_Frozen):
     concept: str = Field(description="the concept that declared it")
     owner: str = Field(description="role path of the instance that introduced it")
     parts: list[str] = Field(description="the role paths it relates (absolute)")
-    residual: float = Field(description="the residual, in `unit` (length of its components)")
+    residual: Finite = Field(description="the residual, in `unit` (length of its components)")
     unit: str = Field(description="'rad', 'm', 'px' or ''")
-    sigma: float | None = Field(description="the tolerance, in `unit`")
-    normalised_cost: float = Field(
+    sigma: Finite | None = Field(description="the tolerance, in `unit`")
+    normalised_cost: FiniteCost = Field(
         description="multiplicity · residual² / sigma² (aida_kb.solve's residual report)"
     )
-    threshold: float = Field(description="the normalised cost above which it rejects")
-    reject_above: float | None = Field(description="residuals above this reject, in `unit`")
+    threshold: FiniteCost = Field(description="the normalised cost above which it rejects")
+    reject_above: Finite | None = Field(description="residuals above this reject, in `unit`")
     rejected: bool = Field(description="True if the normalised cost is above the threshold")
 
 
@@ -72,7 +72,7 @@ class HypothesisTrace(_Frozen):
     step: int = Field(ge=0, description="search step (expansion count) when last changed")
     reason: str = Field(default="", description="why it was rejected or what verified it")
     constraint: str | None = Field(default=None, description="label of the rejecting constraint")
-    cost: float | None = Field(
+    cost: FiniteCost | None = Field(
         default=None, description="the normalised cost of that constraint (residual report)"
     )
 
@@ -90,7 +90,7 @@ class Interpretation(_Frozen):
     residuals: list[ConstraintResidual] = Field(default_factory=list)
     trace: list[HypothesisTrace] = Field(default_factory=list)
     expanded: int = Field(ge=0, description="number of hypotheses the search expanded")
-    cost: float | None = Field(default=None, description="total normalised cost of the result")
+    cost: FiniteCost | None = Field(default=None, description="total normalised cost of the result")
 
     def instance(self, role: str) -> Instance:
         """The instance with role path `role` (KeyError if none)."""

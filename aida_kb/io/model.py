@@ -27,9 +27,14 @@ def number_only(value: object) -> object:
     return value
 
 
-def _finite(value: float) -> float:
+def _finite_any(value: float) -> float:
     if not math.isfinite(value):
         raise ValueError("must be a finite number (NaN and infinity are not allowed)")
+    return value
+
+
+def _finite(value: float) -> float:
+    _finite_any(value)
     if abs(value) > MAX_MAGNITUDE:
         raise ValueError(f"magnitude {value:.3g} is beyond {MAX_MAGNITUDE:.0e}")
     return value
@@ -51,6 +56,8 @@ ON_PLANE_TOLERANCE_M = 1e-4
 
 Finite = Annotated[float, BeforeValidator(number_only), AfterValidator(_finite)]
 """A finite number (not NaN, not infinite, not absurdly large; not a string or boolean)."""
+FiniteCost = Annotated[float, BeforeValidator(number_only), AfterValidator(_finite_any)]
+"""A finite number of any size (a normalised cost of a far-off hypothesis can be huge)."""
 Int = Annotated[int, BeforeValidator(number_only)]
 """A whole number (not a string or boolean)."""
 Vec3 = tuple[Finite, Finite, Finite]

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from pydantic import ValidationError
 
 from aida_kb.errors import FormatError
 from aida_kb.interpret.result import (
@@ -84,3 +85,33 @@ def test_malformed_file_names_field(tmp_path: Path) -> None:
     bad.write_text('{"goal": "House", "accepted": "maybe", "message": "", "expanded": 0}')
     with pytest.raises(FormatError, match=r"bad\.json.*accepted"):
         read_interpretation(bad)
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("residual", float("nan")),
+        ("sigma", float("nan")),
+        ("normalised_cost", float("inf")),
+        ("threshold", float("nan")),
+        ("reject_above", float("-inf")),
+    ],
+)
+def test_a_non_finite_residual_number_is_refused_at_construction(field: str, value: float) -> None:
+    row = _example().residuals[0].model_dump()
+    row[field] = value
+    with pytest.raises(ValidationError, match=rf"{field}\n.*finite"):
+        ConstraintResidual(**row)
+
+
+def test_a_non_finite_cost_is_refused_but_a_huge_one_is_kept() -> None:
+    trace = _example().trace[1].model_dump()
+    trace["cost"] = float("nan")
+    with pytest.raises(ValidationError, match=r"cost\n.*finite"):
+        HypothesisTrace(**trace)
+    whole = _example().model_dump()
+    whole["cost"] = float("nan")
+    with pytest.raises(ValidationError, match=r"cost\n.*finite"):
+        Interpretation(**whole)
+    trace["cost"] = 3.5e15  # a far-off hypothesis: residual a million sigma away
+    assert HypothesisTrace(**trace).cost == 3.5e15
