@@ -78,7 +78,12 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.io.model import read_model
     from aida_kb.io.scene import read_scene
     from aida_kb.register import RigidModel
-    from aida_kb.register.evidence import camera_of, register_evidence_view, right_segments
+    from aida_kb.register.evidence import (
+        camera_of,
+        check_reference_camera,
+        register_evidence_view,
+        right_segments,
+    )
     from aida_kb.vision.evidence import scene_evidence
 
     if args.init_angle is not None and not math.isfinite(args.init_angle):
@@ -86,15 +91,14 @@ def run(args: argparse.Namespace) -> int:
     model_file = read_model(args.model)
     if not model_file.cameras:
         raise FormatError(f"{args.model}: field cameras: the model has no camera to start from")
-    if args.reference is None:
-        ref_entry = model_file.cameras[0]
-    else:
-        found = [c for c in model_file.cameras if c.view == args.reference]
-        if not found:
-            have = ", ".join(c.view for c in model_file.cameras)
-            raise FormatError(f"{args.model}: no camera of view {args.reference!r} (has {have})")
-        ref_entry = found[0]
+    views = [c.view for c in model_file.cameras]
+    if args.reference is not None and args.reference not in views:
+        have = ", ".join(views)
+        raise FormatError(f"{args.model}: no camera of view {args.reference!r} (has {have})")
+    index = 0 if args.reference is None else views.index(args.reference)
+    ref_entry = model_file.cameras[index]
     model = RigidModel.from_model(model_file)
+    check_reference_camera(model, ref_entry, args.model, index)
     scene = read_scene(args.scene, with_truth=False)
     evidence, _ = scene_evidence(scene, views=[args.view])
     reg = register_evidence_view(

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.errors import SolveError
+from aida_kb.errors import FormatError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.evidence import ViewEvidence
 from aida_kb.io.model import ModelCamera
@@ -110,6 +110,52 @@ def camera_of(camera: ModelCamera) -> PinholeCamera:
         camera.image_width,
         camera.image_height,
     )
+
+
+MAX_IMAGE_SIDE_PX = 100_000
+"""An image side longer than this (pixels) is taken for a mistake in the model file."""
+
+MIN_INSIDE_FRACTION = 0.5
+"""At least this share of the model's vertices must project into the reference image."""
+
+
+def check_reference_camera(
+    model: RigidModel, camera: ModelCamera, where: str, index: int = 0
+) -> None:
+    """Refuse (FormatError) a reference camera whose image cannot hold the model's projection.
+
+    Parameters
+    ----------
+    model : the rigid model; its vertices (V, 3), world frame, metres, are projected.
+    camera : the model file's camera entry the registration starts from.
+    where : the model file, named in the message; index : the entry's place in ``cameras``.
+
+    The image must be at most `MAX_IMAGE_SIDE_PX` a side, and at least
+    `MIN_INSIDE_FRACTION` of the vertices in front of the camera must fall inside it
+    (a 1x1 image, or one that is not this camera's, holds none of them).
+    """
+    field = f"field cameras[{index}] (view {camera.view!r})"
+    w, h = camera.image_width, camera.image_height
+    if max(w, h) > MAX_IMAGE_SIDE_PX:
+        raise FormatError(
+            f"{where}: {field}: image_width x image_height {w}x{h} is absurd "
+            f"(at most {MAX_IMAGE_SIDE_PX} pixels a side)"
+        )
+    cam = camera_of(camera)
+    points = cam.to_camera(model.vertices)
+    front = points[points[:, 2] > 1e-9]
+    if len(front) == 0:
+        raise FormatError(f"{where}: {field}: the model lies behind the camera")
+    q = front @ cam.K.T
+    uv = q[:, :2] / q[:, 2:3]
+    inside = (uv[:, 0] >= -0.5) & (uv[:, 0] <= w - 0.5) & (uv[:, 1] >= -0.5) & (uv[:, 1] <= h - 0.5)
+    if inside.mean() < MIN_INSIDE_FRACTION:
+        lo, hi = uv.min(axis=0), uv.max(axis=0)
+        raise FormatError(
+            f"{where}: {field}: image_width x image_height {w}x{h} cannot hold the model's "
+            f"projection ({int(inside.sum())} of {len(front)} vertices inside; they span "
+            f"u {lo[0]:.0f}..{hi[0]:.0f}, v {lo[1]:.0f}..{hi[1]:.0f} px)"
+        )
 
 
 def register_evidence_view(

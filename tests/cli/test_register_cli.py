@@ -86,3 +86,36 @@ def test_register_help_has_an_example(capsys: pytest.CaptureFixture[str]) -> Non
         main(["register", "--help"])
     assert exc.value.code == 0
     assert "aida-kb register out/m/model.json out/house --view 01" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("width", "height", "expected"),
+    [
+        (1, 1, "image_width x image_height 1x1 cannot hold the model's projection (0 of "),
+        (640, 10**7, "image_width x image_height 640x10000000 is absurd"),
+        (0, 480, "image_width"),
+        (-640, 480, "image_width"),
+    ],
+)
+def test_a_model_camera_whose_image_cannot_hold_the_model_is_refused(
+    width: int,
+    height: int,
+    expected: str,
+    house: tuple[Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    model, _ = house
+    data = json.loads(model.read_text())
+    data["cameras"][0]["image_width"] = width
+    data["cameras"][0]["image_height"] = height
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(data))
+    # the scene is not even read: the model file is checked first
+    code = main(["register", str(bad), str(tmp_path / "no-scene"), "--view", "01"])
+    err = capsys.readouterr().err
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"aida-kb: error: {bad}")
+    assert expected in lines[0]
