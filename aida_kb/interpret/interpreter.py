@@ -490,6 +490,9 @@ class Interpreter:
             mirrored = self._mirrored_back(structure, leaf, frame, role_to_region)
             if mirrored is not None:
                 d = max(d, mirrored)
+            inner = self._inner_end(structure, leaf, frame, role_to_region, fixed)
+            if inner is not None:
+                d = max(d, float(n @ inner))
             centre = points.mean(axis=0) if len(points) else self.evidence.camera.centre_m
             on_plane = centre + (d - float(n @ centre)) * n
             if faces_camera(n, on_plane, self.evidence.camera):
@@ -637,6 +640,45 @@ class Interpreter:
             return None
         ridge = float(along.min())
         return float(frame.front @ front.centroid_m) - 2.0 * ridge
+
+    def _inner_end(
+        self,
+        structure: Structure,
+        leaf: PlanarPart,
+        frame: Frame,
+        seen: dict[str, RegionView],
+        fixed: dict[str, tuple[FloatArray, float]],
+    ) -> FloatArray | None:
+        """Where a hidden gable end of a smaller part reaches into its whole: (3,) world, m.
+
+        A wing's inner end lies inside the body, where no camera sees it; by default it
+        reaches the body's ridge: the point where the wing's ridge (seen as the edge of its
+        front roof plane farthest from its front wall) crosses, seen from above, the ridge of
+        the fixed body. An end wall is moved there only if that point lies beyond it (so the
+        outer end stays where its evidence puts it). None when that does not apply.
+        """
+        if leaf.pitched or leaf.name not in ("left", "right") or not fixed:
+            return None
+        whole = structure.root.rsplit(".", 1)[0]
+        roofs = [fixed.get(join(whole, f"roof.{side}")) for side in ("front", "back")]
+        roof = seen.get(join(structure.root, "roof.front"))
+        if roofs[0] is None or roofs[1] is None or roof is None:
+            return None
+        (n1, d1), (n2, d2) = roofs[0], roofs[1]
+        u = np.cross(n1, n2)
+        if float(np.linalg.norm(u)) < 1e-6 or abs(float(frame.front @ u)) < 0.1 * float(
+            np.linalg.norm(u)
+        ):
+            return None
+        along = self.evidence.points_on(roof.id) @ frame.front
+        if len(along) < 2:
+            return None
+        # the point of the body's ridge line nearest the origin, then along it to the wing's ridge
+        a = np.stack([n1, n2, u])
+        p0 = np.linalg.solve(a, np.array([d1, d2, 0.0]))
+        t = (float(along.min()) - float(frame.front @ p0)) / float(frame.front @ u)
+        point: FloatArray = p0 + t * u
+        return point
 
     def _floor(self, structure: Structure, known: set[str]) -> str | None:
         """The floor the walls' tilt refers to: the structure's own, else its whole's."""
