@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from aida_kb.cli.main import main
+from aida_kb.errors import VisionError
 from aida_kb.io.evidence import ViewEvidence, read_evidence
 from aida_kb.io.scene import read_labels, read_scene
 from aida_kb.synth.scenes import preset, render_scene
@@ -169,3 +170,11 @@ def test_evidence_cli_bad_input(
     assert "labels" in capsys.readouterr().err
     assert main(["evidence", str(small_house), "-o", str(out), "--views", "07", "--quiet"]) == 1
     assert "07" in capsys.readouterr().err
+
+
+def test_scene_evidence_refuses_a_view_given_twice_before_any_work(small_house: Path) -> None:
+    stages: list[tuple[str, str]] = []
+    scene = read_scene(small_house, with_truth=False)
+    with pytest.raises(VisionError, match="views 00, 00: a view is given more than once"):
+        scene_evidence(scene, views=["00", "00"], stage=lambda v, s: stages.append((v, s)))
+    assert stages == []
