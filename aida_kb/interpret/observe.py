@@ -28,6 +28,7 @@ import numpy.typing as npt
 from aida_kb.errors import InterpretError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.evidence import Evidence
+from aida_kb.vision.rectify import undistort_pixels
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -258,21 +259,6 @@ def estimate_up(
 BOUNDARY_TOLERANCE_PX = 4.0
 
 
-def _undistorted(pixels: FloatArray, K: FloatArray, D: FloatArray) -> FloatArray:
-    """Pixels of the original (distorted) image moved to where the pinhole camera sees them.
-
-    Evidence pixels are in the original image; the interpreter's cameras are pinhole cameras
-    (K, R, t). With no distortion (D empty or zero) the pixels are returned unchanged.
-    """
-    if D.size == 0 or not np.any(D):
-        return pixels
-    import cv2
-
-    out = cv2.undistortPoints(pixels.reshape(-1, 1, 2), K, D, P=K)
-    result: FloatArray = np.asarray(out, dtype=np.float64).reshape(-1, 2)
-    return result
-
-
 def _along(ends_px: FloatArray, polygon_px: FloatArray) -> bool:
     """True if both ends of a segment lie within BOUNDARY_TOLERANCE_PX of a closed polygon.
 
@@ -331,11 +317,11 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
         D = np.array(v.left.D, dtype=np.float64)
         outlines: dict[int, list[FloatArray]] = {}
         for c in v.contours:
-            outline = _undistorted(np.array(c.points, dtype=np.float64), K, D)
+            outline = undistort_pixels(np.array(c.points, dtype=np.float64), K, D)
             outlines.setdefault(c.region, []).append(outline)
             all_outlines.setdefault(f"{v.id}/{c.region}", []).append(outline)
         for s in v.lines:
-            ends = _undistorted(np.array([s.p1, s.p2], dtype=np.float64), K, D)
+            ends = undistort_pixels(np.array([s.p1, s.p2], dtype=np.float64), K, D)
             borders = tuple(
                 f"{v.id}/{r}"
                 for r in s.regions

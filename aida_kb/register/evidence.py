@@ -25,6 +25,7 @@ from aida_kb.register.register import (
     StereoSegments,
     register_view,
 )
+from aida_kb.vision.rectify import undistort_pixels
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -54,23 +55,12 @@ class ViewMeasurements:
     regions: RegionMeasurements
 
 
-def undistorted(pixels: FloatArray, K: FloatArray, D: FloatArray) -> FloatArray:
-    """Original-image pixels (N, 2) moved to where the pinhole camera (K) sees them."""
-    if D.size == 0 or not np.any(D) or pixels.shape[0] == 0:
-        return pixels
-    import cv2
-
-    out = cv2.undistortPoints(pixels.reshape(-1, 1, 2), K, D, P=K)
-    result: FloatArray = np.asarray(out, dtype=np.float64).reshape(-1, 2)
-    return result
-
-
 def measurements_of(view: ViewEvidence) -> ViewMeasurements:
     """Segments and region plane fits of an evidence view, in its left camera's terms."""
     K = np.array(view.left.K, dtype=np.float64)
     D = np.array(view.left.D, dtype=np.float64)
     ends = np.array([[s.p1, s.p2] for s in view.lines], dtype=np.float64).reshape(-1, 2, 2)
-    flat = undistorted(ends.reshape(-1, 2), K, D).reshape(-1, 2, 2)
+    flat = undistort_pixels(ends.reshape(-1, 2), K, D).reshape(-1, 2, 2)
     R = np.array(view.left.R, dtype=np.float64)
     t = np.array(view.left.t, dtype=np.float64)
     n = np.array([r.n_init for r in view.regions], dtype=np.float64).reshape(-1, 3)
@@ -95,7 +85,7 @@ def right_segments(scene: Scene, view_id: str) -> StereoSegments:
     seg = detect_segments(grey)
     K2 = np.asarray(calib.K2, dtype=np.float64)
     D2 = np.asarray(calib.D2, dtype=np.float64).ravel()
-    ends = undistorted(seg.reshape(-1, 2), K2, D2).reshape(-1, 2, 2)
+    ends = undistort_pixels(seg.reshape(-1, 2), K2, D2).reshape(-1, 2, 2)
     w, h = calib.image_size
     rig = Rig(K2, np.asarray(calib.R, dtype=np.float64), np.asarray(calib.T).ravel(), w, h)
     return StereoSegments(rig, ends[:, 0], ends[:, 1])

@@ -123,6 +123,19 @@ def remap(
     return np.asarray(out)
 
 
+def undistort_pixels(pixels: F64, K: F64, D: F64) -> F64:
+    """Pixels (N, 2) of the original (distorted) image moved to where pinhole camera K sees them.
+
+    Evidence pixels are those of the original image; the model's cameras are pinhole cameras.
+    With no distortion (D empty or all zero) or no pixels, ``pixels`` is returned unchanged.
+    """
+    if D.size == 0 or not np.any(D) or pixels.shape[0] == 0:
+        return pixels
+    out = cv2.undistortPoints(pixels.reshape(-1, 1, 2), K, D, P=K)
+    result: F64 = np.asarray(out, dtype=np.float64).reshape(-1, 2)
+    return result
+
+
 def stereo_rectification(calib: StereoCalib) -> Rectification:
     """Rectify the rig of `calib` (cv2.stereoRectify with CALIB_ZERO_DISPARITY, alpha 0)."""
     size = (int(calib.image_size[0]), int(calib.image_size[1]))
