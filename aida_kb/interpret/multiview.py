@@ -89,13 +89,6 @@ FINAL_ROUNDS = 2
 takes the regions' positions again at the adjusted poses)."""
 
 
-def _camera(view_left: object) -> PinholeCamera:
-    K = np.array(view_left.K, dtype=np.float64)  # type: ignore[attr-defined]
-    R = np.array(view_left.R, dtype=np.float64)  # type: ignore[attr-defined]
-    t = np.array(view_left.t, dtype=np.float64)  # type: ignore[attr-defined]
-    return PinholeCamera(K, R, t, 1, 1)
-
-
 def _model_camera(view: str, cam: PinholeCamera) -> ModelCamera:
     c = cam.to_cahv()
 
@@ -366,8 +359,8 @@ def reconstruct_views(
     ids = [v.id for v in known]
     cams: list[PinholeCamera] = []
     for v, m in zip(known, views, strict=True):
-        c = _camera(v.left)
-        cams.append(PinholeCamera(c.K, c.R_cam_world, c.t_cam_world, m.width, m.height))
+        K, R, t = (np.array(a, dtype=np.float64) for a in (v.left.K, v.left.R, v.left.t))
+        cams.append(PinholeCamera(K, R, t, m.width, m.height))
     n_known = len(cams)
     turn: float | None = None
     notes: list[str] = []
