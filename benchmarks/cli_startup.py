@@ -42,7 +42,7 @@ def _figures(argv: list[str], runs: int) -> tuple[float, float, float]:
 def main() -> None:
     exe = shutil.which("aida-kb", path=str(Path(sys.executable).parent)) or "aida-kb"
     validate = [exe, "validate", "kb/buildings.kb"]
-    _run(validate)  # warm the file cache and Lark's grammar cache
+    _run(validate)  # warm the file cache
     best, median, cpu = _figures(validate, RUNS)
     _, lint_median, lint_cpu = _figures([exe, "lint", "kb/examples/"], 5)
     bare, _, _ = _figures([sys.executable, "-c", "pass"], 5)

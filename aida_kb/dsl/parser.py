@@ -455,9 +455,12 @@ def make_lark(transformer: Transformer[Token, Any] | None = None) -> Lark:
     """Lark's LALR parser with the contextual lexer for the grammar, as aida-kb configures it.
 
     Every token is kept and absent optional parts are ``None`` placeholders (the builder's
-    callbacks rely on both). With ``transformer`` the parse builds its results inline; the
-    parser is then cached on disk by Lark. The lexer is Lark's own: `parse` drives it with
-    `aida_kb.dsl.lexer.FastContextualLexer`.
+    callbacks rely on both). With ``transformer`` the parse builds its results inline. The
+    lexer is Lark's own: `parse` drives it with `aida_kb.dsl.lexer.FastContextualLexer`.
+
+    The tables are built from the packaged grammar in memory at every start (about 30 ms) and
+    never cached: Lark's cache is a pickle under a predictable name in the shared temporary
+    directory, and unpickling a file another user can write runs their code.
     """
     return Lark(
         grammar_path().read_text(encoding="utf-8"),
@@ -465,7 +468,7 @@ def make_lark(transformer: Transformer[Token, Any] | None = None) -> Lark:
         lexer="contextual",
         maybe_placeholders=True,
         keep_all_tokens=True,
-        cache=transformer is not None,
+        cache=False,
         transformer=transformer,
     )
 
