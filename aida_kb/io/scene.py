@@ -266,6 +266,30 @@ def _calib_int(fs: Any, file: Path, name: str) -> int:
     return value
 
 
+# A rotation written with 6 significant digits (Strecha's .camera files, many text exports) is
+# orthonormal only to about 1e-6; the cameras built from it want 1e-9. Such an R is replaced by
+# the nearest rotation (SVD), which moves it by no more than its own rounding. 1e-4 admits
+# rotations rounded to 5 digits or more (an angle error below 0.01 deg); an R further from
+# orthonormal is not a rounded rotation and is refused.
+CALIB_ORTHONORMAL_TOL = 1e-4
+
+
+def _nearest_rotation(R: FloatArray, file: Path) -> FloatArray:
+    """The rotation nearest to R (3, 3) (Frobenius norm), or FormatError naming `file`.
+
+    R must be orthonormal to CALIB_ORTHONORMAL_TOL (max |R R^T - I|) and have det > 0.
+    """
+    err = float(np.abs(R @ R.T - np.eye(3)).max())
+    if err > CALIB_ORTHONORMAL_TOL or np.linalg.det(R) <= 0:
+        raise FormatError(
+            f"{file}: field R: not a rotation matrix (max |R R^T - I| = {err:.2g}, tolerance "
+            f"{CALIB_ORTHONORMAL_TOL:g}; det {np.linalg.det(R):.6g}, must be +1)"
+        )
+    U, _, Vt = np.linalg.svd(R)
+    nearest: FloatArray = U @ Vt
+    return nearest
+
+
 def read_calib(path: str | os.PathLike[str]) -> StereoCalib:
     """Read a calib.yaml (or .xml/.json) written by cv2.FileStorage; validate every field."""
     import cv2
@@ -308,8 +332,7 @@ def read_calib(path: str | os.PathLike[str]) -> StereoCalib:
                 f"{file}: field {name}: not a camera matrix "
                 "(need [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0)"
             )
-    if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
-        raise FormatError(f"{file}: field R: not a rotation matrix (orthonormal, det +1)")
+    R = _nearest_rotation(R, file)
     if np.linalg.norm(T) <= 0:
         raise FormatError(f"{file}: field T: zero baseline")
     return StereoCalib(K1=K1, D1=D1, K2=K2, D2=D2, R=R, T=T, image_size=(width, height))

@@ -21,6 +21,7 @@ from aida_kb.io.scene import (
     read_image,
     read_labels,
     read_scene,
+    write_calib,
     write_scene,
 )
 
@@ -307,3 +308,29 @@ def test_depth_map_values_are_positive_metres(tmp_path: Path, bad: float) -> Non
     np.save(path, depth)
     with pytest.raises(FormatError, match="positive finite metres"):
         read_depth(path)
+
+
+def test_rounded_rotation_is_reorthonormalised_and_far_one_refused(tmp_path: Path) -> None:
+    """A rig written with 6 significant digits (R orthonormal to ~1e-6, as Strecha's cameras)
+    is read as the nearest rotation, which the camera check (1e-9) accepts; an R off by 1e-3
+    is refused naming the file and the field."""
+    from aida_kb.geometry.rotation import check_rotation
+
+    calib = _calib()
+    rounded = np.array([float(f"{x:.6g}") for x in (calib.R @ _rot_x(0.2137)).ravel()])
+    raw = rounded.reshape(3, 3)
+    assert np.abs(raw @ raw.T - np.eye(3)).max() > 1e-8  # the rounding is visible
+    path = tmp_path / "calib.yaml"
+    write_calib(path, StereoCalib(calib.K1, calib.D1, calib.K2, calib.D2, raw, calib.T, (64, 48)))
+    read = read_calib(path)
+    check_rotation(read.R, "R")  # would raise "not orthonormal" with the raw R
+    assert np.abs(read.R - raw).max() < 2e-6
+    far = raw + np.array([[0.0, 1e-3, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    write_calib(path, StereoCalib(calib.K1, calib.D1, calib.K2, calib.D2, far, calib.T, (64, 48)))
+    with pytest.raises(FormatError, match=r"calib\.yaml: field R: not a rotation matrix"):
+        read_calib(path)
+
+
+def _rot_x(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
