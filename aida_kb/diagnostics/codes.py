@@ -138,6 +138,22 @@ DEGENERATE_ADJACENCY = register(
     "an adjacency is degenerate: a ring of fewer than three parts, a part repeated in a ring "
     "or paired with itself, or a ring entry with several fillers",
 )
+# geometry: frames, orientations, measured attributes, unseen parts, attachments
+BAD_ORIENTATION = register(
+    "KB150", _E, "an orientation names a part that is not planar, or orients a part twice"
+)
+BAD_FRAME = register(
+    "KB151", _E, "a frame is declared twice, or its anchor is no planar part facing forward"
+)
+BAD_ATTRIBUTE_MEASURE = register(
+    "KB152", _E, "an attribute's measure is unknown, has the wrong arguments or the wrong type"
+)
+BAD_PLACEMENT = register(
+    "KB153", _E, "an unseen part's placement names no planar part or no edge, or a bad distance"
+)
+BAD_ATTACHMENT = register(
+    "KB154", _E, "an attachment names no composite part, or planes that are no planar parts"
+)
 # instances
 ABSTRACT_INSTANCE = register("KB140", _E, "an instance is declared of an abstract concept")
 MISSING_ROLE = register("KB141", _E, "an instance leaves an obligatory role unbound")

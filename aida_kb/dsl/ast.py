@@ -7,7 +7,8 @@ roles stays one node. Resolution, inheritance and unit normalisation are the com
 
 Expression nodes: `Path`, `Call`, `Number`, `Quantity`, `String`, `ListExpr`.
 Declarations: `Layers`, `Import`, `Template`, `Concept`, `Instance`.
-Concept members: `Part`, `ConOf`, `Attribute`, `Adjacency`, `Constraint`, `Measure`.
+Concept members: `Part`, `ConOf`, `Attribute`, `Adjacency`, `Constraint`, `Measure`, and the
+geometry members `Frame`, `Orient`, `Unseen`, `Attach`.
 """
 
 from __future__ import annotations
@@ -192,14 +193,24 @@ class ConOf:
 
 
 @dataclass(frozen=True, slots=True)
+class AttributeMeasure:
+    """``is slope(self) [+- sigma]``: the geometric measure an attribute stands for."""
+
+    call: Call
+    tolerance: Expr | None
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
 class Attribute:
-    """``attribute name: type [in [low, high]] [= default]``."""
+    """``attribute name: type [in [low, high]] [= default] [is measure(args) [+- sigma]]``."""
 
     name: Name
     type: Name
     range: Range | None
     default: Expr | None
     span: Span
+    measure: AttributeMeasure | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -241,7 +252,63 @@ class Measure:
     span: Span
 
 
-Member: TypeAlias = Part | ConOf | Attribute | Adjacency | Constraint | Measure
+#: The six directions of a composite's frame, as written in ``orient`` and ``attach``.
+DIRECTIONS: tuple[str, ...] = ("forward", "backward", "leftward", "rightward", "upward", "downward")
+
+
+@dataclass(frozen=True, slots=True)
+class Frame:
+    """``frame from front``: the composite's frame takes its forward axis from a part."""
+
+    anchor: Path
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Orient:
+    """``orient a, b: forward [tilted by pitch]``: the direction planar parts face."""
+
+    parts: tuple[Path, ...]
+    direction: Name
+    tilt: Expr | None
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Placement:
+    """How an unseen part is placed: ``mirror P about edge(a, b)``, ``at V from P``,
+    ``reach edge(a, b)``. ``ref`` is P (mirror, at), ``value`` V (at), ``line`` the edge."""
+
+    kind: Literal["mirror", "offset", "reach"]
+    ref: Path | None
+    value: Expr | None
+    line: Call | None
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Unseen:
+    """``unseen a, b: PLACEMENT``: where parts no view shows are put."""
+
+    parts: tuple[Path, ...]
+    placement: Placement
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class Attach:
+    """``attach oriels: backward in front, left [as back]``: a sub-object's open face lies in
+    one of its whole's planes."""
+
+    part: Path
+    face: Name
+    planes: tuple[Path, ...]
+    name: Name | None
+    span: Span
+
+
+Geometry: TypeAlias = Frame | Orient | Unseen | Attach
+Member: TypeAlias = Part | ConOf | Attribute | Adjacency | Constraint | Measure | Geometry
 
 
 # ---- declarations --------------------------------------------------------------------------------
@@ -323,6 +390,11 @@ class Concept:
     def measures(self) -> tuple[Measure, ...]:
         """The ``measure`` declarations, in order."""
         return tuple(m for m in self.members if isinstance(m, Measure))
+
+    @property
+    def geometry(self) -> tuple[Geometry, ...]:
+        """The ``frame``, ``orient``, ``unseen`` and ``attach`` declarations, in order."""
+        return tuple(m for m in self.members if isinstance(m, Frame | Orient | Unseen | Attach))
 
 
 @dataclass(frozen=True, slots=True)

@@ -93,6 +93,14 @@ class _Qualifier:
         self.span = span
 
 
+class _Tilt:
+    __slots__ = ("span", "value")
+
+    def __init__(self, value: ast.Expr, span: Span) -> None:
+        self.value = value
+        self.span = span
+
+
 _ESCAPE = re.compile(r"\\(.)")
 _ESCAPES = {"n": "\n", "t": "\t", "r": "\r"}
 _QUANTITY = re.compile(r"(-?[0-9.eE+-]+?)[ \t]*([A-Za-z_][A-Za-z0-9_]*)$")
@@ -282,8 +290,51 @@ class _Builder(Transformer[Token, Any]):
     def attribute(self, ch: list[Any]) -> ast.Attribute:
         names = _names(ch)
         rng = next((c for c in ch if isinstance(c, ast.Range)), None)
-        default = ch[-1] if not isinstance(ch[-1], Token | ast.Range) else None
-        return ast.Attribute(self.name(names[0]), self.name(names[1]), rng, default, self.span(ch))
+        measure = ch[-1] if isinstance(ch[-1], ast.AttributeMeasure) else None
+        last = ch[-2] if len(ch) > 1 else None
+        default = last if last is not None and not isinstance(last, Token | ast.Range) else None
+        return ast.Attribute(
+            self.name(names[0]), self.name(names[1]), rng, default, self.span(ch), measure
+        )
+
+    def attr_measure(self, ch: list[Any]) -> ast.AttributeMeasure:
+        tol = ch[2].value if ch[2] is not None else None
+        return ast.AttributeMeasure(ch[1], tol, self.span(ch))
+
+    # -- geometry members
+    def frame(self, ch: list[Any]) -> ast.Frame:
+        return ast.Frame(ch[2], self.span(ch))
+
+    def orient(self, ch: list[Any]) -> ast.Orient:
+        paths = tuple(c for c in ch if isinstance(c, ast.Path))
+        direction = next(c for c in ch if isinstance(c, ast.Name))
+        tilt = ch[-1] if isinstance(ch[-1], _Tilt) else None
+        return ast.Orient(paths, direction, tilt.value if tilt else None, self.span(ch))
+
+    def tilted(self, ch: list[Any]) -> _Tilt:
+        return _Tilt(ch[2], self.span(ch))
+
+    def direction(self, ch: list[Token]) -> ast.Name:
+        return self.name(ch[0])
+
+    def unseen(self, ch: list[Any]) -> ast.Unseen:
+        paths = tuple(c for c in ch if isinstance(c, ast.Path))
+        return ast.Unseen(paths, ch[-1], self.span(ch))
+
+    def mirror(self, ch: list[Any]) -> ast.Placement:
+        return ast.Placement("mirror", ch[1], None, ch[3], self.span(ch))
+
+    def offset(self, ch: list[Any]) -> ast.Placement:
+        return ast.Placement("offset", ch[3], ch[1], None, self.span(ch))
+
+    def reach(self, ch: list[Any]) -> ast.Placement:
+        return ast.Placement("reach", None, None, ch[1], self.span(ch))
+
+    def attach(self, ch: list[Any]) -> ast.Attach:
+        paths = [c for c in ch if isinstance(c, ast.Path)]
+        face = next(c for c in ch if isinstance(c, ast.Name))
+        name = self.name(ch[-1]) if isinstance(ch[-1], Token) and ch[-1].type == "NAME" else None
+        return ast.Attach(paths[0], face, tuple(paths[1:]), name, self.span(ch))
 
     def attr_range(self, ch: list[Any]) -> ast.Range:
         return ast.Range(ch[1], ch[3], self.span(ch))
@@ -621,6 +672,19 @@ _AFTER_KEYWORD: dict[str, str] = {
     "DOT": "expected a role name after '.'",
     "RING": "expected '(' and the parts of the ring after 'ring'",
     "PAIRS": "expected '(' and the pairs after 'pairs'",
+    "FRAME": "expected 'from' and the part that gives the frame, as in 'frame from front'",
+    "ORIENT": "expected the parts to orient after 'orient', as in 'orient front: forward'",
+    "UNSEEN": "expected the unseen parts after 'unseen', as in 'unseen back: at depth from front'",
+    "ATTACH": "expected the attached part after 'attach', as in 'attach oriels: backward in front'",
+    "TILTED": "expected 'by' and an angle after 'tilted', as in 'tilted by pitch'",
+    "BY": "expected an angle or an attribute after 'by'",
+    "MIRROR": "expected a part after 'mirror', as in 'mirror front about edge(a, b)'",
+    "ABOUT": "expected an edge after 'about', as in 'about edge(roof.front, roof.back)'",
+    "REACH": "expected an edge after 'reach', as in 'reach edge(roof.front, roof.back)'",
+    "AT": "expected a distance after 'at', as in 'at depth from front'",
+    "FROM": "expected a part after 'from'",
+    "IS": "expected a measure after 'is', such as slope(self) or height(self)",
+    "AS": "expected a name for the face after 'as'",
 }
 _TERMINAL_WORDS: dict[str, str] = {
     "NAME": "a name",
@@ -630,7 +694,18 @@ _TERMINAL_WORDS: dict[str, str] = {
     "$END": "the end of the file",
 }
 _DECLARATION_KEYWORDS = {"CONCEPT", "TEMPLATE", "INSTANCE", "IMPORT", "LAYERS", "ABSTRACT"}
-_MEMBER_KEYWORDS = {"PART", "OPTIONAL", "_CON_OF", "ATTRIBUTE", "ADJACENT", "CONSTRAINT"}
+_MEMBER_KEYWORDS = {
+    "PART",
+    "OPTIONAL",
+    "_CON_OF",
+    "ATTRIBUTE",
+    "ADJACENT",
+    "CONSTRAINT",
+    "FRAME",
+    "ORIENT",
+    "UNSEEN",
+    "ATTACH",
+}
 
 
 def _terminal_word(lark: Lark, name: str) -> str:
@@ -765,10 +840,12 @@ def _describe_token(lark: Lark, exc: UnexpectedToken, text: str, file: str, off:
         )
         if tok.type == "RBRACE":
             hint = "this '}' closes nothing"
+    elif prev_type == "COLON" and "FORWARD" in expected:
+        message = "expected a direction: forward, backward, leftward, rightward, upward or downward"
     elif expected & _MEMBER_KEYWORDS:
         message = (
             "expected a member (part, optional part, con-of, attribute, adjacent, constraint, "
-            "measure) or '}'"
+            "measure, frame, orient, unseen, attach) or '}'"
         )
         if tok.type == "NAME":
             hint = "a role is declared with 'part NAME: Concept'"

@@ -15,16 +15,21 @@ from pydantic import BaseModel
 from aida_kb.dsl import ast
 from aida_kb.kb.model import (
     AdjacencyModel,
+    AttachmentModel,
     AttributeModel,
     BindingModel,
     ConceptModel,
     ConOfModel,
     ConstraintKind,
     ConstraintSpec,
+    FrameModel,
     InstanceModel,
     KnowledgeBase,
+    MeasureModel,
+    OrientationModel,
     ParamModel,
     PartModel,
+    PlacementModel,
     ResidualUnit,
     TemplateModel,
     ValueType,
@@ -32,6 +37,7 @@ from aida_kb.kb.model import (
 )
 from aida_kb.kb.relations import UNIT_KIND, Analyzer, Prim, quantity_si
 from aida_kb.kb.resolve import VALUE_TYPES, CInfo, PathRes, Table
+from aida_kb.kb.shape import attribute_measure, build_shape
 
 __all__ = ["build"]
 
@@ -69,6 +75,7 @@ def _attribute(
                 rng = slot.node.range
                 break
     vtype = node.type.text
+    measure = attribute_measure(node)
     return _make(
         AttributeModel,
         name=name,
@@ -79,6 +86,7 @@ def _attribute(
         default=_si(node.default),
         declared_in=owner,
         span=node.span,
+        measure=_make(MeasureModel, **measure) if measure is not None else None,
     )
 
 
@@ -174,6 +182,8 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
         )
         for r in info.rules
     ]
+    shape = build_shape(table, cname, info)
+    frame = shape["frame"]
     return _make(
         ConceptModel,
         name=cname,
@@ -188,6 +198,10 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
         adjacencies=tuple(adjacencies),
         constraints=_specs(cname, prims),
         span=info.node.span,
+        frame=_make(FrameModel, **frame) if frame is not None else None,
+        orientations={k: _make(OrientationModel, **v) for k, v in shape["orientations"].items()},
+        placements=tuple(_make(PlacementModel, **v) for v in shape["placements"]),
+        attachments={k: _make(AttachmentModel, **v) for k, v in shape["attachments"].items()},
     )
 
 

@@ -17,6 +17,7 @@ from aida_kb.diagnostics.core import Diagnostic
 from aida_kb.dsl import ast
 from aida_kb.kb.relations import UNIT_KIND, Analyzer, quantity_si
 from aida_kb.kb.resolve import VALUE_TYPES, CInfo, PathRes, Slot, Table, diag, did_you_mean
+from aida_kb.kb.shape import check_shape
 
 __all__ = ["run_checks"]
 
@@ -570,6 +571,7 @@ def run_checks(table: Table) -> list[Diagnostic]:
         if info.node.members:
             out.extend(check_attributes(table, info))
             out.extend(check_adjacency(table, info))
+            out.extend(check_shape(table, info))
         if info.rules:
             out.extend(check_rules(table, info, used))
     out.extend(check_part_cycles(table))

@@ -15,15 +15,21 @@ from aida_kb.diagnostics.core import Span
 
 __all__ = [
     "AdjacencyModel",
+    "AttachmentModel",
     "AttributeModel",
     "BindingModel",
     "ConOfModel",
     "ConceptModel",
     "ConstraintSpec",
+    "Direction",
+    "FrameModel",
     "InstanceModel",
     "KnowledgeBase",
+    "MeasureModel",
+    "OrientationModel",
     "ParamModel",
     "PartModel",
+    "PlacementModel",
     "TemplateModel",
 ]
 
@@ -36,6 +42,12 @@ ConstraintKind = Literal["angle", "parallel", "parallel_edge", "symmetry", "posi
 ResidualUnit = Literal["rad", "m", "px", ""]
 ValueType = Literal["angle", "length", "number"]
 ValueUnit = Literal["rad", "m", ""]
+#: The directions of a composite's frame (docs/language.md §3.9).
+Direction = Literal["forward", "backward", "leftward", "rightward", "upward", "downward"]
+#: Geometric measures an attribute can stand for: slope of a plane against the ground, the
+#: angle at which two planes meet, extents in the frame, distance between two planes.
+MeasureKind = Literal["slope", "angle", "height", "width", "depth", "distance"]
+PlacementKind = Literal["mirror", "offset", "reach"]
 
 #: Conditions on a constraint or adjacency through an abstract role: (role path prefix, the
 #: concepts its filler must be (a specialisation of) one of). Empty: unconditional.
@@ -91,8 +103,31 @@ class ConOfModel(_Frozen):
     span: Span
 
 
+class MeasureModel(_Frozen):
+    """The geometric measure an attribute stands for (``is slope(self) +- 1 deg``).
+
+    ``args`` are role paths relative to the attribute's concept (``"self"``, ``"front"``);
+    ``sigma`` the tolerance of the soft prior in SI, None when not given (the range's
+    half-width is then taken as `RANGE_SIGMAS` sigma).
+    """
+
+    kind: MeasureKind
+    args: tuple[str, ...]
+    sigma: float | None
+    span: Span
+
+
+#: A measured attribute without a tolerance: its range's half-width counts as this many sigma.
+RANGE_SIGMAS = 5.0
+
+
 class AttributeModel(_Frozen):
-    """A typed attribute; ``low``, ``high`` and ``default`` in SI (``unit``)."""
+    """A typed attribute; ``low``, ``high`` and ``default`` in SI (``unit``).
+
+    ``measure``: the geometric measure of the instance the attribute stands for, if any: the
+    range is then checked against the evidence and the model (a soft prior towards the
+    default inside it, rejection outside it).
+    """
 
     name: str
     type: ValueType
@@ -102,6 +137,7 @@ class AttributeModel(_Frozen):
     default: float | None
     declared_in: str
     span: Span
+    measure: MeasureModel | None = None
 
 
 class AdjacencyModel(_Frozen):
@@ -114,8 +150,75 @@ class AdjacencyModel(_Frozen):
     requires: Requires = ()
 
 
+class FrameModel(_Frozen):
+    """``frame from ANCHOR``: the concept has its own frame; forward is where the anchor
+    part faces (horizontally), up the vertical, rightward completes a right-handed frame."""
+
+    anchor: str
+    declared_in: str
+    span: Span
+
+
+class OrientationModel(_Frozen):
+    """``orient PART: DIRECTION [tilted by T]``: the direction a planar part faces in the
+    frame of the nearest composite (this concept or a whole) that has one.
+
+    ``tilt`` (rad) is the angle between the part's plane and the ground: upward faces 0,
+    downward pi, a horizontal direction pi/2 unless tilted (a roof plane facing forward
+    tilted by its pitch: its normal turned from up towards forward by the pitch). ``tilt`` is
+    None when it is read from ``tilt_attribute`` (a role path of an angle attribute) that has
+    no default: the evidence then says.
+    """
+
+    part: str
+    direction: Direction
+    tilt: float | None
+    tilt_attribute: str | None
+    declared_in: str
+    span: Span
+    requires: Requires = ()
+
+
+class PlacementModel(_Frozen):
+    """``unseen PART: ...``: where a part no view shows is put (paths relative to the concept).
+
+    ``mirror``: as far beyond the line ``line`` (an edge, seen from above) as ``ref`` lies
+    before it; ``offset``: parallel to ``ref`` at ``value`` metres (or the default of the
+    length attribute ``value_attribute``); ``reach``: out to the line ``line``. Every placement
+    only moves the part outwards from the seen surface points.
+    """
+
+    part: str
+    kind: PlacementKind
+    ref: str | None
+    line: tuple[str, str] | None
+    value: float | None
+    value_attribute: str | None
+    declared_in: str
+    span: Span
+    requires: Requires = ()
+
+
+class AttachmentModel(_Frozen):
+    """``attach PART: FACE in PLANES [as NAME]``: the sub-object filling PART has an open face
+    (facing FACE in its own frame) that lies in one of the planar parts PLANES of this concept:
+    an oriel standing out of a wall, a wing standing on the floor. ``name`` names that face
+    in the model (default: the direction)."""
+
+    part: str
+    face: Direction
+    planes: tuple[str, ...]
+    name: str
+    declared_in: str
+    span: Span
+
+
 class ConceptModel(_Frozen):
-    """A concept with every member resolved: own and inherited, overrides applied."""
+    """A concept with every member resolved: own and inherited, overrides applied.
+
+    The geometry members: ``frame`` (None: the concept uses its whole's frame),
+    ``orientations`` and ``placements`` by part path, ``attachments`` by attached part.
+    """
 
     name: str
     layer: str
@@ -129,6 +232,10 @@ class ConceptModel(_Frozen):
     adjacencies: tuple[AdjacencyModel, ...]
     constraints: tuple[ConstraintSpec, ...]
     span: Span
+    frame: FrameModel | None = None
+    orientations: dict[str, OrientationModel] = {}
+    placements: tuple[PlacementModel, ...] = ()
+    attachments: dict[str, AttachmentModel] = {}
 
 
 class ParamModel(_Frozen):

@@ -96,7 +96,17 @@ class Rule:
 class CInfo:
     """What resolution knows of one concept."""
 
-    __slots__ = ("adjacency", "children", "layer", "node", "own_slots", "parents", "rules", "slots")
+    __slots__ = (
+        "adjacency",
+        "children",
+        "geometry",
+        "layer",
+        "node",
+        "own_slots",
+        "parents",
+        "rules",
+        "slots",
+    )
 
     def __init__(
         self,
@@ -117,6 +127,8 @@ class CInfo:
         self.rules: list[Rule] = list() if rules is None else rules
         self.children: list[str] = list() if children is None else children
         self.own_slots = own_slots
+        #: frame, orient, unseen and attach declarations, inherited first: (node, owner)
+        self.geometry: list[tuple[ast.Geometry, str]] = []
 
 
 class PathRes:
@@ -467,6 +479,7 @@ def _merge_parents(table: Table, cname: str, info: CInfo) -> dict[str, list[Slot
         info.slots = dict(p.slots)
         info.rules = list(p.rules)
         info.adjacency = list(p.adjacency)
+        info.geometry = list(p.geometry)
         return {}
     clashes: dict[str, list[Slot]] = {}
     seen_rules: set[int] = set()
@@ -495,6 +508,9 @@ def _merge_parents(table: Table, cname: str, info: CInfo) -> dict[str, list[Slot
             if id(adj[0]) not in seen_adj:
                 seen_adj.add(id(adj[0]))
                 info.adjacency.append(adj)
+        for geo in p.geometry:
+            if all(geo[0] is not g[0] for g in info.geometry):
+                info.geometry.append(geo)
     return clashes
 
 
@@ -541,6 +557,8 @@ def _own_members(table: Table, cname: str, info: CInfo) -> Iterator[Diagnostic]:
                 info.own_slots = True
         elif isinstance(m, ast.Adjacency):
             info.adjacency.append((m, cname))
+        elif isinstance(m, ast.Frame | ast.Orient | ast.Unseen | ast.Attach):
+            info.geometry.append((m, cname))
         elif isinstance(m, ast.Constraint) and m.label is not None:
             label = m.label.text
             prev = own_labels.get(label)

@@ -365,6 +365,75 @@ CASES = [
         2,
         10,
     ),
+    (
+        "orient-composite",
+        H + "concept W in world { }\nconcept R in world { part a: W }\n"
+        "concept A in world { part r: R\n orient r: upward }",
+        "KB150",
+        5,
+        9,
+    ),
+    (
+        "orient-twice",
+        H + "concept W in world { }\nconcept A in world { part f: W\n orient f: forward\n"
+        " orient f: backward }",
+        "KB150",
+        5,
+        9,
+    ),
+    (
+        "tilt-up",
+        H + "concept W in world { }\nconcept A in world { part f: W\n"
+        " orient f: upward tilted by 10 deg }",
+        "KB150",
+        4,
+        29,
+    ),
+    (
+        "frame-anchor-backward",
+        H + "concept W in world { }\nconcept A in world { part f: W\n frame from f\n"
+        " orient f: backward }",
+        "KB151",
+        4,
+        13,
+    ),
+    (
+        "unknown-measure",
+        H + "concept W in world { attribute s: angle is slop(self) }",
+        "KB152",
+        2,
+        44,
+    ),
+    (
+        "measure-type",
+        H + "concept W in world { attribute s: length is slope(self) }",
+        "KB152",
+        2,
+        45,
+    ),
+    (
+        "placement-composite",
+        H + "concept W in world { }\nconcept R in world { part a: W }\n"
+        "concept A in world { part f: W\n part r: R\n unseen r: at 2 m from f }",
+        "KB153",
+        6,
+        9,
+    ),
+    (
+        "placement-negative",
+        H + "concept W in world { }\nconcept A in world { part f, b: W\n"
+        " unseen b: at -2 m from f }",
+        "KB153",
+        4,
+        15,
+    ),
+    (
+        "attach-plane",
+        H + "concept W in world { }\nconcept A in world { part f, b: W\n attach b: backward in f }",
+        "KB154",
+        4,
+        9,
+    ),
     ("unreachable", H + "concept H in scene { }\nconcept W in world { }", "KB301", 3, 9),
     (
         "unverifiable",
