@@ -23,6 +23,7 @@ LAYERS: list[set[str]] = [
     {"synth"},
     {"register"},
     {"interpret"},
+    {"batch"},
     {"cli", "__main__"},
 ]
 

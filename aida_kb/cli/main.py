@@ -32,6 +32,7 @@ COMMANDS: tuple[str, ...] = (
     "evidence",
     "interpret",
     "reconstruct",
+    "batch",
     "register",
 )
 

@@ -75,15 +75,21 @@ def validate_model(model: type[ModelT], data: object, source: str) -> ModelT:
         _NESTING.reset(token)
 
 
-def read_json_model(path: str | os.PathLike[str], model: type[ModelT]) -> ModelT:
-    """Load and validate a JSON file as `model`; raise FormatError naming the file and field."""
+def read_text_file(path: str | os.PathLike[str]) -> str:
+    """The UTF-8 text of a file; FormatError naming it when missing or unreadable."""
     file = Path(path)
     try:
-        text = file.read_text(encoding="utf-8")
+        return file.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise FormatError(f"{file}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise FormatError(f"{file}: cannot be read: {exc}") from None
+
+
+def read_json_model(path: str | os.PathLike[str], model: type[ModelT]) -> ModelT:
+    """Load and validate a JSON file as `model`; raise FormatError naming the file and field."""
+    file = Path(path)
+    text = read_text_file(file)
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:

@@ -22,7 +22,6 @@ The certainty map (0..1) is the product of three factors: the NCC peak, its dist
 from __future__ import annotations
 
 import math
-import os
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -104,7 +103,8 @@ def ncc_disparity(
     window : odd side length of the square correlation window, pixels.
     lr_tolerance_px : a left pixel keeps its disparity only if the right image's best match
         points back to within this many pixels (left-right consistency).
-    workers : threads for the row bands (default: the number of CPUs).
+    workers : threads for the row bands (default: OpenCV's, ``cv2.getNumThreads()``: the
+        number of CPUs unless ``cv2.setNumThreads`` lowered it, as a batch worker does).
     exact : correlate each window with its own mean and deviation (true zero-mean NCC,
         slower); default: correlate the images normalised pixel by pixel by the mean and
         deviation of the window around each pixel (nearly the same scores).
@@ -143,7 +143,7 @@ def ncc_disparity(
             f"image of {W}x{H} pixels is too small for the disparity range: min_disp {min_disp} "
             f"+ window {window} must be below the width"
         )
-    n_workers = workers if workers is not None else (os.cpu_count() or 1)
+    n_workers = workers if workers is not None else max(1, cv2.getNumThreads())
     args = (L, R, min_disp, num_disp, window, lr_tolerance_px, exact, adaptive_range)
     if n_workers <= 1:
         return _ncc(*args, None)

@@ -1,0 +1,1 @@
+"""Many scenes per run: every scene under some folders reconstructed on a Dask cluster."""
