@@ -50,6 +50,9 @@ class SceneOutcome(FrozenModel):
     seconds_interpretation: Finite | None = Field(
         default=None, ge=0, description="interpretation, registration and model"
     )
+    cpu_seconds: Finite | None = Field(
+        default=None, ge=0, description="CPU time of the worker process during the scene"
+    )
     files: list[str] = Field(default_factory=list, description="files in the output folder")
     worker: str = Field(default="", description="host:pid of the process that ran it")
     peak_rss_mb: Finite | None = Field(

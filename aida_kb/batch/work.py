@@ -130,6 +130,7 @@ def run_scene(
         work = Path(tempfile.mkdtemp(prefix="scene-", dir=make_dirs(root / WORK_DIR)))
         done = work / "out"
         start = time.perf_counter()
+        cpu_start = time.process_time()
         evidence_end: list[float] = []
 
         def stage(view: str, name: str) -> None:
@@ -173,6 +174,7 @@ def run_scene(
             outcome = outcome.model_copy(
                 update={
                     "peak_rss_mb": _peak_rss_mb(),
+                    "cpu_seconds": time.process_time() - cpu_start,
                     "finished": datetime.now(UTC).isoformat(timespec="seconds"),
                     "files": [*outcome.files, OUTCOME_FILE],
                 }
