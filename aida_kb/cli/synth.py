@@ -12,13 +12,21 @@ presets:
   lshape      L-shaped house (main body + wing; --set meeting_deg=135 for a skew wing)
   oriel       gable house with box oriels on the front wall
   chessboard  chessboard poses for cv2.calibrateCamera / cv2.stereoCalibrate
+  random      a randomised scene of --seed (aida_kb.synth.randomised): any of the above
+              with random sizes, materials, cameras, light, occluders, 1-8 views, or no
+              building at all; --set kind=NAME forces the kind (gable, hip, flat, shed,
+              asymmetric_gable, lshape90, lshape135, oriel, turntable, chessboard, clutter)
 
 examples:
   aida-kb synth house -o out/house
   aida-kb synth house -o out/hip --set roof=hip --set pitch_deg=30 --views 3
   aida-kb synth turntable -o out/box --seed 2
   aida-kb synth lshape -o out/l135 --set meeting_deg=135 --chessboard
+  aida-kb synth random -o out/r7 --seed 7 --views 2
 """
+
+
+MAX_RANDOM_VIEWS = 8  # `random`: --views caps the number of views drawn (1 .. 8)
 
 
 def register(subparsers: Any) -> None:
@@ -35,7 +43,9 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
-        "preset", choices=("house", "turntable", "lshape", "oriel", "chessboard"), help="scene"
+        "preset",
+        choices=("house", "turntable", "lshape", "oriel", "chessboard", "random"),
+        help="scene",
     )
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="scene directory to write")
     p.add_argument(
@@ -88,10 +98,20 @@ def run(args: argparse.Namespace) -> int:
     if args.views is not None and args.views < 1:
         raise GeometryError("--views must be at least 1")
     settings = _parse_settings(args.settings)
-    spec = preset(args.preset, seed=args.seed, views=args.views, params=settings)
+    if args.preset == "random":
+        from aida_kb.synth.randomised import random_scene
+
+        extra = set(settings) - {"kind"}
+        if extra:
+            raise GeometryError(f"--set: unknown key(s) {', '.join(sorted(extra))}; known: kind")
+        spec = random_scene(
+            args.seed, kind=settings.get("kind"), max_views=args.views or MAX_RANDOM_VIEWS
+        )
+    else:
+        spec = preset(args.preset, seed=args.seed, views=args.views, params=settings)
     make_dirs(args.output)  # before rendering: a wrong -o fails at once
     jobs = [(spec, Path(args.output))]
-    if args.chessboard and args.preset != "chessboard":
+    if args.chessboard and args.preset not in ("chessboard", "random"):
         rig_keys = {k: v for k, v in settings.items() if k in COMMON_KEYS}
         board = preset("chessboard", seed=args.seed, params=rig_keys)
         board.rig = spec.rig  # the same cameras as the scene

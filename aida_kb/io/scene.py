@@ -151,6 +151,10 @@ class SceneTruth(FrozenModel):
     ground: GroundTruth | None = None
     views: list[PoseTruth]
     parameters: dict[str, float | str | bool] = Field(default_factory=dict)
+    concepts: dict[str, str] = Field(
+        default_factory=dict,
+        description="role path -> the concept it must be specialised to (e.g. the roof's kind)",
+    )
 
     def part(self, role: str) -> PartTruth:
         """The part with role path `role` (KeyError if there is none)."""

@@ -128,8 +128,13 @@ def _walls_and_roof(
     pitch_deg: float,
     wall_material: str,
     roof_material: str,
+    pitch_back_deg: float | None = None,
 ) -> tuple[list[tuple[str, str, str, FloatArray]], FloatArray]:
-    """Faces of a box-shaped house body centred on the origin (site frame), and an inside point."""
+    """Faces of a box-shaped house body centred on the origin (site frame), and an inside point.
+
+    A gable roof whose back half has another pitch (`pitch_back_deg`) is asymmetric: its ridge
+    moves towards the steeper side so that both halves meet.
+    """
     if min(width, depth, height) <= 0:
         raise GeometryError(f"{prefix}: width, depth and height must be positive")
     w, d, h = width / 2, depth / 2, height
@@ -149,10 +154,14 @@ def _walls_and_roof(
     faces.append((f"{prefix}.floor", "Floor", "floor", np.array(F)))
     wall = wall_material
     if roof == "gable":
-        if not 0 < pitch_deg < 80:
+        back_deg = pitch_deg if pitch_back_deg is None else pitch_back_deg
+        if not (0 < pitch_deg < 80 and 0 < back_deg < 80):
             raise GeometryError(f"{prefix}: gable roof pitch must be in (0, 80) degrees")
-        hr = h + d * tan
-        rl, rr = np.array([-w, hr, 0.0]), np.array([w, hr, 0.0])
+        tan_b = math.tan(math.radians(back_deg))
+        # front half rises from z = d, back half from z = -d; they meet at the ridge z_r
+        z_r = d * (tan - tan_b) / (tan + tan_b)
+        hr = h + (d - z_r) * tan
+        rl, rr = np.array([-w, hr, z_r]), np.array([w, hr, z_r])
         faces += [
             (f"{prefix}.front", "Wall", wall, np.array([F[0], F[1], top(F[1], h), top(F[0], h)])),
             (f"{prefix}.back", "Wall", wall, np.array([F[2], F[3], top(F[3], h), top(F[2], h)])),
@@ -240,14 +249,24 @@ def house(
     wall_material: str = "plaster",
     roof_material: str = "tiles",
     floors: int = 3,
+    pitch_back_deg: float | None = None,
 ) -> Model:
     """A free-standing house: HouseBody with four walls, floor and a roof (site frame).
 
     width : along x (front wall length), depth : along z, height : eaves height, metres.
-    roof : "gable", "hip", "flat" or "shed"; pitch_deg : roof pitch, degrees.
+    roof : "gable", "hip", "flat" or "shed"; pitch_deg : roof pitch, degrees;
+    pitch_back_deg : the back half's pitch of an asymmetric gable (None: as the front).
     """
     faces, inside = _walls_and_roof(
-        "body", width, depth, height, roof, pitch_deg, wall_material, roof_material
+        "body",
+        width,
+        depth,
+        height,
+        roof,
+        pitch_deg,
+        wall_material,
+        roof_material,
+        pitch_back_deg,
     )
     solid = _solid("body", inside, faces)
     solid = _with_windows(solid, floors=floors, height=height)
@@ -259,6 +278,8 @@ def house(
         "pitch_deg": pitch_deg,
         "floors": floors,
     }
+    if pitch_back_deg is not None:
+        params["pitch_back_deg"] = pitch_back_deg
     return Model("House", (solid,), params)
 
 

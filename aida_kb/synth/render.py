@@ -245,6 +245,40 @@ class Lighting:
     sun_intensity: float = 0.75
     ambient: float = 0.38
     background: str = "sky"  # "sky" (gradient) or "studio" (plain backdrop)
+    shadows: bool = False  # cast shadows: a point whose ray to the sun meets a face is unlit
+
+
+SHADOW_EPS_M = 1e-4  # a shadow ray starts this far along: its own face must not shadow it
+
+
+def in_shadow(X: FloatArray, sun: FloatArray, blockers: Sequence[Surface]) -> npt.NDArray[np.bool_]:
+    """Which world points X (N, 3) see the sun (unit, world) blocked by a face of `blockers`.
+
+    Only faces turned towards the sun are tested: a ray that leaves a closed solid towards the
+    sun crosses one of them. Even-odd point-in-polygon in each face's texture frame.
+    """
+    blocked = np.zeros(len(X), bool)
+    for b in blockers:
+        cos_b = float(b.normal @ sun)
+        if cos_b <= 1e-6:
+            continue
+        dist = (b.d - X @ b.normal) / cos_b  # along the ray to b's plane
+        cand = np.nonzero((dist > SHADOW_EPS_M) & ~blocked)[0]
+        if len(cand) == 0:
+            continue
+        P = X[cand] + dist[cand, None] * sun
+        pu, pv = (P - b.origin) @ b.axis_u, (P - b.origin) @ b.axis_v
+        qu, qv = (b.polygon - b.origin) @ b.axis_u, (b.polygon - b.origin) @ b.axis_v
+        inside = np.zeros(len(cand), bool)
+        for i in range(len(qu)):
+            au, av, bu, bv = qu[i], qv[i], qu[i - 1], qv[i - 1]
+            if av == bv:
+                continue
+            crosses = (av > pv) != (bv > pv)
+            uc = au + (pv - av) * ((bu - au) / (bv - av))
+            inside ^= crosses & (pu < uc)
+        blocked[cand[inside]] = True
+    return blocked
 
 
 def _albedo(
@@ -364,7 +398,13 @@ def shade(
         lam = max(float(s.normal @ light.sun), 0.0)
         sky = 0.5 + 0.5 * float(s.normal @ light.up)
         k = light.ambient * (0.55 + 0.45 * sky) + light.sun_intensity * lam
-        img[idx] = alb * np.float32(k)
+        if light.shadows and lam > 0:
+            sun_k = np.full(len(idx), light.sun_intensity * lam)
+            sun_k[in_shadow(X, light.sun, [b for b in surfs if b.label != s.label])] = 0.0
+            kk = light.ambient * (0.55 + 0.45 * sky) + sun_k
+            img[idx] = alb * kk.astype(np.float32)[:, None]
+        else:
+            img[idx] = alb * np.float32(k)
     return img.reshape(H, W, 3)
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +36,9 @@ FloatArray = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
 
 PRESETS = ("house", "turntable", "lshape", "oriel", "chessboard")
+ROOF_CONCEPTS = {"gable": "GableRoof", "hip": "HipRoof", "flat": "FlatRoof", "shed": "ShedRoof"}
+"""The specialisation each roof kind of `synth.buildings` is (synth's own names, in truth.json)."""
+OCCLUDER_LABEL = 2000  # first render label of occluders (above the ground's); 0 in labels.png
 
 
 def look_at(
@@ -122,6 +125,14 @@ class SceneSpec:
     noise_sigma: float = 1.8
     seed: int = 0
     extra_surfaces: list[Surface] = field(default_factory=list)
+    occluders: bld.Model | None = None  # rendered, unlabelled (0), not part of the truth
+    ground_labelled: bool = True  # False: the ground is 0 (unlabelled) in labels.png
+    write_labels: bool = True  # False: no labels.png (segmentation from the images alone)
+    right_gain: float = 0.97  # the right camera's exposure relative to the left one's
+    sun_intensity: float = 0.75
+    ambient: float = 0.38
+    shadows: bool = False  # cast shadows (aida_kb.synth.render.in_shadow)
+    truth_concepts: dict[str, str] = field(default_factory=dict)  # role -> specialisation
 
 
 def _sun(azimuth_deg: float = -35.0, elevation_deg: float = 40.0) -> FloatArray:
@@ -263,7 +274,14 @@ def preset(
         angles = [-25.0 + 45.0 * k for k in range(n)]
         poses = _orbit(np.array([0.0, 5.0, 0.0]), dist, 5.5, angles)
         return SceneSpec(
-            "house", model, _rig_from(p, 0.4), poses, _sun(), seed=seed, noise_sigma=sigma
+            "house",
+            model,
+            _rig_from(p, 0.4),
+            poses,
+            _sun(),
+            seed=seed,
+            noise_sigma=sigma,
+            truth_concepts={"body.roof": ROOF_CONCEPTS[str(p.get("roof", "gable"))]},
         )
     if name == "lshape":
         model = bld.lshape_house(
@@ -280,8 +298,16 @@ def preset(
         dist = _float(p, "distance", 34.0)
         angles = [-30.0 + 45.0 * k for k in range(n)]
         poses = _orbit(np.array([1.0, 4.0, 2.0]), dist, 6.0, angles)
+        wing = "RightWing" if model.parameters["meeting_deg"] == 90.0 else "SkewWing"
         return SceneSpec(
-            "lshape", model, _rig_from(p, 0.4), poses, _sun(), seed=seed, noise_sigma=sigma
+            "lshape",
+            model,
+            _rig_from(p, 0.4),
+            poses,
+            _sun(),
+            seed=seed,
+            noise_sigma=sigma,
+            truth_concepts={"body.roof": "GableRoof", "body.wings[0]": wing},
         )
     if name == "oriel":
         model = bld.oriel_house(
@@ -306,6 +332,7 @@ def preset(
             _sun(-50.0, 35.0),
             seed=seed,
             noise_sigma=sigma,
+            truth_concepts={"body.roof": "GableRoof"},
         )
     if name == "turntable":
         model = bld.reference_box(
@@ -409,9 +436,22 @@ def render_scene(
     surfs = surfaces(
         spec.model, R0, t0, ground=spec.ground, ground_half_size_m=spec.ground_half_size_m
     )
+    if spec.occluders is not None:
+        first = OCCLUDER_LABEL
+        surfs += [
+            replace(o, label=first + i)
+            for i, o in enumerate(surfaces(spec.occluders, R0, t0, ground=None))
+        ]
     up_w = R0 @ np.array([0.0, 1.0, 0.0])
     sun_site = spec.sun_site / np.linalg.norm(spec.sun_site)
-    light = Lighting(sun=R0 @ sun_site, up=up_w, background=spec.background)
+    light = Lighting(
+        sun=R0 @ sun_site,
+        up=up_w,
+        background=spec.background,
+        sun_intensity=spec.sun_intensity,
+        ambient=spec.ambient,
+        shadows=spec.shadows,
+    )
     rig = spec.rig
     views: list[ViewData] = []
     poses: list[PoseTruth] = []
@@ -423,7 +463,7 @@ def render_scene(
         Rr = rig.R @ R
         tr = rig.R @ t + rig.T
         ex_l = Exposure(noise_sigma=spec.noise_sigma)
-        ex_r = Exposure(gain=0.97, noise_sigma=spec.noise_sigma)
+        ex_r = Exposure(gain=spec.right_gain, noise_sigma=spec.noise_sigma)
         left, labels, depth = render(
             surfs,
             rig.K1,
@@ -450,7 +490,17 @@ def render_scene(
             seed=spec.seed,
             noise_seed=spec.seed * 1000 + 2 * k + 1,
         )
-        views.append(ViewData(left=left, right=right, labels=labels, depth_left=depth))
+        labels[labels >= OCCLUDER_LABEL] = 0  # nobody labels the trees as house parts
+        if not spec.ground_labelled:
+            labels[labels == GROUND_LABEL] = 0
+        views.append(
+            ViewData(
+                left=left,
+                right=right,
+                labels=labels if spec.write_labels else None,
+                depth_left=depth,
+            )
+        )
         poses.append(PoseTruth(view=f"{k:02d}", K=_m3(rig.K1), R=_m3(R), t=_v3(t)))
         if progress is not None:
             progress(k + 1, total)
@@ -465,7 +515,7 @@ def render_scene(
             polygon=[_v3(v) for v in s.polygon],
         )
         for s in surfs
-        if s.label != GROUND_LABEL
+        if s.label != GROUND_LABEL and s.label < OCCLUDER_LABEL
     ]
     ground = next((s for s in surfs if s.label == GROUND_LABEL), None)
     truth = SceneTruth(
@@ -476,6 +526,7 @@ def render_scene(
         else GroundTruth(label=GROUND_LABEL, normal=_v3(ground.normal), d=ground.d),
         views=poses,
         parameters={**spec.model.parameters, "seed": spec.seed, "preset": spec.name},
+        concepts=dict(spec.truth_concepts),
     )
     return write_scene(directory, rig.calib(), views, truth=truth, name=spec.name)
 

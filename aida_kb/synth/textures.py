@@ -162,6 +162,23 @@ def texture_set(seed: int) -> dict[str, tuple[F32, float]]:
     out["floor"] = out["soffit"]
     oriel = plaster * np.array([0.92, 0.97, 1.08], np.float32)[None, None, :]
     out["oriel"] = (oriel.astype(np.float32), 0.008)
+
+    # siding: horizontal boards 0.16 m high (stripes along the image rows of a level camera),
+    # a shadow line under each board's lap, faint grain along the boards; texel 5 mm
+    texel = 0.005
+    yy = np.mgrid[0:T, 0:T][0].astype(np.float64) * texel
+    board = T * texel / round(T * texel / 0.16)
+    fy = (yy % board) / board
+    lap = 0.72 + 0.28 * fy - 0.45 * (fy > 0.93)
+    streak = cv2.resize(_fbm_tile(rng, T, (16, 32, 64)), (T, T // 16))
+    streak = cv2.resize(streak, (T, T)).astype(np.float64)
+    siding = np.array([0.70, 0.72, 0.70])[None, None, :] * (lap + 0.03 * streak)[:, :, None]
+    out["siding"] = (siding.astype(np.float32), texel)
+
+    # dark roof: slate-black with little texture (weak stereo evidence)
+    n = _fbm_tile(rng, T, (8, 32, 128)).astype(np.float64)
+    dark = np.array([0.075, 0.075, 0.085])[None, None, :] * (1.0 + 0.06 * n[:, :, None])
+    out["darkroof"] = (dark.astype(np.float32), 0.008)
     return out
 
 
