@@ -175,7 +175,9 @@ class Interpreter:
             r for r in self.evidence.regions.values() if r.view == self.evidence.reference_view
         ]
         self.total_weight = sum(r.weight for r in self.regions) or 1.0
-        self.up = estimate_up(self.regions, camera)
+        self.up = estimate_up(
+            self.regions, camera, segments_px=self.evidence.lines_px.get(camera.view)
+        )
         self.segments = [s for s in self.evidence.segments if s.view == camera.view]
 
     # ---- the goal and its realisation ------------------------------------------------------

@@ -7,13 +7,17 @@ regions' planes. World frame: the left camera of view 00 (OpenCV axes: x right, 
 z forward), metres.
 
 The vertical. Walls and roofs are defined relative to "up", which the evidence does not
-state. Two walls that are not parallel give it as the cross product of their normals. So
-`estimate_up` tries the cross products of pairs of heavy regions, keeps those within 60
-degrees of the camera's -y axis (a camera held roughly upright, looking down by up to that
-much), and chooses the one under which the largest certainty weight of regions is vertical;
-it then refines it as the direction most perpendicular to those walls, weighted by certainty
-(the eigenvector of the smallest eigenvalue of sum_i w_i n_i n_i^T). With no usable pair
-(a single wall seen) the camera's -y axis is the answer.
+state. The image's line segments give it best: the vanishing point of the vertical lines
+(wall corners, window jambs, joints; `aida_kb.vision.vanishing`), within a few tenths of a
+degree on real facades, with one wall in view and a camera pitched up at it. Where the
+segments do not give it to 1 degree, the regions do: two walls that are not parallel give
+it as the cross product of their normals. So `estimate_up` tries the cross products of
+pairs of heavy regions, keeps those within 60 degrees of the camera's -y axis (a camera
+held roughly upright, looking down by up to that much), and chooses the one under which the
+largest certainty weight of regions is vertical; it then refines it as the direction most
+perpendicular to those walls, weighted by certainty (the eigenvector of the smallest
+eigenvalue of sum_i w_i n_i n_i^T). With neither (a single wall seen, few lines) the
+camera's -y axis is the answer.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from aida_kb.errors import InterpretError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.evidence import Evidence
 from aida_kb.vision.rectify import undistort_pixels
+from aida_kb.vision.vanishing import vertical_direction
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -110,6 +115,8 @@ class EvidenceView:
     reference_view: str = "00"
     source: str = ""
     outlines: dict[str, tuple[FloatArray, ...]] = field(default_factory=dict)
+    # every line segment of each view, (N, 2, 2) undistorted pixels, bordering a region or not
+    lines_px: dict[str, FloatArray] = field(default_factory=dict)
     _by_region: dict[str, tuple[SegmentView, ...]] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -203,22 +210,43 @@ def slope_deg(normal: FloatArray, up: FloatArray) -> float:
     return math.degrees(math.acos(c))
 
 
+# The vanishing point of the image's segments gives the vertical when it is known to better
+# than this (1-σ, degrees); walls then read within about this of 90 degrees.
+VP_MAX_SIGMA_DEG = 1.0
+# How far from the camera's up the vanishing direction may lie: cameras pitched up at a
+# facade by 10-20 degrees are common, 40 leaves room and still keeps horizontals out.
+VP_PRIOR_WINDOW_DEG = 40.0
+
+
 def estimate_up(
     regions: list[RegionView],
     camera: CameraView,
     prior_window_deg: float = 60.0,
     vertical_tol_deg: float = 10.0,
+    *,
+    segments_px: FloatArray | None = None,
 ) -> FloatArray:
-    """The world's up direction (unit, (3,), world frame) from the regions' normals.
+    """The world's up direction (unit, (3,), world frame).
 
-    See the module docstring. Candidates are the cross products of pairs of the heaviest
-    regions' normals that lie within `prior_window_deg` of the camera's -y axis; the winner
-    makes the largest certainty weight of regions vertical (normal within `vertical_tol_deg`
-    of horizontal) or level and facing up (the ground, flat roofs); it is then refined over
-    the vertical regions as the eigenvector of the smallest eigenvalue of sum_i w_i n_i n_i^T.
-    Without a candidate the prior is returned.
+    segments_px : (N, 2, 2) the camera's line segments, undistorted pixels. Where their
+    vertical vanishing point (`aida_kb.vision.vanishing.vertical_direction`) is known to
+    VP_MAX_SIGMA_DEG, it is the answer: it holds with one wall direction in view and for a
+    pitched camera. Otherwise, from the regions' normals (see the module docstring):
+    candidates are the cross products of pairs of the heaviest regions' normals that lie
+    within `prior_window_deg` of the camera's -y axis; the winner makes the largest
+    certainty weight of regions vertical (normal within `vertical_tol_deg` of horizontal) or
+    level and facing up (the ground, flat roofs); it is then refined over the vertical
+    regions as the eigenvector of the smallest eigenvalue of sum_i w_i n_i n_i^T. Without a
+    candidate the prior is returned.
     """
     prior: FloatArray = camera.R_cam_world.T @ np.array([0.0, -1.0, 0.0])
+    if segments_px is not None and len(segments_px):
+        vp = vertical_direction(
+            segments_px, camera.K, prior_window_deg=min(prior_window_deg, VP_PRIOR_WINDOW_DEG)
+        )
+        if vp is not None and vp.sigma_deg <= VP_MAX_SIGMA_DEG:
+            up_vp: FloatArray = camera.R_cam_world.T @ vp.direction
+            return up_vp / float(np.linalg.norm(up_vp))
     heavy = sorted(regions, key=lambda r: (-r.weight, r.id))[:8]
     if len(heavy) < 2:
         return prior
@@ -290,6 +318,7 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
     regions: dict[str, RegionView] = {}
     segments: list[SegmentView] = []
     all_outlines: dict[str, list[FloatArray]] = {}
+    lines_px: dict[str, FloatArray] = {}
     for v in evidence.views:
         if v.frame != "world":
             continue
@@ -320,8 +349,10 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
             outline = undistort_pixels(np.array(c.points, dtype=np.float64), K, D)
             outlines.setdefault(c.region, []).append(outline)
             all_outlines.setdefault(f"{v.id}/{c.region}", []).append(outline)
-        for s in v.lines:
-            ends = undistort_pixels(np.array([s.p1, s.p2], dtype=np.float64), K, D)
+        ends_all = np.array([(s.p1, s.p2) for s in v.lines], dtype=np.float64).reshape(-1, 2, 2)
+        ends_all = undistort_pixels(ends_all.reshape(-1, 2), K, D).reshape(-1, 2, 2)
+        lines_px[v.id] = ends_all
+        for s, ends in zip(v.lines, ends_all, strict=True):
             borders = tuple(
                 f"{v.id}/{r}"
                 for r in s.regions
@@ -341,4 +372,5 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
         reference,
         source,
         {r: tuple(o) for r, o in all_outlines.items() if r in regions},
+        lines_px,
     )
