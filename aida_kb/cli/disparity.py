@@ -11,9 +11,13 @@ Output: float32 .npy (H, W), disparity x_left - x_right in pixels of the left im
 NaN where there is none (flat texture, occlusion, failed left-right check).
 
 examples:
+  aida-kb disparity left.png right.png -o disparity.npy
   aida-kb disparity left.png right.png -o disparity.npy --max-disp 64
   aida-kb disparity im0.png im1.png -o d.npy --max-disp 128 --window 11 --certainty c.npy
 """
+
+
+FALLBACK_NUM_DISP = 64  # searched when no --max-disp is given and too few features match
 
 
 def register(subparsers: Any) -> None:
@@ -31,7 +35,13 @@ def register(subparsers: Any) -> None:
     p.add_argument("left", help="left image (8-bit, rectified)")
     p.add_argument("right", help="right image (8-bit, rectified)")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="disparity .npy to write")
-    p.add_argument("--max-disp", type=int, default=64, metavar="N", help="disparities 0..N-1 (64)")
+    p.add_argument(
+        "--max-disp",
+        type=int,
+        default=None,
+        metavar="N",
+        help="disparities --min-disp..N-1 (default: the range found from sparse feature matches)",
+    )
     p.add_argument("--min-disp", type=int, default=0, metavar="N", help="smallest disparity (0)")
     p.add_argument("--window", type=int, default=15, metavar="N", help="odd window size (15)")
     p.add_argument(
@@ -54,6 +64,12 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.errors import VisionError
     from aida_kb.io.atomic import atomic_path, check_output
     from aida_kb.io.scene import read_image
+    from aida_kb.vision.disprange import (
+        MAX_NUM_DISP,
+        disparity_range,
+        saturation_warnings,
+        sparse_disparities,
+    )
     from aida_kb.vision.stereo import ncc_disparity
 
     if args.window < 3 or args.window % 2 == 0:
@@ -69,11 +85,31 @@ def run(args: argparse.Namespace) -> int:
             f"{args.left}: {left.shape[1]}x{left.shape[0]}"
         )
     start = time.perf_counter()
-    num = args.max_disp - args.min_disp
+    notes: list[str] = []
+    if args.max_disp is None:
+        found = disparity_range(left, right)
+        if found is None:
+            lo, num = args.min_disp, FALLBACK_NUM_DISP
+            notes.append(
+                f"{args.left}: too few feature matches to find the disparity range; "
+                f"searched {lo}..{lo + num - 1} px (give --max-disp)"
+            )
+        else:
+            lo = max(found.min_disp, args.min_disp)
+            num = found.num_disp - (lo - found.min_disp)
+    else:
+        lo, num = args.min_disp, args.max_disp - args.min_disp
+    if not 3 <= num <= MAX_NUM_DISP:
+        raise VisionError(
+            f"--min-disp {lo} --max-disp {lo + num}: 3..{MAX_NUM_DISP} disparities are searched"
+        )
     result = ncc_disparity(
-        left, right, min_disp=args.min_disp, num_disp=num, window=args.window, exact=args.exact
+        left, right, min_disp=lo, num_disp=num, window=args.window, exact=args.exact
     )
     elapsed = time.perf_counter() - start
+    sparse = sparse_disparities(left, right) if args.max_disp is not None else None
+    for text in notes + saturation_warnings(result, lo, num, sparse):
+        print(f"warning: {text}", file=sys.stderr)
     outputs = [(args.output, result.disparity)]
     if args.certainty:
         outputs.append((args.certainty, result.certainty))
@@ -81,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(path) as tmp, tmp.open("wb") as fh:
             np.save(fh, array, allow_pickle=False)
     print(
-        f"wrote {args.output}: {left.shape[1]}x{left.shape[0]}, density {result.density:.3f}, "
+        f"wrote {args.output}: {left.shape[1]}x{left.shape[0]}, disparities {lo}..{lo + num - 1}, "
+        f"density {result.density:.3f}, "
         f"{elapsed * 1000:.0f} ms",
         file=sys.stderr,
     )

@@ -41,12 +41,33 @@ def register(subparsers: Any) -> None:
         help="auto: labels.png where present (default); labels: require it; orientation: "
         "always segment planar regions of equal orientation from the depth",
     )
-    p.add_argument(
-        "--max-disp", type=int, default=128, metavar="N", help="disparities 0..N-1 (128)"
-    )
+    add_max_disp(p)
     p.add_argument("--window", type=int, default=11, metavar="N", help="NCC window (odd, 11)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(run=run)
+
+
+def add_max_disp(p: argparse.ArgumentParser) -> None:
+    """Add the ``--max-disp`` option of the commands that match stereo pairs."""
+    p.add_argument(
+        "--max-disp",
+        type=int,
+        default=None,
+        metavar="N",
+        help="search disparities 0..N-1 (default: the range found from sparse feature "
+        "matches of the rectified pair; a warning says when a result fills the range)",
+    )
+
+
+def check_max_disp(value: int | None) -> None:
+    """VisionError unless ``--max-disp`` is unset or within 3..256."""
+    from aida_kb.errors import VisionError
+
+    if value is not None and not 3 <= value <= MAX_DISP_LIMIT:
+        raise VisionError(f"--max-disp {value}: must lie within 3..{MAX_DISP_LIMIT}")
+
+
+MAX_DISP_LIMIT = 256  # the matcher's limit (aida_kb.vision.stereo.ncc_disparity)
 
 
 def parse_views(option: str | None) -> list[str] | None:
@@ -78,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
     if args.debug:
         make_dirs(args.debug)
     views = parse_views(args.views)
+    check_max_disp(args.max_disp)
     params = VisionParams(num_disp=args.max_disp, window=args.window)
     n_views = len(views) if views is not None else len(scene.views)
     console = Console(stderr=True)
@@ -97,7 +119,12 @@ def run(args: argparse.Namespace) -> int:
         evidence, products = scene_evidence(
             scene, views=views, params=params, segmentation=args.segmentation, stage=stage
         )
-    for view in evidence.views:
+    for prod in products:
+        for warning in prod.warnings:
+            console.print(f"warning: {warning}", markup=False, soft_wrap=True)
+    for view, prod in zip(evidence.views, products, strict=True):
+        lo, num = prod.disparity_range
+        console.print(f"view {view.id}: disparities searched {lo}..{lo + num - 1} px", markup=False)
         console.print(
             f"view {view.id} ({view.frame} frame, {view.segmentation}): "
             f"{len(view.regions)} regions, {len(view.lines)} lines, "

@@ -16,11 +16,14 @@ examples:
   aida-kb synth house -o out/house
   aida-kb reconstruct kb/buildings.kb out/house -o out/house-model
   aida-kb reconstruct kb/buildings.kb out/house -o out/m --views 00 --explain
+  aida-kb reconstruct kb/buildings.kb out/house -o out/m --max-disp 96
 """
 
 
 def register(subparsers: Any) -> None:
     """Add the `reconstruct` command."""
+    from aida_kb.cli.evidence import add_max_disp
+
     p = subparsers.add_parser(
         "reconstruct",
         help="scene directory -> evidence -> interpretation -> closed 3-D model",
@@ -39,6 +42,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--views", default=None, metavar="IDS", help="comma-separated view ids (default: all)"
     )
+    add_max_disp(p)
     p.add_argument("--explain", action="store_true", help="say why rejected hypotheses fell")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(run=run)
@@ -49,13 +53,14 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import Progress, TextColumn, TimeElapsedColumn
 
-    from aida_kb.cli.evidence import parse_views
+    from aida_kb.cli.evidence import check_max_disp, parse_views
     from aida_kb.cli.interpret import load_kb, print_interpretation
     from aida_kb.interpret.pipeline import reconstruct_scene
     from aida_kb.interpret.run import check_goal
     from aida_kb.io.atomic import make_dirs
 
     views = parse_views(args.views)
+    check_max_disp(args.max_disp)
     make_dirs(args.output)
     kb = load_kb(args.kb)
     check_goal(kb, args.goal)
@@ -70,7 +75,14 @@ def run(args: argparse.Namespace) -> int:
             progress.update(task, description=f"{where}{name}")
 
         result = reconstruct_scene(
-            kb, args.scene, args.output, goal=args.goal, views=views, stage=stage
+            kb,
+            args.scene,
+            args.output,
+            goal=args.goal,
+            views=views,
+            stage=stage,
+            max_disp=args.max_disp,
+            warn=lambda text: console.print(f"warning: {text}", markup=False, soft_wrap=True),
         )
     print_interpretation(result.interpretation, explain=args.explain)
     for path in result.files:

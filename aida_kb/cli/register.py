@@ -32,6 +32,8 @@ examples:
 
 def register(subparsers: Any) -> None:
     """Add the `register` command."""
+    from aida_kb.cli.evidence import add_max_disp
+
     p = subparsers.add_parser(
         "register",
         help="find a view's camera pose against a fixed model (viewpoint registration)",
@@ -59,6 +61,7 @@ def register(subparsers: Any) -> None:
         help="the model camera to start from (default: the model's first camera)",
     )
     p.add_argument("--no-regions", action="store_true", help="edge constraints only")
+    add_max_disp(p)
     p.add_argument(
         "--left-only",
         action="store_true",
@@ -71,9 +74,11 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Register the view and print its pose and residual."""
     import math
+    import sys
 
     import numpy as np
 
+    from aida_kb.cli.evidence import check_max_disp
     from aida_kb.errors import FormatError
     from aida_kb.io.model import read_model
     from aida_kb.io.scene import read_scene
@@ -84,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         register_evidence_view,
         right_segments,
     )
-    from aida_kb.vision.evidence import scene_evidence
+    from aida_kb.vision.evidence import VisionParams, scene_evidence
 
     if args.init_angle is not None and not math.isfinite(args.init_angle):
         raise FormatError(f"--init-angle must be a finite number of degrees, got {args.init_angle}")
@@ -100,7 +105,12 @@ def run(args: argparse.Namespace) -> int:
     model = RigidModel.from_model(model_file)
     check_reference_camera(model, ref_entry, args.model, index)
     scene = read_scene(args.scene, with_truth=False)
-    evidence, _ = scene_evidence(scene, views=[args.view])
+    check_max_disp(args.max_disp)
+    evidence, products = scene_evidence(
+        scene, views=[args.view], params=VisionParams(num_disp=args.max_disp)
+    )
+    for text in products[0].warnings:
+        print(f"warning: {text}", file=sys.stderr)
     reg = register_evidence_view(
         model,
         camera_of(ref_entry),

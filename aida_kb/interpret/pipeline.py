@@ -41,6 +41,8 @@ def reconstruct_scene(
     goal: str = "House",
     views: Sequence[str] | None = None,
     stage: Callable[[str, str], None] | None = None,
+    max_disp: int | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> Reconstruction:
     """Evidence of a scene's views, their interpretation, and the model; write the files.
 
@@ -49,13 +51,20 @@ def reconstruct_scene(
     a failed run leaves no half-written output. The scene's truth.json is never read.
     Every view is used: the first is interpreted, the others are registered against its
     model and the model is refined with all of them (`aida_kb.interpret.multiview`).
+    max_disp : disparities 0..max_disp-1 searched (None: found from feature matches).
+    warn : called with each warning of the vision front end (a disparity range too small).
     """
-    from aida_kb.vision.evidence import scene_evidence
+    from aida_kb.vision.evidence import VisionParams, scene_evidence
 
     check_goal(kb, goal)
     out = make_dirs(out_dir)
     scene = read_scene(scene_dir, with_truth=False)
-    evidence, _ = scene_evidence(scene, views=views, stage=stage)
+    params = VisionParams(num_disp=max_disp)
+    evidence, products = scene_evidence(scene, views=views, params=params, stage=stage)
+    for prod in products:
+        for text in prod.warnings:
+            if warn is not None:
+                warn(text)
     if stage is not None:
         stage("-", "interpretation")
     progress = None if stage is None else (lambda what: stage("-", what))

@@ -33,6 +33,7 @@ from aida_kb.io.evidence import (
 from aida_kb.io.model import Cahv
 from aida_kb.io.scene import Scene, SceneView, StereoCalib, read_image, read_labels
 from aida_kb.vision.depth import DepthMap, depth_map
+from aida_kb.vision.disprange import disparity_range, saturation_warnings, sparse_disparities
 from aida_kb.vision.lines import Segment, attach_segments, detect_segments
 from aida_kb.vision.planes import (
     PhotometricPair,
@@ -55,6 +56,7 @@ SegmentationMode = Literal["auto", "labels", "orientation"]
 
 STAGES = ("rectify", "disparity", "depth", "segmentation", "planes", "lines", "contours")
 MIN_FIT_SAMPLES = 30
+FALLBACK_NUM_DISP = 128  # disparities searched when neither given nor found from features
 # A disparity below this many pixels gives no depth worth the name: stereo noise of ~0.2 px
 # changes it by over 10 % (and near the horizon by kilometres). Such samples still shape the
 # plane in disparity space but not the metric centroid and RMS of the region.
@@ -70,7 +72,9 @@ MAX_RMS_DISTANCE_FRACTION = 0.05
 class VisionParams:
     """Parameters of the pipeline (defaults suit 640x480 building pairs)."""
 
-    num_disp: int = 128  # cheap with the adaptive range: only a half-resolution pass sees it all
+    # disparities min_disp .. min_disp + num_disp - 1 (pixels); num_disp None: the range is
+    # found from sparse feature matches (aida_kb.vision.disprange), else 0 .. FALLBACK_NUM_DISP
+    num_disp: int | None = None
     min_disp: int = 0
     window: int = 11  # small enough for narrow faces seen at grazing angles
     min_certainty: float = 0.05
@@ -97,6 +101,8 @@ class ViewProducts:
     segments: list[Segment]
     left: npt.NDArray[np.uint8]
     left_rectified: npt.NDArray[np.uint8]
+    disparity_range: tuple[int, int] = (0, 0)  # (min_disp, num_disp) searched, pixels
+    warnings: tuple[str, ...] = ()
 
 
 def _camera(K: F64, D: F64, R: F64, t: F64, size: tuple[int, int]) -> EvidenceCamera:
@@ -330,7 +336,10 @@ def process_view(
     rays = rays if rays is not None else original_rays(calib)
     left_r, right_r = rect.rectify(left, right)
     tick("disparity")
-    disp = ncc_disparity(left_r, right_r, min_disp=p.min_disp, num_disp=p.num_disp, window=p.window)
+    min_disp, num_disp, warnings = _search_range(left_r, right_r, p)
+    disp = ncc_disparity(left_r, right_r, min_disp=min_disp, num_disp=num_disp, window=p.window)
+    sparse = sparse_disparities(left_r, right_r) if p.num_disp is not None else None
+    warnings += saturation_warnings(disp, min_disp, num_disp, sparse)
     tick("depth")
     depth = depth_map(disp, rect, min_certainty=p.min_certainty)
     tick("segmentation")
@@ -413,7 +422,35 @@ def process_view(
         segments=segments,
         left=left,
         left_rectified=left_r,
+        disparity_range=(min_disp, num_disp),
+        warnings=tuple(f"view {view.id}: {w}" for w in warnings),
     )
+
+
+def _search_range(
+    left_r: npt.NDArray[np.uint8], right_r: npt.NDArray[np.uint8], p: VisionParams
+) -> tuple[int, int, list[str]]:
+    """(min_disp, num_disp) to search on a rectified pair, and warnings about the choice."""
+    if p.num_disp is not None:
+        return p.min_disp, p.num_disp, []
+    found = disparity_range(left_r, right_r)
+    if found is None:
+        return (
+            p.min_disp,
+            FALLBACK_NUM_DISP,
+            [
+                f"too few feature matches to find the disparity range; searching "
+                f"{p.min_disp}..{p.min_disp + FALLBACK_NUM_DISP - 1} px (set --max-disp)"
+            ],
+        )
+    notes = []
+    if found.clipped:
+        notes.append(
+            f"the feature matches span {found.low_px:.0f}..{found.high_px:.0f} px, more than "
+            f"{found.num_disp} disparities: searching {found.min_disp}.."
+            f"{found.min_disp + found.num_disp - 1} px, the farthest surfaces get no depth"
+        )
+    return found.min_disp, found.num_disp, notes
 
 
 def scene_evidence(
