@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -142,12 +142,28 @@ def compile_or_report(path: Path) -> Any:
     return result.kb
 
 
-def write_output(output: str | None, text: str) -> None:
-    """`text` to stdout (`output` None or ``-``) or to the file `output`, written atomically."""
+def check_output_file(output: str | None, inputs: Iterable[str | os.PathLike[str]]) -> None:
+    """Refuse (FormatError) an ``-o`` file that is one of `inputs`; stdout (None, ``-``) passes."""
+    if output is None or output == "-":
+        return
+    from aida_kb.io.atomic import check_outputs
+
+    check_outputs([output], inputs)
+
+
+def write_output(
+    output: str | None, text: str, inputs: Iterable[str | os.PathLike[str]] = ()
+) -> None:
+    """`text` to stdout (`output` None or ``-``) or to the file `output`, written atomically.
+
+    `inputs` are the files the command read (the .kb file and its imports): writing over one
+    of them is refused.
+    """
     if output is None or output == "-":
         sys.stdout.write(text)
         sys.stdout.flush()
         return
     from aida_kb.io.atomic import write_text_atomic
 
+    check_output_file(output, inputs)
     write_text_atomic(output, text)

@@ -40,10 +40,11 @@ def run(args: argparse.Namespace) -> int:
     """Compile FILE and write its model; exit 1 (writing nothing) if it has errors."""
     from pathlib import Path
 
-    from aida_kb.cli._kbfiles import compile_or_report, write_output
+    from aida_kb.cli._kbfiles import check_output_file, compile_or_report, write_output
 
+    check_output_file(args.output, [args.file])
     kb = compile_or_report(Path(args.file))
     if kb is None:
         return 1
-    write_output(args.output, kb.model_dump_json(indent=2) + "\n")
+    write_output(args.output, kb.model_dump_json(indent=2) + "\n", [args.file, *kb.files])
     return 0

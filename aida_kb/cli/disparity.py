@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from aida_kb.errors import VisionError
-    from aida_kb.io.atomic import atomic_path, check_output
+    from aida_kb.io.atomic import atomic_path, check_outputs
     from aida_kb.io.scene import read_image
     from aida_kb.vision.disprange import (
         MAX_NUM_DISP,
@@ -74,9 +74,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.window < 3 or args.window % 2 == 0:
         raise VisionError(f"--window {args.window}: the window must be odd and >= 3 pixels")
-    for path in (args.output, args.certainty):
-        if path:
-            check_output(path, (args.left, args.right))
+    check_outputs([p for p in (args.output, args.certainty) if p], (args.left, args.right))
     left = read_image(args.left, grey=True)
     right = read_image(args.right, grey=True)
     if left.shape != right.shape:

@@ -86,18 +86,14 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from aida_kb.errors import VisionError
-    from aida_kb.io.atomic import check_output, make_dirs
+    from aida_kb.io.atomic import check_outputs
     from aida_kb.io.evidence import write_evidence
     from aida_kb.io.scene import read_scene
     from aida_kb.vision.debug import write_debug
     from aida_kb.vision.evidence import STAGES, VisionParams, scene_evidence
 
     scene = read_scene(args.scene, with_truth=False)
-    inputs = [scene.root / "scene.yaml"]
-    inputs += [p for v in scene.views for p in (v.left, v.right, v.labels, v.depth_left) if p]
-    check_output(args.output, inputs)
-    if args.debug:
-        make_dirs(args.debug)
+    check_outputs([args.output], scene.files, directories=[args.debug] if args.debug else [])
     views = parse_views(args.views)
     check_max_disp(args.max_disp)
     params = VisionParams(num_disp=args.max_disp, window=args.window)

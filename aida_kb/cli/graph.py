@@ -122,9 +122,10 @@ def run(args: argparse.Namespace) -> int:
     """Compile FILE, build its net and write it; exit 1 if the knowledge base has errors."""
     from pathlib import Path
 
-    from aida_kb.cli._kbfiles import compile_or_report, write_output
+    from aida_kb.cli._kbfiles import check_output_file, compile_or_report, write_output
     from aida_kb.kb import build_net
 
+    check_output_file(args.output, [args.file])
     kb = compile_or_report(Path(args.file))
     if kb is None:
         return 1
@@ -135,5 +136,5 @@ def run(args: argparse.Namespace) -> int:
         text = to_graphml(net)
     else:
         text = to_json(net)
-    write_output(args.output, text)
+    write_output(args.output, text, [args.file, *kb.files])
     return 0

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
-from aida_kb.io.atomic import make_dirs
+from aida_kb.io.atomic import check_outputs
 from aida_kb.io.evidence import Evidence, write_evidence
 from aida_kb.io.model import write_model, write_obj
 from aida_kb.io.scene import read_scene
@@ -57,8 +57,9 @@ def reconstruct_scene(
     from aida_kb.vision.evidence import VisionParams, scene_evidence
 
     check_goal(kb, goal)
-    out = make_dirs(out_dir)
     scene = read_scene(scene_dir, with_truth=False)
+    check_outputs([], [*kb.files, *scene.files], directories=[out_dir])
+    out = Path(out_dir)
     params = VisionParams(num_disp=max_disp)
     evidence, products = scene_evidence(scene, views=views, params=params, stage=stage)
     for prod in products:

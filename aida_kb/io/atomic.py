@@ -8,7 +8,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 from aida_kb.errors import FormatError
@@ -30,24 +30,92 @@ def make_dirs(directory: str | os.PathLike[str]) -> Path:
     return path
 
 
+def _same_file(a: Path, b: Path) -> bool:
+    """True when `a` and `b` name one file: the same resolved path, or the same inode."""
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet)
+        return False
+
+
+def _inside(inner: Path, outer: Path) -> bool:
+    """True when `inner` is `outer` or lies below it (resolved paths: symlinks followed)."""
+    return inner.resolve().is_relative_to(outer.resolve())
+
+
+def check_outputs(
+    outputs: Sequence[str | os.PathLike[str]],
+    inputs: Iterable[str | os.PathLike[str]] = (),
+    *,
+    directories: Sequence[str | os.PathLike[str]] = (),
+) -> list[Path]:
+    """Fail early (FormatError, one line) unless every output can be written beside the inputs.
+
+    The one check every command runs before its work. `outputs` are files to write,
+    `directories` folders to write into, `inputs` every file or folder the command reads.
+    Refused: an output file that is an input (same resolved path or the same inode, so
+    symlinks and hard links count); a file named twice as an output; an output folder that
+    is, contains or lies inside an input. A new file inside an input *folder* is fine
+    (``evidence SCENE -o SCENE/evidence.json``). Missing folders are created; they must be
+    writable.
+    """
+    files = [Path(p) for p in outputs]
+    folders = [Path(p) for p in directories]
+    sources = [Path(p) for p in inputs]
+    for i, path in enumerate(files):
+        for other in files[:i]:
+            if _same_file(path, other):
+                raise FormatError(f"{path}: named twice as an output (also as {other})")
+        for source in sources:
+            if _same_file(path, source):
+                raise FormatError(f"{path}: cannot write the output over the input file {source}")
+        if path.is_dir():
+            raise FormatError(f"{path}: cannot write the output: it is a directory")
+    for folder in folders:
+        for source in sources:
+            if _inside(source, folder) or _inside(folder, source):
+                relation = "is or contains" if _inside(source, folder) else "lies inside"
+                raise FormatError(
+                    f"{folder}: cannot write the outputs there: the folder {relation} "
+                    f"the input {source}"
+                )
+        if folder.exists() and not folder.is_dir():
+            raise FormatError(f"{folder}: cannot create the output directory: it is a file")
+    for path in files:
+        parent = make_dirs(path.parent)
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise FormatError(f"{path}: cannot write the output: {parent} is not writable")
+    for folder in folders:
+        make_dirs(folder)
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise FormatError(f"{folder}: cannot write the outputs: it is not writable")
+    return files
+
+
 def check_output(
     target: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]] = ()
 ) -> Path:
-    """Fail early (FormatError) if `target` cannot be written; create its folder if missing.
+    """`check_outputs` for a single output file: fail early if it cannot be written."""
+    return check_outputs([target], inputs)[0]
 
-    For commands that work for a while before writing: a wrong ``-o`` is reported at once.
-    `inputs` are the files the command reads; writing over one of them is refused too.
-    """
-    path = Path(target)
-    for source in inputs:
-        if Path(source).exists() and path.exists() and path.samefile(source):
-            raise FormatError(f"{path}: cannot write the output over the input file {source}")
-    if path.is_dir():
-        raise FormatError(f"{path}: cannot write the output: it is a directory")
-    folder = make_dirs(path.parent)
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise FormatError(f"{path}: cannot write the output: {folder} is not writable")
-    return path
+
+def _umask() -> int:
+    """The process's umask (read by setting it and restoring it at once)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def file_mode() -> int:
+    """The permissions a new output file gets: ``0o666`` less the umask (as ``open`` does)."""
+    return 0o666 & ~_umask()
+
+
+def dir_mode() -> int:
+    """The permissions a new output folder gets: ``0o777`` less the umask (as ``mkdir`` does)."""
+    return 0o777 & ~_umask()
 
 
 @contextlib.contextmanager
@@ -75,8 +143,12 @@ def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
         )
     except OSError as exc:
         raise FormatError(f"{target_path}: cannot write the output: {exc.strerror}") from None
-    os.close(fd)
     tmp = Path(tmp_name)
+    try:
+        # mkstemp creates the file 0600; an output gets what the umask gives, as with open()
+        os.fchmod(fd, file_mode())
+    finally:
+        os.close(fd)
     try:
         yield tmp
         os.replace(tmp, target_path)

@@ -359,13 +359,18 @@ class SceneView:
 
 @dataclass(frozen=True)
 class Scene:
-    """A scene directory as read by `read_scene`: calibration, views, optional ground truth."""
+    """A scene directory as read by `read_scene`: calibration, views, optional ground truth.
+
+    ``files`` lists every file of the scene (scene.yaml, the calibration, the view images,
+    labels and depth maps, truth.json): the inputs no output may overwrite.
+    """
 
     root: Path
     name: str
     calib: StereoCalib
     views: tuple[SceneView, ...]
     truth: SceneTruth | None = None
+    files: tuple[Path, ...] = ()
 
     def view(self, view_id: str) -> SceneView:
         """The view with id `view_id` (KeyError if there is none)."""
@@ -417,7 +422,8 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
         raise FormatError(f"{root}: not a directory (expected a scene directory)")
     index_file = root / SCENE_FILE
     index = _read_index(index_file)
-    calib = read_calib(_resolve(root, index_file, "calib", index.calib))
+    calib_file = _resolve(root, index_file, "calib", index.calib)
+    calib = read_calib(calib_file)
     views = []
     for i, v in enumerate(index.views):
         prefix = f"views[{i}]"
@@ -439,6 +445,10 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
             raise FormatError(
                 f"{index_file}: field views[{i}].right: the same file as the left image"
             )
+    files = [index_file, calib_file]
+    files += [p for v in views for p in (v.left, v.right, v.labels, v.depth_left) if p]
+    if index.truth is not None:
+        files.append(root / index.truth)
     truth = None
     if with_truth and index.truth is not None:
         truth_file = _resolve(root, index_file, "truth", index.truth)
@@ -453,7 +463,14 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
         labels = [p.label for p in truth.parts] + ([truth.ground.label] if truth.ground else [])
         if len(set(labels)) != len(labels):
             raise FormatError(f"{truth_file}: field parts: label ids must be unique")
-    return Scene(root=root, name=index.name, calib=calib, views=tuple(views), truth=truth)
+    return Scene(
+        root=root,
+        name=index.name,
+        calib=calib,
+        views=tuple(views),
+        truth=truth,
+        files=tuple(files),
+    )
 
 
 def _existing_file(file: Path) -> Path:
