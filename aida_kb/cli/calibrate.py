@@ -59,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
         raise VisionError(f"--pattern {args.pattern!r}: need at least 2x2 inner corners")
     if not (math.isfinite(args.square) and args.square > 0):
         raise VisionError(f"--square {args.square}: expected a positive side length in metres")
+    check_output(args.output)  # a wrong -o fails at once, before the images are looked for
     pairs = find_pairs(args.directory)
     check_output(args.output, [p for pair in pairs for p in pair])
     result = calibrate_stereo(pairs, (int(cols), int(rows)), float(args.square))
