@@ -11,7 +11,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "aida_kb"
 
 # Bottom to top. A package may import any package at a lower or equal index.
 LAYERS: list[set[str]] = [
-    {"errors", "__init__"},
+    {"errors", "limits", "__init__"},
     {"diagnostics"},
     {"dsl"},
     {"kb"},

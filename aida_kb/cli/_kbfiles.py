@@ -90,8 +90,10 @@ def collect_kb_files(paths: Sequence[str]) -> tuple[list[Path], list[str]]:
 
 def read_source(path: Path) -> str:
     """The text of a .kb file; `FormatError` naming the file when it cannot be read as UTF-8."""
+    from aida_kb.limits import MAX_KB_BYTES, read_text_limited
+
     try:
-        return path.read_text(encoding="utf-8")
+        return read_text_limited(path, MAX_KB_BYTES)
     except UnicodeDecodeError as exc:
         raise FormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except OSError as exc:

@@ -71,6 +71,10 @@ UNEXPECTED_EOF = register(
 BAD_RELATION = register(
     "KB009", Severity.ERROR, "a relation is neither a call such as parallel(a, b) nor a comparison"
 )
+NUMBER_TOO_LARGE = register(
+    "KB010", Severity.ERROR, "a number is beyond the range of a 64-bit float (such as 1e999)"
+)
+NESTED_TOO_DEEP = register("KB011", Severity.ERROR, "calls or lists are nested more than 32 deep")
 INTERNAL_PARSER_ERROR = register(
     "KB099", Severity.ERROR, "the parser failed unexpectedly (a bug in aida-kb: please report it)"
 )

@@ -105,6 +105,11 @@ _ESCAPE = re.compile(r"\\(.)")
 _ESCAPES = {"n": "\n", "t": "\t", "r": "\r"}
 _QUANTITY = re.compile(r"(-?[0-9.eE+-]+?)[ \t]*([A-Za-z_][A-Za-z0-9_]*)$")
 _INTEGER = re.compile(r"[0-9]+$")
+#: Calls and lists nested deeper than this are refused (KB011): the checks and the build walk
+#: expressions recursively, and the deepest in a real knowledge base is edge(edge(a, b)).
+MAX_EXPR_DEPTH = 32
+#: A cardinality bound longer than this is refused (KB006); 10**9 parts are no building.
+_MAX_BOUND_DIGITS = 9
 
 
 def _unescape(literal: str) -> str:
@@ -122,11 +127,39 @@ class _Builder(Transformer[Token, Any]):
         self.file = "<string>"
         self.line_offset = 0
         self.diagnostics: list[Diagnostic] = []
+        self.depth: dict[int, int] = {}  # id of a Call or ListExpr -> its nesting depth
 
     def reset(self, file: str, line_offset: int) -> None:
         self.file = file
         self.line_offset = line_offset
         self.diagnostics = []
+        self.depth = {}
+
+    def nested(self, children: Any, span: Span) -> int:
+        """The nesting depth of a new call or list over `children`; KB011 the first time that
+        it exceeds `MAX_EXPR_DEPTH` (the caller then drops the children: no deep tree)."""
+        depth = self.depth
+        inner = max((depth.get(id(c), 0) for c in children if isinstance(c, _NESTING)), default=0)
+        if inner == MAX_EXPR_DEPTH:
+            self.report(
+                codes.NESTED_TOO_DEEP,
+                f"calls or lists nested more than {MAX_EXPR_DEPTH} deep",
+                span,
+                "write the relation with fewer levels (a template per level of meaning)",
+            )
+        return inner + 1
+
+    def finite(self, tok: Token, text: str) -> float:
+        """`text` as a float; KB010 (and 1.0 in its place) when it is beyond float64's range."""
+        value = float(text)
+        if value in (_INF, -_INF):
+            self.report(
+                codes.NUMBER_TOO_LARGE,
+                f"the number {str(tok)[:24]} is beyond the range of a 64-bit float (about 1.8e308)",
+                self.tspan(tok),
+            )
+            return 1.0
+        return value
 
     # -- spans
     def span(self, ch: list[Any]) -> Span:
@@ -240,7 +273,11 @@ class _Builder(Transformer[Token, Any]):
 
     def list_value(self, ch: list[Any]) -> ast.ListExpr:
         items = tuple(c for c in ch if c is not None and not isinstance(c, Token))
-        return ast.ListExpr(items, self.span(ch))
+        span = self.span(ch)
+        depth = self.nested(items, span)
+        node = ast.ListExpr(items if depth <= MAX_EXPR_DEPTH else (), span)
+        self.depth[id(node)] = depth
+        return node
 
     def doc(self, ch: list[Token]) -> _Doc:
         if not ch:
@@ -277,11 +314,14 @@ class _Builder(Transformer[Token, Any]):
 
     def int_bound(self, tok: Token, span: Span) -> int:
         text = str(tok)
-        if _INTEGER.match(text):
+        if _INTEGER.match(text) and len(text.lstrip("0")) <= _MAX_BOUND_DIGITS:
             return int(text)
+        whole = _INTEGER.match(text) is not None
         self.report(
             codes.BAD_CARDINALITY,
-            f"a cardinality bound must be a whole number, not {text}",
+            f"a cardinality bound must be at most {_MAX_BOUND_DIGITS} digits long"
+            if whole
+            else f"a cardinality bound must be a whole number, not {text[:24]}",
             self.tspan(tok),
             "write [1..*], [0..4] or [2]",
         )
@@ -417,7 +457,11 @@ class _Builder(Transformer[Token, Any]):
     # -- expressions
     def call(self, ch: list[Any]) -> ast.Call:
         args = tuple(c for c in ch[2:] if c is not None and not isinstance(c, Token))
-        return ast.Call(self.name(ch[0]), args, self.span(ch))
+        span = self.span(ch)
+        depth = self.nested(args, span)
+        node = ast.Call(self.name(ch[0]), args if depth <= MAX_EXPR_DEPTH else (), span)
+        self.depth[id(node)] = depth
+        return node
 
     def path(self, ch: list[Token]) -> ast.Path:
         if len(ch) == 1:
@@ -427,7 +471,7 @@ class _Builder(Transformer[Token, Any]):
 
     def number(self, ch: list[Token]) -> ast.Number:
         tok = ch[0]
-        return ast.Number(float(tok), str(tok), self.tspan(tok))
+        return ast.Number(self.finite(tok, str(tok)), str(tok), self.tspan(tok))
 
     def quantity(self, ch: list[Token]) -> ast.Quantity:
         tok = ch[0]
@@ -444,7 +488,7 @@ class _Builder(Transformer[Token, Any]):
                 Span(span.file, span.end_line, unit_col, span.end_line, span.end_column),
                 f"did you mean '{close[0]}'?" if close else None,
             )
-        return ast.Quantity(float(number), unit, text, span)
+        return ast.Quantity(self.finite(tok, number), unit, text, span)
 
     def string(self, ch: list[Token]) -> ast.String:
         return ast.String(_unescape(str(ch[0])), self.tspan(ch[0]))
@@ -490,6 +534,8 @@ def _make_path(parts: tuple[ast.Name, ...], span: Span) -> ast.Path:
 
 
 _UNPOSITIONED = (_Doc, tuple)
+_NESTING = (ast.Call, ast.ListExpr)
+_INF = float("inf")
 
 
 def _names(ch: list[Any]) -> list[Token]:

@@ -12,6 +12,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from aida_kb.errors import FormatError
 from aida_kb.io.atomic import write_text_atomic
+from aida_kb.limits import MAX_JSON_BYTES, nesting_problem, read_limited
 
 ModelT = TypeVar("ModelT", bound=BaseModel)
 
@@ -79,22 +80,34 @@ def read_text_file(path: str | os.PathLike[str]) -> str:
     """The UTF-8 text of a file; FormatError naming it when missing or unreadable."""
     file = Path(path)
     try:
-        return file.read_text(encoding="utf-8")
+        return read_limited(file, MAX_JSON_BYTES).decode("utf-8")
     except FileNotFoundError:
         raise FormatError(f"{file}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FormatError(f"{file}: cannot be read: {exc}") from None
+    except OSError as exc:
+        raise FormatError(f"{file}: cannot be read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise FormatError(f"{file}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
 
 def read_json_model(path: str | os.PathLike[str], model: type[ModelT]) -> ModelT:
     """Load and validate a JSON file as `model`; raise FormatError naming the file and field."""
     file = Path(path)
     text = read_text_file(file)
+    problem = nesting_problem(text)
+    if problem is not None:
+        raise FormatError(f"{file}:{problem}")
     try:
-        data = json.loads(text)
+        data = json.loads(text, parse_constant=_no_constant)
     except json.JSONDecodeError as exc:
         raise FormatError(f"{file}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}") from None
+    except (ValueError, RecursionError) as exc:  # parse_constant's refusal
+        raise FormatError(f"{file}: not valid JSON: {exc}") from None
     return validate_model(model, data, str(file))
+
+
+def _no_constant(name: str) -> Any:
+    """``NaN``, ``Infinity``: Python's json reads them, the formats forbid them."""
+    raise ValueError(f"{name} is not a number the formats allow")
 
 
 def write_json_model(

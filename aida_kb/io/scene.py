@@ -39,6 +39,16 @@ from aida_kb.io.jsonio import (
     write_json_model,
 )
 from aida_kb.io.model import Finite, Mat3, Vec3, ViewId, check_camera
+from aida_kb.limits import (
+    MAX_CALIB_BYTES,
+    MAX_IMAGE_BYTES,
+    MAX_NESTING,
+    MAX_YAML_BYTES,
+    image_header_size,
+    image_size_problem,
+    nesting_problem,
+    read_limited,
+)
 
 SCENE_FORMAT = "aida-kb-scene"
 SCENE_VERSION = 1
@@ -299,8 +309,13 @@ def read_calib(path: str | os.PathLike[str]) -> StereoCalib:
     import cv2
 
     file = Path(path)
-    if not file.is_file():
+    if not file.exists():
         raise FormatError(f"{file}: no such file")
+    # OpenCV's parser recurses per level (50,000 levels: SIGSEGV): size and nesting first
+    text = _read_text(file, MAX_CALIB_BYTES)
+    problem = nesting_problem(text, indentation=True, xml=True)
+    if problem is not None:
+        raise FormatError(f"{file}:{problem}")
     try:
         fs = cv2.FileStorage(str(file), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as exc:
@@ -380,19 +395,47 @@ class Scene:
         raise KeyError(view_id)
 
 
-def _read_index(file: Path) -> SceneIndex:
+def _read_text(file: Path, limit: int) -> str:
+    """The UTF-8 text of `file` (a regular file of at most `limit` bytes); FormatError."""
     try:
-        text = file.read_text(encoding="utf-8")
+        return read_limited(file, limit).decode("utf-8")
     except FileNotFoundError:
-        raise FormatError(f"{file}: no such file (is {file.parent} a scene directory?)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FormatError(f"{file}: cannot be read: {exc}") from None
+        raise FormatError(f"{file}: no such file") from None
+    except OSError as exc:
+        raise FormatError(f"{file}: cannot be read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise FormatError(f"{file}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+
+
+class _IndexLoader(yaml.SafeLoader):
+    """PyYAML's safe loader without aliases: ``*a`` repeated builds exponentially large data
+    (the 'billion laughs'), and scene.yaml has no use for them."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            mark = self.peek_event().start_mark  # type: ignore[no-untyped-call]
+            where = f"{mark.line + 1}:{mark.column + 1}"
+            raise yaml.YAMLError(f"{where}: aliases (*name) are not allowed")
+        return super().compose_node(parent, index)
+
+
+def _read_index(file: Path) -> SceneIndex:
+    if not file.exists():
+        raise FormatError(f"{file}: no such file (is {file.parent} a scene directory?)")
+    text = _read_text(file, MAX_YAML_BYTES)
+    problem = nesting_problem(text, indentation=True)
+    if problem is not None:
+        raise FormatError(f"{file}:{problem}")
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_IndexLoader)
+    except RecursionError:
+        raise FormatError(f"{file}: nested more than {MAX_NESTING} deep") from None
+    except ValueError as exc:  # e.g. an integer beyond Python's conversion limit
+        raise FormatError(f"{file}: not valid YAML: {exc}") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or "syntax error"
+        problem = getattr(exc, "problem", None) or str(exc) or "syntax error"
         raise FormatError(f"{file}{where}: not valid YAML: {problem}") from None
     if not isinstance(data, dict):
         raise FormatError(f"{file}: expected a mapping with fields format, version, views")
@@ -480,20 +523,49 @@ def _existing_file(file: Path) -> Path:
     return file
 
 
+def _image_bytes(file: Path) -> npt.NDArray[np.uint8]:
+    """The encoded bytes of an image file whose header size is within the limits.
+
+    A regular file of at most `MAX_IMAGE_BYTES`; PNG, JPEG, BMP and PNM headers are read
+    before anything is decoded (a 20000x15000 PNG is refused unread), other formats are
+    checked once decoded (`_decoded`).
+    """
+    _existing_file(file)
+    try:
+        data = read_limited(file, MAX_IMAGE_BYTES)
+    except OSError as exc:
+        raise FormatError(f"{file}: cannot be read: {exc.strerror or exc}") from None
+    size = image_header_size(data)
+    problem = None if size is None else image_size_problem(*size)
+    if problem is not None:
+        raise FormatError(f"{file}: {problem}")
+    return np.frombuffer(data, np.uint8)
+
+
+def _decoded(file: Path, data: npt.NDArray[np.uint8], flags: int) -> npt.NDArray[Any]:
+    import cv2
+
+    img = cv2.imdecode(data, flags) if data.size else None
+    if img is None:
+        raise FormatError(f"{file}: not a readable image")
+    problem = image_size_problem(img.shape[1], img.shape[0])
+    if problem is not None:
+        raise FormatError(f"{file}: {problem}")
+    return np.asarray(img)
+
+
 def read_image(path: str | os.PathLike[str], *, grey: bool = False) -> npt.NDArray[np.uint8]:
     """Load an 8-bit view image: (H, W) if grey, else (H, W, 3) BGR (grey files are expanded)."""
     import cv2
 
     file = Path(path)
+    data = _image_bytes(file)
     # look at the stored depth first: IMREAD_COLOR would silently scale 16 bits down to 8
-    raw = cv2.imread(str(_existing_file(file)), cv2.IMREAD_UNCHANGED)
-    if raw is None:
-        raise FormatError(f"{file}: not a readable image")
+    raw = _decoded(file, data, cv2.IMREAD_UNCHANGED)
     if raw.dtype != np.uint8:
         raise FormatError(f"{file}: expected an 8-bit image, got {raw.dtype}")
-    img = cv2.imread(str(file), cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR)
-    if img is None:
-        raise FormatError(f"{file}: not a readable image")
+    del raw
+    img = _decoded(file, data, cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR)
     return np.asarray(img, dtype=np.uint8)
 
 
@@ -502,9 +574,7 @@ def read_labels(path: str | os.PathLike[str]) -> npt.NDArray[np.uint16]:
     import cv2
 
     file = Path(path)
-    img = cv2.imread(str(_existing_file(file)), cv2.IMREAD_UNCHANGED)
-    if img is None:
-        raise FormatError(f"{file}: not a readable image")
+    img = _decoded(file, _image_bytes(file), cv2.IMREAD_UNCHANGED)
     if img.ndim != 2:
         raise FormatError(f"{file}: a label image must have one channel, has {img.shape[2]}")
     if img.dtype not in (np.uint16, np.uint8):
@@ -515,6 +585,21 @@ def read_labels(path: str | os.PathLike[str]) -> npt.NDArray[np.uint16]:
 def read_depth(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
     """Load a depth map (H, W) float32, metres along the left camera's z axis, NaN = none."""
     file = Path(path)
+    try:
+        # the header first: a shape beyond the image limit is refused before the array is read
+        with _existing_file(file).open("rb") as fh:
+            fmt = np.lib.format
+            version = fmt.read_magic(fh)
+            read_header = (
+                fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
+            )
+            shape, _, _ = read_header(fh)
+    except (OSError, ValueError) as exc:
+        raise FormatError(f"{file}: not a numpy .npy array: {exc}") from None
+    if len(shape) == 2:
+        problem = image_size_problem(shape[1], shape[0])
+        if problem is not None:
+            raise FormatError(f"{file}: {problem}")
     try:
         arr = np.load(file, allow_pickle=False)
     except (OSError, ValueError) as exc:

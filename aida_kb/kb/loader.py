@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
 from aida_kb.dsl import ast, parse
+from aida_kb.limits import MAX_KB_BYTES, read_text_limited
 
 __all__ = ["Loaded", "load_path", "load_text"]
 
@@ -42,8 +43,7 @@ def _diag(code: codes.Code, message: str, span: Span, hint: str | None = None) -
 
 def _read(path: str) -> str | Exception:
     try:
-        with open(path, encoding="utf-8") as fh:
-            return fh.read()
+        return read_text_limited(path, MAX_KB_BYTES)
     except (OSError, UnicodeDecodeError) as exc:
         return exc
 

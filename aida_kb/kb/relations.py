@@ -48,6 +48,9 @@ _KIND_WORDS = {
 _EXAMPLE = {"angle": "90 deg", "length": "2 m", "image": "1 px", "number": "2"}
 PRIMITIVES = ("angle", "parallel", "edge", "position")
 _MEASUREMENTS = ("position", "edge")
+#: The smallest tolerance (SI: rad, m, px). Below it the weight 1/sigma² leaves float64's
+#: normal range (sigma = 1e-300 deg squares to 0); 1e-12 already means "exactly".
+MIN_TOLERANCE = 1e-12
 
 
 def quantity_si(q: ast.Quantity) -> float:
@@ -608,6 +611,16 @@ class Analyzer:
         ):
             self.report(diag(codes.BAD_QUALIFIER, "a tolerance must be positive", expr.span))
             return None
+        if v is not None and any(0 < x < MIN_TOLERANCE for x, _ in v.alts):
+            self.report(
+                diag(
+                    codes.BAD_QUALIFIER,
+                    f"a tolerance must be at least {MIN_TOLERANCE:g} (SI units): its weight "
+                    "1/sigma² would not be a finite number",
+                    expr.span,
+                )
+            )
+            return None
         return v
 
     def threshold(self, expr: ast.Expr, kind: str, env: dict[str, Arg]) -> _Threshold | None:
@@ -781,7 +794,8 @@ class Analyzer:
         unit = _SI[tol_kind] if measurement else "rad"
         weight = quals.weight
         if weight is None:
-            weight = 1.0 / (sigma * sigma) if sigma else 1.0
+            # MIN_TOLERANCE keeps sigma² a normal float (1e-300 deg: sigma² underflows to 0)
+            weight = 1.0 / (sigma * sigma) if sigma and sigma >= MIN_TOLERANCE else 1.0
         reject = None
         if quals.reject is not None:
             r, multiple, _, _ = quals.reject
