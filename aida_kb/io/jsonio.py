@@ -97,17 +97,13 @@ def read_json_model(path: str | os.PathLike[str], model: type[ModelT]) -> ModelT
     if problem is not None:
         raise FormatError(f"{file}:{problem}")
     try:
-        data = json.loads(text, parse_constant=_no_constant)
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise FormatError(f"{file}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}") from None
-    except (ValueError, RecursionError) as exc:  # parse_constant's refusal
+    except (ValueError, RecursionError) as exc:  # a backstop: nesting_problem checked first
         raise FormatError(f"{file}: not valid JSON: {exc}") from None
     return validate_model(model, data, str(file))
 
-
-def _no_constant(name: str) -> Any:
-    """``NaN``, ``Infinity``: Python's json reads them, the formats forbid them."""
-    raise ValueError(f"{name} is not a number the formats allow")
 
 
 def write_json_model(

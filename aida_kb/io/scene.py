@@ -23,6 +23,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from tokenize import TokenError
 from typing import Any, Literal
 
 import numpy as np
@@ -594,8 +595,9 @@ def read_depth(path: str | os.PathLike[str]) -> npt.NDArray[np.float32]:
                 fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0
             )
             shape, _, _ = read_header(fh)
-    except (OSError, ValueError) as exc:
-        raise FormatError(f"{file}: not a numpy .npy array: {exc}") from None
+    except (OSError, ValueError, SyntaxError, TokenError) as exc:  # numpy parses the header
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise FormatError(f"{file}: not a numpy .npy array: {why}") from None
     if len(shape) == 2:
         problem = image_size_problem(shape[1], shape[0])
         if problem is not None:

@@ -56,14 +56,6 @@ def test_json_5000_digit_number(tmp_path: Path, reader: object) -> None:
     assert "a number longer than" in _one_line(exc, file)
 
 
-def test_json_nan_constant_is_refused(tmp_path: Path) -> None:
-    file = tmp_path / "nan.json"
-    file.write_text('{"format": NaN}')
-    with pytest.raises(FormatError) as exc:
-        read_model(file)
-    assert "NaN" in _one_line(exc, file)
-
-
 def _scene(tmp_path: Path) -> Path:
     K = np.array([[60.0, 0.0, 31.5], [0.0, 60.0, 23.5], [0.0, 0.0, 1.0]])
     calib = StereoCalib(K, np.zeros(5), K, np.zeros(5), np.eye(3), np.array([-0.3, 0, 0]), (64, 48))
