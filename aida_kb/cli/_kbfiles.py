@@ -100,7 +100,19 @@ def read_source(path: Path) -> str:
         raise FormatError(f"{path}: cannot read: {exc.strerror or exc}") from None
 
 
-def check(path: Path) -> CompileResult:
+def add_import_path_option(parser: Any) -> None:
+    """``--import-path DIR`` (repeatable): a folder imports may also resolve into."""
+    parser.add_argument(
+        "--import-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="also resolve imports in DIR, and allow them there (default: only the root "
+        "file's folder; docs/language.md §2.2)",
+    )
+
+
+def check(path: Path, import_paths: Sequence[str] = ()) -> CompileResult:
     """Read and compile one .kb file (its imports included); `FormatError` if it is unreadable.
 
     The root file is read here first, so that an unreadable file named on the command line is
@@ -110,7 +122,7 @@ def check(path: Path) -> CompileResult:
 
     name = display_path(path)
     read_source(path)
-    return compile_path(name)
+    return compile_path(name, search_paths=import_paths)
 
 
 def use_color(stream: Any, choice: str = "auto") -> bool:
@@ -128,12 +140,12 @@ def print_error(message: str) -> None:
     print(f"aida-kb: error: {message}", file=sys.stderr)
 
 
-def compile_or_report(path: Path) -> Any:
+def compile_or_report(path: Path, import_paths: Sequence[str] = ()) -> Any:
     """Compile `path`; print its diagnostics to stderr; the KnowledgeBase, or None on errors."""
     from aida_kb.diagnostics.core import Diagnostic
     from aida_kb.diagnostics.render import render_summary, render_text
 
-    result = check(path)
+    result = check(path, import_paths)
     if result.diagnostics:
         diags = sorted(result.diagnostics, key=Diagnostic.sort_key)
         color = use_color(sys.stderr)

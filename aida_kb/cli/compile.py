@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from aida_kb.cli._kbfiles import add_import_path_option
+
 EXAMPLE = """\
 The output is the KnowledgeBase model (its JSON Schema: 'aida-kb schema'): concepts with
 inherited members resolved, constraints expanded into primitives in SI units (radians,
@@ -33,6 +35,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "-o", "--output", metavar="OUT", default=None, help="JSON file to write (default: stdout)"
     )
+    add_import_path_option(p)
     p.set_defaults(run=run)
 
 
@@ -43,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.cli._kbfiles import check_output_file, compile_or_report, write_output
 
     check_output_file(args.output, [args.file])
-    kb = compile_or_report(Path(args.file))
+    kb = compile_or_report(Path(args.file), args.import_path)
     if kb is None:
         return 1
     write_output(args.output, kb.model_dump_json(indent=2) + "\n", [args.file, *kb.files])

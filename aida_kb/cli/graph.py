@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from aida_kb.cli._kbfiles import add_import_path_option
+
 EXAMPLE = """\
 formats:
   dot      Graphviz (render with: dot -Tsvg net.dot -o net.svg)
@@ -45,6 +47,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "-o", "--output", metavar="OUT", default=None, help="file to write (default: stdout)"
     )
+    add_import_path_option(p)
     p.set_defaults(run=run)
 
 
@@ -126,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.kb import build_net
 
     check_output_file(args.output, [args.file])
-    kb = compile_or_report(Path(args.file))
+    kb = compile_or_report(Path(args.file), args.import_path)
     if kb is None:
         return 1
     net = build_net(kb)

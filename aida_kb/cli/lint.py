@@ -6,6 +6,8 @@ import argparse
 import sys
 from typing import Any
 
+from aida_kb.cli._kbfiles import add_import_path_option
+
 EXAMPLE = """\
 exit status: 0 clean (warnings allowed unless --strict), 1 errors found,
              2 usage error or unreadable file
@@ -38,6 +40,7 @@ def add_check_command(
         "json: one JSON array of diagnostics on stdout",
     )
     p.add_argument("--strict", action="store_true", help="warnings make the run fail too")
+    add_import_path_option(p)
     p.add_argument(
         "--color",
         choices=("auto", "always", "never"),
@@ -89,7 +92,7 @@ def run_check(args: argparse.Namespace, *, errors_only: bool) -> int:
     checked = 0
     for path in files:
         try:
-            result = check(path)
+            result = check(path, args.import_path)
         except FormatError as exc:
             problems.append(str(exc))
             continue

@@ -183,3 +183,9 @@ UNREADABLE_FILE = register(
 )
 MISSING_IMPORT = register("KB901", Severity.ERROR, "an imported file does not exist")
 IMPORT_CYCLE = register("KB902", Severity.ERROR, "files import each other in a cycle")
+IMPORT_OUTSIDE = register(
+    "KB903",
+    Severity.ERROR,
+    "an import names a file outside the project (the root file's folder and the import paths) "
+    "or one that is not a .kb file",
+)

@@ -105,7 +105,6 @@ def read_json_model(path: str | os.PathLike[str], model: type[ModelT]) -> ModelT
     return validate_model(model, data, str(file))
 
 
-
 def write_json_model(
     path: str | os.PathLike[str], value: BaseModel, indent: int | None = 2
 ) -> None:

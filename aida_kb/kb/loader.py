@@ -61,6 +61,16 @@ class _Loader:
         self.search_paths = [str(p) for p in search_paths]
         self.out = Loaded()
         self.done: set[str] = set()
+        #: the project: folders an import may resolve into (symlinks followed); the root
+        #: file's folder is added by `load_text`
+        self.roots = [os.path.realpath(p) for p in self.search_paths]
+
+    def inside(self, target: str) -> bool:
+        """True when `target` is a ``.kb`` file whose real path lies inside the project."""
+        real = os.path.realpath(target)
+        return real.endswith(".kb") and any(
+            os.path.commonpath([real, root]) == root for root in self.roots
+        )
 
     def key(self, name: str) -> str:
         return os.path.realpath(name)
@@ -100,6 +110,19 @@ class _Loader:
                 )
             )
             return
+        if not self.inside(target):
+            # never read (nor echo a line of) a file outside the project: /etc/passwd,
+            # /proc/self/environ, ../../secret.kb, a symlink out of the folder
+            self.out.diagnostics.append(
+                _diag(
+                    codes.IMPORT_OUTSIDE,
+                    f"import '{rel}' is outside the project or not a .kb file",
+                    span,
+                    "imports resolve to .kb files inside the root file's folder; widen the "
+                    "project with --import-path DIR",
+                )
+            )
+            return
         key = self.key(target)
         keys = [k for k, _ in chain]
         if key in keys:
@@ -128,6 +151,7 @@ class _Loader:
 def load_text(text: str, file: str, search_paths: Sequence[str] = ()) -> Loaded:
     """Parse ``text`` as the root file ``file`` and load what it imports."""
     loader = _Loader(search_paths)
+    loader.roots.append(os.path.realpath(os.path.dirname(file) or "."))
     loader.add(file, text, [])
     return loader.out
 
