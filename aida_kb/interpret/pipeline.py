@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,10 +11,10 @@ from typing import TYPE_CHECKING
 from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
-from aida_kb.io.atomic import check_outputs
+from aida_kb.io.atomic import check_outputs, check_publishable, output_lock, publish_dir
 from aida_kb.io.evidence import Evidence, write_evidence
 from aida_kb.io.model import write_model, write_obj
-from aida_kb.io.scene import read_scene
+from aida_kb.io.scene import Scene, read_scene
 
 if TYPE_CHECKING:
     from aida_kb.kb.model import KnowledgeBase
@@ -47,19 +45,37 @@ def reconstruct_scene(
     """Evidence of a scene's views, their interpretation, and the model; write the files.
 
     The files (`OUTPUT_FILES`; model.json and model.obj only when the goal was found) are
-    written to a temporary folder beside `out_dir` and moved into place together, so that
-    a failed run leaves no half-written output. The scene's truth.json is never read.
+    written to a new folder beside `out_dir` which then replaces `out_dir` as a whole
+    (`aida_kb.io.atomic.publish_dir`): a failed or terminated run leaves the old set or the
+    new one, never a mix and no temporary folder. `out_dir` must be new or hold only these
+    files; a lock beside it refuses a second run into the same place. The scene's truth.json
+    is never read.
     Every view is used: the first is interpreted, the others are registered against its
     model and the model is refined with all of them (`aida_kb.interpret.multiview`).
     max_disp : disparities 0..max_disp-1 searched (None: found from feature matches).
     warn : called with each warning of the vision front end (a disparity range too small).
     """
-    from aida_kb.vision.evidence import VisionParams, scene_evidence
-
     check_goal(kb, goal)
     scene = read_scene(scene_dir, with_truth=False)
     check_outputs([], [*kb.files, *scene.files], directories=[out_dir])
-    out = Path(out_dir)
+    out = check_publishable(out_dir, OUTPUT_FILES)
+    with output_lock(out):
+        return _reconstruct(kb, scene, out, goal, views, stage, max_disp, warn, Path(scene_dir))
+
+
+def _reconstruct(
+    kb: KnowledgeBase,
+    scene: Scene,
+    out: Path,
+    goal: str,
+    views: Sequence[str] | None,
+    stage: Callable[[str, str], None] | None,
+    max_disp: int | None,
+    warn: Callable[[str], None] | None,
+    scene_dir: Path,
+) -> Reconstruction:
+    from aida_kb.vision.evidence import VisionParams, scene_evidence
+
     params = VisionParams(num_disp=max_disp)
     evidence, products = scene_evidence(scene, views=views, params=params, stage=stage)
     for prod in products:
@@ -73,24 +89,16 @@ def reconstruct_scene(
         kb,
         evidence,
         goal=goal,
-        source=str(Path(scene_dir) / "evidence"),
+        source=str(scene_dir / "evidence"),
         scene=scene,
         progress=progress,
     )
-    work = Path(tempfile.mkdtemp(prefix=".reconstruct-", dir=out))
-    try:
+    names = ["evidence.json", "interpretation.json"]
+    with publish_dir(out) as work:
         write_evidence(work / "evidence.json", evidence)
         write_interpretation(work / "interpretation.json", interp)
-        names = ["evidence.json", "interpretation.json"]
         if interp.model is not None:
             write_model(work / "model.json", interp.model)
             write_obj(work / "model.obj", interp.model)
             names += ["model.json", "model.obj"]
-        for stale in OUTPUT_FILES:
-            if stale not in names and (out / stale).exists():
-                (out / stale).unlink()
-        for name in names:
-            os.replace(work / name, out / name)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
     return Reconstruction(evidence, interp, tuple(out / n for n in names))

@@ -6,7 +6,10 @@ A crash or an error half-way never leaves a truncated or half-written output fil
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import os
+import shutil
+import signal
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
@@ -167,3 +170,87 @@ def write_bytes_atomic(target: str | os.PathLike[str], data: bytes) -> None:
 def write_text_atomic(target: str | os.PathLike[str], text: str) -> None:
     """Write `text` (UTF-8) to `target` atomically."""
     write_bytes_atomic(target, text.encode("utf-8"))
+
+
+#: Signals held back while a set of outputs is published: the set lands whole, then they act.
+_PUBLISH_SIGNALS = {signal.SIGTERM, signal.SIGINT, signal.SIGHUP}
+
+
+@contextlib.contextmanager
+def output_lock(target: str | os.PathLike[str]) -> Iterator[Path]:
+    """Hold an exclusive lock on writing `target` (a lock file ``.NAME.lock`` beside it).
+
+    A second run into the same place fails at once (FormatError) instead of mixing its files
+    with the first one's. The lock goes with the process (``flock``): a killed run leaves no
+    stale lock, only the empty lock file.
+    """
+    path = Path(target)
+    make_dirs(path.parent)
+    lock = path.parent / f".{path.name}.lock"
+    try:
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, file_mode())
+    except OSError as exc:
+        raise FormatError(f"{path}: cannot create the lock {lock}: {exc.strerror}") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FormatError(
+                f"{path}: another run is writing its outputs there (lock {lock})"
+            ) from None
+        yield lock
+    finally:
+        os.close(fd)
+
+
+def check_publishable(target: str | os.PathLike[str], names: Iterable[str]) -> Path:
+    """Fail early unless `target` is missing or a folder holding only files in `names`.
+
+    `publish_dir` replaces the whole folder: anything else in it would be lost.
+    """
+    path = Path(target)
+    if path.exists() and not path.is_dir():
+        raise FormatError(f"{path}: cannot write the outputs: it is a file")
+    if path.is_dir():
+        foreign = sorted(p.name for p in path.iterdir() if p.name not in set(names))
+        if foreign:
+            raise FormatError(
+                f"{path}: not an output folder of this command (it holds {foreign[0]}"
+                f"{' and more' if len(foreign) > 1 else ''}); give a new or empty folder"
+            )
+    return path
+
+
+@contextlib.contextmanager
+def publish_dir(target: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a new folder beside `target`; on success it replaces `target` as a whole.
+
+    The outputs are written into ``.NAME.new-*`` beside the target, then published by
+    renames: the old folder aside, the new one into place, the old one removed. A reader sees
+    the old set or the new set, never a mix. SIGTERM, SIGINT and SIGHUP are held back from
+    the first file to the last rename (they act right after); on an error the new folder is
+    removed and `target` is left as it was.
+    """
+    path = Path(target)
+    make_dirs(path.parent)
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, _PUBLISH_SIGNALS)
+    try:
+        try:
+            work = Path(tempfile.mkdtemp(prefix=f".{path.name}.new-", dir=path.parent))
+        except OSError as exc:
+            raise FormatError(f"{path}: cannot write the outputs: {exc.strerror}") from None
+        try:
+            os.chmod(work, dir_mode())  # mkdtemp makes it 0700
+            yield work
+            if path.exists():
+                old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old-", dir=path.parent))
+                os.replace(path, old / path.name)
+                os.replace(work, path)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.replace(work, path)
+        except BaseException:
+            shutil.rmtree(work, ignore_errors=True)
+            raise
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)

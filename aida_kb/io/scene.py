@@ -47,6 +47,7 @@ from aida_kb.limits import (
     MAX_YAML_BYTES,
     image_header_size,
     image_size_problem,
+    memory_problem,
     nesting_problem,
     read_limited,
 )
@@ -450,8 +451,16 @@ def _resolve(root: Path, index_file: Path, field_name: str, rel: str) -> Path:
             f"{index_file}: field {field_name}: must be a path inside the scene directory: {rel}"
         )
     full = root / path
-    if not full.is_file():
+    if not full.exists():
         raise FormatError(f"{index_file}: field {field_name}: file not found: {full}")
+    # symlinks (of the file or of a folder on the way) must not lead out of the scene
+    if not full.resolve().is_relative_to(root.resolve()):
+        raise FormatError(
+            f"{index_file}: field {field_name}: {rel} leads outside the scene directory "
+            f"(to {full.resolve()})"
+        )
+    if not full.is_file():
+        raise FormatError(f"{index_file}: field {field_name}: not a regular file: {full}")
     return full
 
 
@@ -468,6 +477,10 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
     index = _read_index(index_file)
     calib_file = _resolve(root, index_file, "calib", index.calib)
     calib = read_calib(calib_file)
+    # before any image is decoded or any pyramid allocated: the run's memory from the size
+    over_budget = memory_problem(*calib.image_size)
+    if over_budget is not None:
+        raise FormatError(f"{calib_file}: {over_budget}")
     views = []
     for i, v in enumerate(index.views):
         prefix = f"views[{i}]"

@@ -132,3 +132,28 @@ def test_disparity_over_its_left_image_via_a_hard_link(
     before = left.read_bytes()
     _refused(["disparity", str(left), str(right), "-o", str(alias)], capsys, "over the input")
     assert left.read_bytes() == before
+
+
+def test_reconstruct_while_another_run_writes_there(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from aida_kb.io.atomic import output_lock
+
+    scene = _scene(tmp_path)
+    out = tmp_path / "model"
+    with output_lock(out):
+        argv = ["reconstruct", str(KB), str(scene), "-o", str(out), "--quiet"]
+        _refused(argv, capsys, "another run is writing its outputs there")
+    assert not any(out.iterdir())
+
+
+def test_reconstruct_into_a_folder_of_other_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = _scene(tmp_path)
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep me")
+    argv = ["reconstruct", str(KB), str(scene), "-o", str(out), "--quiet"]
+    _refused(argv, capsys, "not an output folder of this command")
+    assert (out / "notes.txt").read_text() == "keep me"

@@ -154,3 +154,55 @@ def test_lint_refuses_a_fifo_and_dev_zero(
         assert main(["lint", path]) == 2
         err = capsys.readouterr().err
         assert f"{path}: cannot read: not a regular file" in err
+
+
+@pytest.mark.parametrize("what", ["image", "views folder", "calibration"])
+def test_symlinks_out_of_the_scene_are_refused(tmp_path: Path, what: str) -> None:
+    scene = _scene(tmp_path)
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    if what == "image":
+        left = next(scene.rglob("left.png"))
+        (outside / "left.png").write_bytes(left.read_bytes())
+        left.unlink()
+        left.symlink_to(outside / "left.png")
+    elif what == "views folder":
+        (scene / "views").rename(outside / "views")
+        (scene / "views").symlink_to(outside / "views")
+    else:
+        (scene / "calib.yaml").rename(outside / "calib.yaml")
+        (scene / "calib.yaml").symlink_to(outside / "calib.yaml")
+    with pytest.raises(FormatError) as exc:
+        read_scene(scene)
+    assert "leads outside the scene directory" in _one_line(exc, scene / "scene.yaml")
+
+
+def test_a_fifo_in_the_scene_is_refused(tmp_path: Path) -> None:
+    scene = _scene(tmp_path)
+    left = next(scene.rglob("left.png"))
+    left.unlink()
+    os.mkfifo(left)
+    with pytest.raises(FormatError) as exc:
+        read_scene(scene)
+    assert "not a regular file" in _one_line(exc, scene / "scene.yaml")
+
+
+def test_an_8000x6000_scene_is_refused_with_the_figure_before_any_image(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from aida_kb.cli.main import main
+    from aida_kb.io.scene import write_calib
+
+    scene = _scene(tmp_path)
+    K = np.array([[6000.0, 0.0, 3999.5], [0.0, 6000.0, 2999.5], [0.0, 0.0, 1.0]])
+    big = StereoCalib(
+        K, np.zeros(5), K, np.zeros(5), np.eye(3), np.array([-0.3, 0, 0]), (8000, 6000)
+    )
+    write_calib(scene / "calib.yaml", big)
+    with pytest.raises(FormatError) as exc:
+        read_scene(scene)
+    message = _one_line(exc, scene / "calib.yaml")
+    assert "images of 8000x6000 pixels need about 13.4 GiB" in message
+    assert "more than the memory budget of 4.0 GiB" in message
+    assert main(["evidence", str(scene), "-o", str(tmp_path / "ev.json"), "--quiet"]) == 2
+    assert "memory budget" in capsys.readouterr().err
