@@ -18,9 +18,11 @@ naming the file and the field.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
-from collections.abc import Sequence
+import sys
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from tokenize import TokenError
@@ -438,6 +440,7 @@ def _read_index(file: Path) -> SceneIndex:
         mark = getattr(exc, "problem_mark", None)
         where = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or str(exc) or "syntax error"
+        problem = problem.strip().splitlines()[0] if problem.strip() else "syntax error"
         raise FormatError(f"{file}{where}: not valid YAML: {problem}") from None
     if not isinstance(data, dict):
         raise FormatError(f"{file}: expected a mapping with fields format, version, views")
@@ -451,15 +454,22 @@ def _resolve(root: Path, index_file: Path, field_name: str, rel: str) -> Path:
             f"{index_file}: field {field_name}: must be a path inside the scene directory: {rel}"
         )
     full = root / path
-    if not full.exists():
+    try:
+        exists = full.exists()
+        resolved = full.resolve() if exists else full
+        regular = full.is_file()
+    except (OSError, ValueError) as exc:  # a name too long, a NUL byte ...
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise FormatError(f"{index_file}: field {field_name}: not a usable path: {why}") from None
+    if not exists:
         raise FormatError(f"{index_file}: field {field_name}: file not found: {full}")
     # symlinks (of the file or of a folder on the way) must not lead out of the scene
-    if not full.resolve().is_relative_to(root.resolve()):
+    if not resolved.is_relative_to(root.resolve()):
         raise FormatError(
             f"{index_file}: field {field_name}: {rel} leads outside the scene directory "
-            f"(to {full.resolve()})"
+            f"(to {resolved})"
         )
-    if not full.is_file():
+    if not regular:
         raise FormatError(f"{index_file}: field {field_name}: not a regular file: {full}")
     return full
 
@@ -556,10 +566,31 @@ def _image_bytes(file: Path) -> npt.NDArray[np.uint8]:
     return np.frombuffer(data, np.uint8)
 
 
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Silence file descriptor 2 (libpng and libjpeg print their own lines on a broken file;
+    the one-line FormatError says it instead)."""
+    try:
+        saved = os.dup(2)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+    except OSError:  # no descriptor to spare: let the libraries speak
+        yield
+        return
+    try:
+        sys.stderr.flush()
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
 def _decoded(file: Path, data: npt.NDArray[np.uint8], flags: int) -> npt.NDArray[Any]:
     import cv2
 
-    img = cv2.imdecode(data, flags) if data.size else None
+    with _quiet_stderr():
+        img = cv2.imdecode(data, flags) if data.size else None
     if img is None:
         raise FormatError(f"{file}: not a readable image")
     problem = image_size_problem(img.shape[1], img.shape[0])

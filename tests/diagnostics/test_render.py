@@ -153,3 +153,36 @@ def test_short_lines_are_not_cropped() -> None:
     lines = render_text([diag], {"s.kb": line}).splitlines()
     assert lines[2] == "1 | " + line
     assert lines[3] == "  | " + " " * (MAX_LINE - 1) + "^"
+
+
+def test_each_source_is_split_once_however_many_diagnostics() -> None:
+    """Splitting the source per diagnostic made lint's text output quadratic (issue 16)."""
+    from collections.abc import Iterator, Mapping
+
+    from aida_kb.diagnostics.core import Diagnostic, Severity, Span
+    from aida_kb.diagnostics.render import render_text
+
+    class Counting(Mapping[str, str]):
+        def __init__(self, data: dict[str, str]) -> None:
+            self.data = data
+            self.reads = 0
+
+        def __getitem__(self, key: str) -> str:
+            self.reads += 1
+            return self.data[key]
+
+        def __iter__(self) -> Iterator[str]:
+            return iter(self.data)
+
+        def __len__(self) -> int:
+            return len(self.data)
+
+    text = "\n".join(f"line {i}" for i in range(500))
+    sources = Counting({"a.kb": text})
+    diags = [
+        Diagnostic("KB001", Severity.ERROR, "bad", Span("a.kb", i, 1, i, 5)) for i in range(1, 501)
+    ]
+    out = render_text(diags, sources)
+    assert out.count("error[KB001]") == 500
+    assert "line 499" in out
+    assert sources.reads == 1

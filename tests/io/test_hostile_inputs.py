@@ -206,3 +206,35 @@ def test_an_8000x6000_scene_is_refused_with_the_figure_before_any_image(
     assert "more than the memory budget of 4.0 GiB" in message
     assert main(["evidence", str(scene), "-o", str(tmp_path / "ev.json"), "--quiet"]) == 2
     assert "memory budget" in capsys.readouterr().err
+
+
+def test_a_corrupt_png_gives_one_line_not_libpng_s(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    import cv2
+
+    from aida_kb.cli.main import main
+
+    ok, encoded = cv2.imencode(".png", np.arange(48 * 64, dtype=np.uint8).reshape(48, 64))
+    assert ok
+    data = bytearray(encoded.tobytes())
+    data[60] ^= 0xFF  # inside IDAT: a CRC error
+    bad = tmp_path / "bad.png"
+    bad.write_bytes(bytes(data))
+    assert main(["disparity", str(bad), str(bad), "-o", str(tmp_path / "d.npy")]) == 2
+    err = capfd.readouterr().err
+    assert err.strip().splitlines() == [f"aida-kb: error: {bad}: not a readable image"]
+
+
+def test_found_by_fuzzing_control_character_and_overlong_path(tmp_path: Path) -> None:
+    scene = _scene(tmp_path)
+    index = scene / "scene.yaml"
+    text = index.read_text()
+    index.write_text(text.replace("calib.yaml", "calib\x0f.yaml"))
+    with pytest.raises(FormatError) as exc:
+        read_scene(scene)
+    assert "not valid YAML" in _one_line(exc, index)
+    index.write_text(text.replace("calib.yaml", "calib" + "(" * 5000 + ".yaml"))
+    with pytest.raises(FormatError) as exc:
+        read_scene(scene)
+    assert "field calib: not a usable path" in _one_line(exc, index)
