@@ -152,7 +152,8 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from aida_kb.cli._kbfiles import EXIT_ERRORS, EXIT_OK, display_path, packaged_kb
-    from aida_kb.cli.interpret import load_kb
+    from aida_kb.cli.interpret import constraint_notes, load_kb
+    from aida_kb.diagnostics.render import render_text
     from aida_kb.interpret.evaluate import compare_with_truth
     from aida_kb.interpret.pipeline import reconstruct_scene
     from aida_kb.interpret.report import explanation, instance_tree
@@ -166,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
     console.width = max(console.width, 100)
     console.rule("[bold]aida-kb demo[/bold]: a house from two stereo views, as in the paper")
     console.print(f"1. compile {display_path(path)}")
-    kb = load_kb(str(path))
+    kb, sources = load_kb(str(path))
     console.print(f"   {len(kb.concepts)} concepts in layers {' > '.join(kb.layers)}")
     if not args.no_net:
         console.print(net_tree(kb, f"[bold]{display_path(path)}[/bold]"))
@@ -190,6 +191,11 @@ def run(args: argparse.Namespace) -> int:
         console.print(f"   {len(rejected)} hypotheses rejected, e.g.:", markup=False)
         for line in rejected[:3]:
             console.print("     " + line, markup=False)
+    # the first rejection by a constraint and the closest call, at their .kb lines
+    notes = constraint_notes(interp, explain=True)
+    shown = [n for n in notes if n.code == "KB400"][:1] + [n for n in notes if n.code == "KB401"]
+    if shown:
+        console.print(render_text(shown, sources), markup=False, highlight=False)
     for file in result.files:
         console.print(f"   wrote {file}")
     truth = read_scene(scene_dir).truth

@@ -47,8 +47,12 @@ def register(subparsers: Any) -> None:
     p.set_defaults(run=run)
 
 
-def load_kb(path: str) -> Any:
-    """Compile a knowledge base; print its diagnostics and raise KbError when it has errors."""
+def load_kb(path: str) -> tuple[Any, dict[str, str]]:
+    """Compile a knowledge base; print its diagnostics and raise KbError when it has errors.
+
+    Returns the compiled knowledge base and the source text of each of its files (for the
+    source lines under a constraint's location).
+    """
     from aida_kb.diagnostics.render import render_summary, render_text
     from aida_kb.errors import FormatError, KbError
     from aida_kb.kb import compile_path
@@ -60,11 +64,53 @@ def load_kb(path: str) -> Any:
         print(render_text(result.diagnostics, result.sources), file=sys.stderr)
         print(render_summary(result.diagnostics, len(result.sources)), file=sys.stderr)
         raise KbError(f"{path}: the knowledge base has errors; nothing interpreted")
-    return result.kb
+    return result.kb, dict(result.sources)
 
 
-def print_interpretation(interp: Interpretation, *, explain: bool) -> None:
-    """The summary line, the instance tree and, with `explain`, the rejected hypotheses."""
+def constraint_notes(interp: Interpretation, *, explain: bool) -> list[Any]:
+    """The interpretation's notes at the knowledge base's lines: ``KB401`` for the accepted
+    interpretation's constraint closest to its threshold and, with ``explain``, ``KB400`` for
+    each constraint that rejected a hypothesis (those with a ``.kb`` line)."""
+    from aida_kb.diagnostics import codes
+    from aida_kb.diagnostics.core import Diagnostic
+
+    notes: list[Diagnostic] = []
+    if interp.accepted and interp.residuals:
+        worst = max(interp.residuals, key=lambda r: r.normalised_cost / r.threshold)
+        if worst.span is not None:
+            notes.append(
+                Diagnostic(
+                    codes.CLOSEST_TO_THRESHOLD.code,
+                    codes.CLOSEST_TO_THRESHOLD.severity,
+                    f"'{worst.label}' ({', '.join(worst.parts)}) is the closest to its "
+                    f"threshold: normalised cost {worst.normalised_cost:.3g} of "
+                    f"{worst.threshold:.3g}",
+                    worst.span,
+                )
+            )
+    if explain:
+        for h in interp.rejected():
+            if h.span is None or h.constraint is None or h.cost is None:
+                continue
+            notes.append(
+                Diagnostic(
+                    codes.REJECTED_BY.code,
+                    codes.REJECTED_BY.severity,
+                    f"'{h.constraint}' rejected {h.concept} as {h.role or 'the goal'} "
+                    f"(hypothesis #{h.id}): normalised cost {h.cost:.3g}",
+                    h.span,
+                )
+            )
+    return notes
+
+
+def print_interpretation(
+    interp: Interpretation, *, explain: bool, sources: dict[str, str] | None = None
+) -> None:
+    """The summary line, the instance tree and, with `explain`, the rejected hypotheses;
+    then the notes at the knowledge base's lines (`constraint_notes`, with the source lines
+    of ``sources``)."""
+    from aida_kb.diagnostics.render import render_text
     from aida_kb.interpret.report import explanation, instance_tree
 
     print(interp.message)
@@ -72,9 +118,10 @@ def print_interpretation(interp: Interpretation, *, explain: bool) -> None:
         print("  " + line)
     if interp.accepted and interp.residuals:
         worst = max(interp.residuals, key=lambda r: r.normalised_cost / r.threshold)
+        where = f" at {worst.where}" if worst.where else ""
         print(
-            f"  {len(interp.residuals)} constraints; closest to its threshold: {worst.label} "
-            f"({worst.kind}, {', '.join(worst.parts)}) normalised cost "
+            f"  {len(interp.residuals)} constraints; closest to its threshold: {worst.label}"
+            f"{where} ({worst.kind}, {', '.join(worst.parts)}) normalised cost "
             f"{worst.normalised_cost:.2f} of {worst.threshold:.3g}"
         )
     if explain:
@@ -82,6 +129,10 @@ def print_interpretation(interp: Interpretation, *, explain: bool) -> None:
         print("rejected hypotheses:" if lines else "no hypothesis was rejected")
         for line in lines:
             print("  " + line)
+    notes = constraint_notes(interp, explain=explain)
+    if notes:
+        print()
+        print(render_text(notes, sources or {}))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -93,11 +144,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.output:
         check_output(args.output, [args.kb, args.evidence])
-    kb = load_kb(args.kb)
+    kb, sources = load_kb(args.kb)
     check_goal(kb, args.goal)
     evidence = read_evidence(args.evidence)
     interp = interpret(kb, evidence, goal=args.goal, source=args.evidence)
-    print_interpretation(interp, explain=args.explain)
+    print_interpretation(interp, explain=args.explain, sources=sources)
     if args.output:
         write_interpretation(args.output, interp)
         print(f"wrote {args.output}")

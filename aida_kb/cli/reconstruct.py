@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     views = parse_views(args.views)
     check_max_disp(args.max_disp)
     make_dirs(args.output)
-    kb = load_kb(args.kb)
+    kb, sources = load_kb(args.kb)
     check_goal(kb, args.goal)
     console = Console(stderr=True)
     with Progress(
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
             max_disp=args.max_disp,
             warn=lambda text: console.print(f"warning: {text}", markup=False, soft_wrap=True),
         )
-    print_interpretation(result.interpretation, explain=args.explain)
+    print_interpretation(result.interpretation, explain=args.explain, sources=sources)
     for path in result.files:
         print(f"wrote {path}")
     return 0

@@ -1,28 +1,39 @@
-"""Constraint templates compiled to vectorised residuals with analytic Jacobians.
+"""Constraints as factors, compiled to vectorised residuals with analytic Jacobians.
 
-`Constraint` (with `PositionData` / `EdgeData` evidence) is one constraint between parts;
-`compile_blocks` groups a list of them by kind into `ConstraintBlock` s evaluated in one
-numpy call each (`kernels` for eqs. 1-4, `edge` for eq. 5).
+A `Constraint` (`factor.py`) is one factor: a kind of the registry (`registry.KINDS`, one
+module per kind in `kinds/`), its keys (parts, a camera), its typed measurement
+(`PositionData`, `EdgeData`, `CameraPositionData`), a noise model, a robust loss and its
+`Origin`. `compile_blocks` groups a list of them by kind into `ConstraintBlock` s evaluated in
+one numpy call each (`kernels` for eqs. 1-4, `edge` for eq. 5).
 """
 
 from __future__ import annotations
 
-from aida_kb.constraints.model import (
-    ARITY,
-    DOF,
+from aida_kb.constraints.factor import (
+    CameraPositionData,
     Constraint,
-    ConstraintBlock,
     EdgeData,
+    Loss,
+    Origin,
     PositionData,
-    compile_blocks,
+    Rule,
 )
+from aida_kb.constraints.model import ConstraintBlock, compile_blocks, describe, validate
+from aida_kb.constraints.registry import CHI2_999, KINDS, kind_of
 
 __all__ = [
-    "ARITY",
-    "DOF",
+    "CHI2_999",
+    "KINDS",
+    "CameraPositionData",
     "Constraint",
     "ConstraintBlock",
     "EdgeData",
+    "Loss",
+    "Origin",
     "PositionData",
+    "Rule",
     "compile_blocks",
+    "describe",
+    "kind_of",
+    "validate",
 ]

@@ -24,9 +24,10 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.constraints.kernels import cross, dot, skew
+from aida_kb.constraints.kernels import cross, dot
 from aida_kb.errors import GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.geometry.rotation import skew
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -80,7 +81,9 @@ def edge_kernel(
     s_len = np.sqrt(dot(s, s))
     m = s / s_len[:, None]
     proj = (np.eye(3)[None] - np.einsum("mi,mj->mij", m, m)) / s_len[:, None, None]
-    dm_drvec = proj @ (-skew(r2)) @ d_rays[:, 0] + proj @ skew(r1) @ d_rays[:, 1]
+    dm_drvec = (
+        proj @ (-skew(r2, check=False)) @ d_rays[:, 0] + proj @ skew(r1, check=False) @ d_rays[:, 1]
+    )
     na, nb = normals[idx[:, 0]], normals[idx[:, 1]]
     da, db = offsets[idx[:, 0]], offsets[idx[:, 1]]
     # image line normal for the pixel residuals
@@ -105,7 +108,9 @@ def edge_kernel(
         rhs = np.stack([da, db, dot(a, C)], axis=1)
         S = np.einsum("mij,mj->mi", Ainv, rhs)
         SC = S - C
-        da_drvec = -skew(rk) @ dm_drvec + skew(m) @ d_rays[:, k]  # (M, 3, 3)
+        da_drvec = (
+            -skew(rk, check=False) @ dm_drvec + skew(m, check=False) @ d_rays[:, k]
+        )  # (M, 3, 3)
         dS_da = np.einsum("mi,mj->mij", Ainv[:, :, 2], C - S)
         dS_dC = np.einsum("mi,mj->mij", Ainv[:, :, 2], a)
         # metric residual and its gradient by S (g), plus direct terms

@@ -18,6 +18,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from aida_kb.geometry.rotation import skew
+
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
@@ -34,18 +36,6 @@ def cross(a: FloatArray, b: FloatArray) -> FloatArray:
 def dot(a: FloatArray, b: FloatArray) -> FloatArray:
     """Row-wise dot product of (..., 3) arrays."""
     out: FloatArray = a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
-    return out
-
-
-def skew(x: FloatArray) -> FloatArray:
-    """Cross-product matrices (M, 3, 3) of vectors ``x`` (M, 3): ``skew(x) @ y = x × y``."""
-    out = np.zeros((*x.shape[:-1], 3, 3))
-    out[..., 0, 1] = -x[..., 2]
-    out[..., 0, 2] = x[..., 1]
-    out[..., 1, 0] = x[..., 2]
-    out[..., 1, 2] = -x[..., 0]
-    out[..., 2, 0] = -x[..., 1]
-    out[..., 2, 1] = x[..., 0]
     return out
 
 
@@ -79,10 +69,10 @@ def rotation_vector(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArra
     )
     hc = -1.0 / q
     r = h[:, None] * x
-    dr_da = -h[:, None, None] * skew(b) + np.einsum(
+    dr_da = -h[:, None, None] * skew(b, check=False) + np.einsum(
         "mi,mj->mij", x, g[:, None] * cross(b, x) + hc[:, None] * b
     )
-    dr_db = h[:, None, None] * skew(a) + np.einsum(
+    dr_db = h[:, None, None] * skew(a, check=False) + np.einsum(
         "mi,mj->mij", x, g[:, None] * cross(x, a) + hc[:, None] * a
     )
     return r, dr_da, dr_db
@@ -161,7 +151,7 @@ def _edge_directions(na: FloatArray, nb: FloatArray) -> tuple[FloatArray, FloatA
     length = np.maximum(np.sqrt(dot(x, x)), 1e-15)
     e = x / length[:, None]
     proj = (np.eye(3)[None] - np.einsum("mi,mj->mij", e, e)) / length[:, None, None]
-    return e, proj @ -skew(nb), proj @ skew(na)
+    return e, proj @ -skew(nb, check=False), proj @ skew(na, check=False)
 
 
 def parallel_edge_kernel(normals: FloatArray, idx: IntArray) -> tuple[FloatArray, FloatArray]:

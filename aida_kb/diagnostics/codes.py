@@ -5,8 +5,10 @@ severity and a one-line summary; ``docs/diagnostics.md`` and ``aida-kb explain C
 the long explanation with a bad and a fixed example.
 
 Ranges: ``KB001``-``KB099`` syntax (the parser, ``aida_kb.dsl``); ``KB100``-``KB399``
-semantic errors and warnings (the compiler, ``aida_kb.kb``); ``KB900``-``KB999`` files and
-imports that cannot be read.
+semantic errors and warnings (the compiler, ``aida_kb.kb``); ``KB400``-``KB499`` notes of an
+interpretation about the knowledge base's constraints (``aida-kb interpret``, ``reconstruct``,
+``demo``: a constraint that rejected a hypothesis, shown at its ``.kb`` line);
+``KB900``-``KB999`` files and imports that cannot be read.
 """
 
 from __future__ import annotations
@@ -175,6 +177,14 @@ UNVERIFIABLE_CONCEPT = register(
 
 INTERNAL_COMPILER_ERROR = register(
     "KB399", _E, "the compiler failed unexpectedly (a bug in aida-kb: please report it)"
+)
+
+# --- interpretation: what the knowledge's constraints did to the hypotheses ------------------
+REJECTED_BY = register(
+    "KB400", Severity.NOTE, "a constraint of the knowledge base rejected a hypothesis"
+)
+CLOSEST_TO_THRESHOLD = register(
+    "KB401", Severity.NOTE, "the constraint of the accepted interpretation closest to rejecting it"
 )
 
 # --- files and imports ---------------------------------------------------------------------

@@ -19,12 +19,14 @@ FloatArray = npt.NDArray[np.float64]
 _SMALL_ANGLE = 0.05  # below this angle (radians) the Jacobian's coefficients use their series
 
 
-def skew(v: npt.ArrayLike) -> FloatArray:
+def skew(v: npt.ArrayLike, *, check: bool = True) -> FloatArray:
     """The cross-product matrix [v]x, so that skew(v) @ w == cross(v, w).
 
     Parameters
     ----------
     v : (..., 3) array
+    check : refuse non-finite components (`GeometryError`); the solver's kernels pass False
+        and check their residuals instead (degenerate geometry is named by the caller).
 
     Returns
     -------
@@ -33,7 +35,7 @@ def skew(v: npt.ArrayLike) -> FloatArray:
     a = np.asarray(v, dtype=np.float64)
     if a.ndim < 1 or a.shape[-1] != 3:
         raise GeometryError(f"skew: vectors must have shape (..., 3), got {a.shape}")
-    if not np.all(np.isfinite(a)):
+    if check and not np.all(np.isfinite(a)):
         raise GeometryError("skew: vector has non-finite components")
     out = np.zeros((*a.shape[:-1], 3, 3))
     out[..., 0, 1] = -a[..., 2]

@@ -48,16 +48,18 @@ from aida_kb.interpret.result import INSERTED, HypothesisTrace, Instance
 from aida_kb.interpret.search import best_first
 from aida_kb.interpret.verify import (
     BLAME_EVALUATIONS,
+    BlameGroup,
     EdgeEvidence,
     Outcome,
     PlaneInit,
-    Residual,
     Verification,
+    blame_group,
     build_verification,
     position_data,
     tilt_constraints,
     verify,
 )
+from aida_kb.solve import ConstraintResidual
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -106,17 +108,17 @@ class Trace:
             update={"status": "verified", "step": self.step, "reason": reason}
         )
 
-    def reject(
-        self, hid: int, reason: str, constraint: str | None = None, cost: float | None = None
-    ) -> None:
-        """Mark a hypothesis rejected, with the constraint and normalised cost that felled it."""
+    def reject(self, hid: int, reason: str, row: ConstraintResidual | None = None) -> None:
+        """Mark a hypothesis rejected, with the constraint (its report row) that felled it:
+        its label, normalised cost and ``.kb`` line."""
         self.entries[hid] = self.entries[hid].model_copy(
             update={
                 "status": "rejected",
                 "step": self.step,
                 "reason": reason,
-                "constraint": constraint,
-                "cost": cost,
+                "constraint": None if row is None else row.label,
+                "cost": None if row is None else row.normalised_cost,
+                "span": None if row is None else row.span,
             }
         )
 
@@ -322,10 +324,10 @@ class Interpreter:
                     structure, frame, binding, fixed, choices, guessed
                 )
             except _UnseenError as exc:
-                reasons.append((str(exc), None, None))
+                reasons.append((str(exc), None))
                 continue
             except AidaError as exc:
-                reasons.append((f"adjustment failed: {exc}", None, None))
+                reasons.append((f"adjustment failed: {exc}", None))
                 continue
             worst = outcome.worst_rejected()
             if outcome.cost > MAX_MEAN_COST:
@@ -334,16 +336,16 @@ class Interpreter:
                 reasons.append(partial(self._blame, outcome, self._last, worst))
                 continue
             if worst is not None:
-                reasons.append((_over(worst), worst.label, worst.normalised))
+                reasons.append((_over(worst), worst))
                 continue
             try:
                 polygons, closing = self._close(structure, outcome, fixed)
             except GeometryError as exc:
-                reasons.append((f"its planes do not close a solid: {exc}", None, None))
+                reasons.append((f"its planes do not close a solid: {exc}", None))
                 continue
             outside = self._outside(binding, polygons) or self._unseen(visible, polygons, forced)
             if outside:
-                reasons.append((outside, None, None))
+                reasons.append((outside, None))
                 continue
             # evidence an alternative could have bound but leaves out counts against it
             left_out = sum(self.evidence.regions[r].weight for r in offered - set(binding))
@@ -369,7 +371,7 @@ class Interpreter:
                 best = level
         if best is None:
             why = _first_named(reasons)
-            self.trace.reject(hid, f"[{what}] {why[0]}", why[1], why[2])
+            self.trace.reject(hid, f"[{what}] {why[0]}", why[1])
             return None
         self.trace.verify(hid, f"[{what}] cost {best.misfit:.3g}")
         return best
@@ -572,16 +574,18 @@ class Interpreter:
         loose = sum(s.length_px for s in bordering if s.id not in matched)
         return outcome, tuple(inserted), loose / total if total > 0 else 0.0, tuple(visible)
 
-    def _blame(self, outcome: Outcome, full: Verification | None, worst: Residual | None) -> Reason:
+    def _blame(
+        self, outcome: Outcome, full: Verification | None, worst: ConstraintResidual | None
+    ) -> Reason:
         """The constraint that makes an inconsistent adjustment inconsistent.
 
         No single constraint is over its threshold, but together they do not fit (the
         report's reduced cost is above MAX_MEAN_COST): the least-squares compromise has spread
-        the contradiction. Each internal constraint (with the others of its label and owner)
-        and each region's position constraint is left out in turn — the `BLAME_CANDIDATES`
-        that miss most, relative to their thresholds — and the one whose removal lowers the
-        reduced cost most is blamed, with its normalised cost in the full adjustment.
-        ``worst`` (the first constraint over its threshold, if any) is named too.
+        the contradiction. Each blame group (`verify.blame_group`: an internal constraint with
+        the others of its label and owner, a region's position constraint) is left out in
+        turn — the `BLAME_CANDIDATES` that miss most, relative to their thresholds — and the
+        one whose removal lowers the reduced cost most is blamed, with its row in the full
+        adjustment. ``worst`` (the first constraint over its threshold, if any) is named too.
         """
         head = (
             f"its constraints contradict each other (reduced normalised cost "
@@ -589,33 +593,42 @@ class Interpreter:
         )
         tail = f"; {_over(worst)}" if worst is not None else ""
         if full is None:
-            return head + tail, None, None
-        groups: dict[str, list[int]] = {}
-        for i, src in enumerate(full.sources):
-            if src.group:
-                groups.setdefault(src.group, []).append(i)
-        misses: dict[str, float] = {}
-        for r in outcome.residuals:
-            owner = r.parts[0] if r.kind == "position" else (r.owner or "the goal")
-            key = f"'{r.label}' of {owner}"
-            misses[key] = max(misses.get(key, 0.0), r.normalised / r.threshold)
+            return head + tail, None
+        groups: dict[BlameGroup, list[int]] = {}
+        for i, c in enumerate(full.constraints):
+            g = blame_group(c)
+            if g is not None:
+                groups.setdefault(g, []).append(i)
+        group_of = {i: g for g, members in groups.items() for i in members}
+        misses: dict[BlameGroup, float] = {}
+        row_of: dict[BlameGroup, ConstraintResidual] = {}
+        for row, members in zip(outcome.residuals, outcome.members, strict=True):
+            g = group_of.get(members[0])
+            if g is None:
+                continue
+            miss = row.normalised_cost / row.threshold
+            if miss >= misses.get(g, -1.0):
+                misses[g], row_of[g] = miss, row
         ranked = sorted(groups, key=lambda g: (-misses.get(g, 0.0), g))[:BLAME_CANDIDATES]
-        best: tuple[float, str, str] | None = None
-        for name in sorted(ranked):
-            members = groups[name]
+        best: tuple[float, BlameGroup] | None = None
+        for g in sorted(ranked):
             try:
-                trial = full.without(set(members), outcome.planes)
+                trial = full.without(set(groups[g]), outcome.planes)
                 cost = verify(trial, BLAME_EVALUATIONS).cost
             except AidaError:
                 continue
             if best is None or cost < best[0]:
-                best = (cost, full.sources[members[0]].label, name)
+                best = (cost, g)
         if best is None:
-            return head + tail, None, None
-        normalised = max(
-            (r.normalised for r in outcome.residuals if r.label == best[1]), default=0.0
-        )
-        return f"{head}; without {best[2]} it would be {best[0]:.3g}{tail}", best[1], normalised
+            return head + tail, None
+        cost, g = best
+        blamed = row_of.get(g)
+        if blamed is None:
+            return head + tail, None
+        owner = ", ".join(blamed.parts) if g[2] else (g[1] or "the goal")
+        where = f" ({blamed.where})" if blamed.where else ""
+        text = f"{head}; without '{g[0]}' of {owner}{where} it would be {cost:.3g}{tail}"
+        return text, blamed
 
     def _mirrored_back(
         self,
@@ -873,7 +886,7 @@ class Interpreter:
         return out
 
 
-Reason = tuple[str, str | None, float | None]  # text, rejecting constraint, its normalised cost
+Reason = tuple[str, ConstraintResidual | None]  # text, the rejecting constraint's report row
 
 
 def _first_named(reasons: list[Reason | Callable[[], Reason]]) -> Reason:
@@ -885,15 +898,16 @@ def _first_named(reasons: list[Reason | Callable[[], Reason]]) -> Reason:
         if reason[1] is not None:
             return reason
         first = first or reason
-    return first or ("no assignment verified", None, None)
+    return first or ("no assignment verified", None)
 
 
-def _over(r: Residual) -> str:
-    """What a constraint over its threshold says, for the trace."""
+def _over(r: ConstraintResidual) -> str:
+    """What a constraint over its threshold says, for the trace (with its ``.kb`` line)."""
     limit = f"; reject above {r.reject_above:.3g} {r.unit}" if r.reject_above is not None else ""
+    where = f" at {r.where}" if r.where else ""
     return (
-        f"{r.label} ({r.kind}) residual {r.residual:.3g} {r.unit}, normalised cost "
-        f"{r.normalised:.3g} above its threshold {r.threshold:.3g}{limit} "
+        f"{r.label}{where} ({r.kind}) residual {r.residual:.3g} {r.unit}, normalised cost "
+        f"{r.normalised_cost:.3g} above its threshold {r.threshold:.3g}{limit} "
         f"(parts {', '.join(r.parts)})"
     )
 

@@ -17,6 +17,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
+from aida_kb.diagnostics.core import Span
 from aida_kb.errors import InterpretError
 from aida_kb.interpret.hypotheses import PlanarPart
 
@@ -54,6 +55,7 @@ class Attribute:
     low: float | None
     high: float | None
     value: float | None
+    span: Span | None = None
 
 
 @dataclass(frozen=True)
@@ -232,7 +234,8 @@ def _concept_of(name: str, model: ConceptModel) -> Concept:
     ]
     slots += [Slot(c.role, c.concept, c.min, c.max, "con-of") for c in model.con_ofs.values()]
     attributes = {
-        a.name: Attribute(a.name, a.low, a.high, a.default) for a in model.attributes.values()
+        a.name: Attribute(a.name, a.low, a.high, a.default, a.span)
+        for a in model.attributes.values()
     }
     return Concept(
         name=name,

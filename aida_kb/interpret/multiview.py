@@ -38,8 +38,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from aida_kb.constraints import Constraint, EdgeData, PositionData
 from aida_kb.constraints.kernels import meeting_angle
-from aida_kb.constraints.model import Constraint, EdgeData, PositionData
 from aida_kb.errors import GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.polyhedron import Polyhedron

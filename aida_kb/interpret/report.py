@@ -44,7 +44,8 @@ def explanation(interp: Interpretation) -> list[str]:
     for h in interp.rejected():
         where = h.role or "(goal)"
         if h.constraint is not None and h.cost is not None:
-            why = f"constraint {h.constraint!r} cost {h.cost:.3g} (normalised)"
+            at = f" at {h.span}" if h.span is not None else ""
+            why = f"constraint {h.constraint!r}{at} cost {h.cost:.3g} (normalised)"
             if h.reason:
                 why += f": {h.reason}"
         else:

@@ -2,7 +2,8 @@
 
 An interpretation holds the instances the search created (each with its role path, its
 prototype by instance-of, and the evidence it is bound to), the reconstructed model, the
-residual report of every constraint the accepted interpretation instantiated, and the trace
+residual report of every constraint the accepted interpretation instantiated (rows of
+`aida_kb.solve.ConstraintResidual`, each with its ``.kb`` line), and the trace
 of every hypothesis the search created, verified or rejected. Coordinates are world
 coordinates (left camera of view 00, OpenCV axes), metres.
 """
@@ -14,8 +15,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from aida_kb.diagnostics.core import Span
 from aida_kb.io.jsonio import read_json_model, write_json_model
-from aida_kb.io.model import Finite, FiniteCost, ReconstructedModel
+from aida_kb.io.model import FiniteCost, ReconstructedModel
+from aida_kb.solve import ConstraintResidual
 
 INSERTED = "inserted"
 """The binding of a part the views cannot see: inserted from the knowledge base."""
@@ -39,25 +42,6 @@ class Instance(_Frozen):
     )
 
 
-class ConstraintResidual(_Frozen):
-    """The residual of one instantiated constraint after the final solve."""
-
-    label: str = Field(description="the constraint's label (from the knowledge base)")
-    kind: str = Field(description="angle, parallel, parallel_edge, symmetry, position or edge")
-    concept: str = Field(description="the concept that declared it")
-    owner: str = Field(description="role path of the instance that introduced it")
-    parts: list[str] = Field(description="the role paths it relates (absolute)")
-    residual: Finite = Field(description="the residual, in `unit` (length of its components)")
-    unit: str = Field(description="'rad', 'm', 'px' or ''")
-    sigma: Finite | None = Field(description="the tolerance, in `unit`")
-    normalised_cost: FiniteCost = Field(
-        description="multiplicity · residual² / sigma² (aida_kb.solve's residual report)"
-    )
-    threshold: FiniteCost = Field(description="the normalised cost above which it rejects")
-    reject_above: Finite | None = Field(description="residuals above this reject, in `unit`")
-    rejected: bool = Field(description="True if the normalised cost is above the threshold")
-
-
 HypothesisStatus = Literal["created", "verified", "rejected"]
 
 
@@ -72,6 +56,9 @@ class HypothesisTrace(_Frozen):
     step: int = Field(ge=0, description="search step (expansion count) when last changed")
     reason: str = Field(default="", description="why it was rejected or what verified it")
     constraint: str | None = Field(default=None, description="label of the rejecting constraint")
+    span: Span | None = Field(
+        default=None, description="the rejecting constraint's .kb declaration (None if none)"
+    )
     cost: FiniteCost | None = Field(
         default=None, description="the normalised cost of that constraint (residual report)"
     )

@@ -11,8 +11,8 @@ from aida_kb.errors import InterpretError
 from aida_kb.interpret.interpreter import Interpreter, State
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
-from aida_kb.interpret.result import ConstraintResidual, Interpretation
-from aida_kb.interpret.verify import Outcome, verify_levels
+from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.verify import verify_levels
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 
@@ -38,26 +38,6 @@ def _cameras(evidence: Evidence) -> list[ModelCamera]:
         )
         for v in evidence.views
         if v.frame == "world"
-    ]
-
-
-def _residuals(outcome: Outcome) -> list[ConstraintResidual]:
-    return [
-        ConstraintResidual(
-            label=r.label,
-            kind=r.kind,
-            concept=r.concept,
-            owner=r.owner,
-            parts=list(r.parts),
-            residual=r.residual,
-            unit=r.unit,
-            sigma=r.sigma,
-            normalised_cost=r.normalised,
-            threshold=r.threshold,
-            reject_above=r.reject_above,
-            rejected=r.rejected,
-        )
-        for r in outcome.residuals
     ]
 
 
@@ -149,7 +129,7 @@ def interpret(
     # the accepted levels solved once more as a whole, level by level (the main parts first,
     # then fixed for the smaller ones): one residual report for the whole interpretation
     whole = verify_levels([level.verification for level in state.levels])
-    residuals = _residuals(whole)
+    residuals = list(whole.residuals)
     choices = ", ".join(
         level.structure.describe() for level in state.levels if level.structure.describe()
     )

@@ -33,12 +33,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.constraints.model import Constraint, EdgeData, PositionData
+from aida_kb.constraints import Constraint, EdgeData, Origin, PositionData, kind_of
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.interpret.knowledge import Knowledge, join
 from aida_kb.interpret.observe import CameraView, RegionView
-from aida_kb.solve import build_problem, constraints_from_kb, solve
+from aida_kb.solve import ConstraintResidual, build_problem, constraints_from_kb, solve
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -64,59 +64,50 @@ class PlaneInit:
     fixed: bool = False
 
 
-@dataclass(frozen=True)
-class Source:
-    """Where a constraint came from: its knowledge-base label, concept and owning instance.
-
-    ``group`` names the constraints that stand or fall together when one is left out to find
-    the culprit of a contradiction ('' for those never left out).
-    """
-
-    label: str
-    concept: str
-    owner: str
-    group: str = ""
+BlameGroup = tuple[str, str, tuple[int, ...]]
+"""The constraints that stand or fall together when one is left out to find the culprit of a
+contradiction: (label, owner, parts) — a knowledge constraint with every instance of its label
+and owner (parts ``()``), a measurement per part it measures."""
 
 
-@dataclass(frozen=True)
-class Residual:
-    """One constraint after adjustment (see `aida_kb.interpret.result.ConstraintResidual`)."""
-
-    label: str
-    kind: str
-    concept: str
-    owner: str
-    parts: tuple[str, ...]
-    residual: float
-    unit: str
-    sigma: float | None
-    normalised: float
-    threshold: float
-    reject_above: float | None
-    rejected: bool
+def blame_group(c: Constraint) -> BlameGroup | None:
+    """The blame group of ``c``, or None for measurements through a camera (image segments:
+    fragments of evidence, never left out alone)."""
+    kind = kind_of(c.kind)
+    if kind.uses_camera:
+        return None
+    o = c.source
+    if kind.measurement:
+        return (o.label, "", tuple(int(p) for p in c.parts))
+    return (o.label, o.owner, ())
 
 
 @dataclass(frozen=True)
 class Outcome:
-    """The adjusted planes, the residual of every constraint and the report's reduced cost."""
+    """The adjusted planes, the residual of every constraint and the report's reduced cost.
+
+    ``members`` holds, for each row of ``residuals``, the positions of the verification's
+    constraints pooled in it (the fragments of one image edge share a row).
+    """
 
     planes: dict[str, tuple[FloatArray, float]]
-    residuals: tuple[Residual, ...]
+    residuals: tuple[ConstraintResidual, ...]
     cost: float  # sum of normalised costs over their degrees of freedom
+    members: tuple[tuple[int, ...], ...] = ()
 
-    def worst_rejected(self) -> Residual | None:
+    def worst_rejected(self) -> ConstraintResidual | None:
         """The rejected constraint with the highest normalised cost over its threshold."""
         bad = [r for r in self.residuals if r.rejected]
-        return max(bad, key=lambda r: r.normalised / r.threshold) if bad else None
+        return max(bad, key=lambda r: r.normalised_cost / r.threshold) if bad else None
 
 
 @dataclass(frozen=True)
 class Verification:
-    """One hypothesis' least-squares problem: planes, constraints with their sources, cameras."""
+    """One hypothesis' least-squares problem: planes, constraints (each with its origin),
+    cameras."""
 
     planes: tuple[PlaneInit, ...]
     constraints: tuple[Constraint, ...]
-    sources: tuple[Source, ...]
     cameras: tuple[PinholeCamera, ...] = ()
     skipped: tuple[str, ...] = field(default=(), compare=False)
 
@@ -146,7 +137,6 @@ class Verification:
             self,
             planes=planes,
             constraints=tuple(self.constraints[i] for i in keep),
-            sources=tuple(self.sources[i] for i in keep),
         )
 
 
@@ -211,7 +201,7 @@ def build_verification(
     edges: Sequence[EdgeEvidence],
     declared: Collection[tuple[str, str]],
     cameras: Sequence[PinholeCamera],
-    extra: Sequence[tuple[Constraint, Source]] = (),
+    extra: Sequence[Constraint] = (),
 ) -> Verification:
     """The verification problem of a hypothesis, its constraints from the knowledge base.
 
@@ -226,7 +216,7 @@ def build_verification(
     edges : matched segments; those of an edge in ``declared`` (sorted role pairs whose edge a
         concept measures itself) feed that measure, the others their region's contour.
     cameras : the cameras of the edge evidence.
-    extra : constraints the interpreter adds (part indices into ``planes``) with their sources.
+    extra : constraints the interpreter adds (part indices into ``planes``, with origins).
 
     Constraints among fixed parts only are left out: they were verified with their level.
     """
@@ -259,21 +249,13 @@ def build_verification(
     )
     fixed = {i for i, p in enumerate(planes) if p.fixed}
     out: list[Constraint] = []
-    sources: list[Source] = []
-    for c, spec in zip(found.constraints, found.specs, strict=True):
+    for c in found.constraints:
         if set(c.parts) <= fixed:
             continue
-        owner = _absolute(root, "" if c.label.startswith(".:") else c.label.split(":", 1)[0])
-        group = "" if spec.kind == "edge" else f"'{spec.label}' of {owner or 'the goal'}"
-        if spec.kind == "position":
-            group = f"'{spec.label}' of {planes[c.parts[0]].role}"
-        out.append(replace(c, label=spec.label))
-        sources.append(Source(spec.label, spec.concept, owner, group))
-    for c, s in extra:
-        if not set(c.parts) <= fixed:
-            out.append(c)
-            sources.append(s)
-    return Verification(tuple(planes), tuple(out), tuple(sources), tuple(cameras), found.skipped)
+        o = c.source
+        out.append(replace(c, label=o.label, origin=replace(o, owner=_absolute(root, o.owner))))
+    out += [c for c in extra if not set(c.parts) <= fixed]
+    return Verification(tuple(planes), tuple(out), tuple(cameras), found.skipped)
 
 
 def _p2(ends: FloatArray) -> tuple[float, float]:
@@ -285,7 +267,7 @@ def tilt_constraints(
     parts: Sequence[tuple[str, str]],
     floor: str | None,
     index: Mapping[str, int],
-) -> list[tuple[Constraint, Source]]:
+) -> list[Constraint]:
     """Soft constraints from the parts' ``tilt`` attribute: the angle to the floor.
 
     ``attribute tilt: angle in [85 deg, 95 deg] = 90 deg`` says a wall meets the ground at 90
@@ -295,7 +277,7 @@ def tilt_constraints(
     """
     if floor is None or floor not in index:
         return []
-    out: list[tuple[Constraint, Source]] = []
+    out: list[Constraint] = []
     for role, concept in parts:
         attr = knowledge.concept(concept).attributes.get("tilt")
         if attr is None or attr.value is None or attr.low is None or attr.high is None:
@@ -312,8 +294,9 @@ def tilt_constraints(
             reject_above=half,
             unit="rad",
             label=label,
+            origin=Origin(label, "attribute", concept, role, attr.span),
         )
-        out.append((constraint, Source(label, concept, role, f"'{label}' of {role}")))
+        out.append(constraint)
     return out
 
 
@@ -347,38 +330,39 @@ def verify(
         raise SolveError("adjustment diverged (non-finite planes)")
     roles = v.roles
     pools: dict[tuple[object, ...], list[int]] = {}
-    for k, (c, src) in enumerate(zip(v.constraints, v.sources, strict=True)):
+    for k, c in enumerate(v.constraints):
         key: tuple[object, ...] = (k,)
-        if c.kind == "edge" and c.edge is not None:
-            key = (src.label, c.parts, c.edge.camera)
+        if c.edge is not None:  # the fragments of one model edge in one image
+            key = (c.source.label, c.parts, c.edge.camera)
         pools.setdefault(key, []).append(k)
     rows = result.report.rows
     residuals = []
     for members in pools.values():
-        first = members[0]
-        c, src, row = v.constraints[first], v.sources[first], rows[first]
+        first = rows[members[0]]
+        if len(members) == 1:
+            residuals.append(first)
+            continue
         normalised = sum(rows[k].normalised_cost for k in members)
         threshold = sum(rows[k].threshold for k in members)
         residuals.append(
-            Residual(
-                label=src.label,
-                kind=row.kind,
-                concept=src.concept,
-                owner=src.owner,
-                parts=tuple(roles[i] for i in row.parts),
-                residual=math.sqrt(sum(rows[k].residual ** 2 for k in members) / len(members)),
-                unit=row.unit,
-                sigma=c.sigma,
-                normalised=normalised,
-                threshold=threshold,
-                reject_above=c.reject_above,
-                rejected=normalised > threshold,
+            first.model_copy(
+                update={
+                    "residual": math.sqrt(
+                        sum(rows[k].residual ** 2 for k in members) / len(members)
+                    ),
+                    "cost": sum(rows[k].cost for k in members),
+                    "normalised_cost": normalised,
+                    "threshold": threshold,
+                    "rejected": normalised > threshold,
+                    "fragments": len(members),
+                }
             )
         )
     planes = {
         role: (result.normals[i].copy(), float(result.offsets[i])) for i, role in enumerate(roles)
     }
-    return Outcome(planes, tuple(residuals), result.report.reduced_cost)
+    pooled = tuple(tuple(m) for m in pools.values())
+    return Outcome(planes, tuple(residuals), result.report.reduced_cost, pooled)
 
 
 def verify_levels(levels: Sequence[Verification]) -> Outcome:
@@ -410,10 +394,8 @@ def verify_levels(levels: Sequence[Verification]) -> Outcome:
             planes.append(p)
         members.append(own)
     constraints: list[Constraint] = []
-    sources: list[Source] = []
     for v in levels:
-        for c, src in zip(v.constraints, v.sources, strict=True):
+        for c in v.constraints:
             constraints.append(replace(c, parts=tuple(index[v.planes[i].role] for i in c.parts)))
-            sources.append(src)
-    joint = Verification(tuple(planes), tuple(constraints), tuple(sources), levels[0].cameras)
+    joint = Verification(tuple(planes), tuple(constraints), levels[0].cameras)
     return verify(joint, levels=members)

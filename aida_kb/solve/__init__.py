@@ -12,7 +12,12 @@ from __future__ import annotations
 
 from aida_kb.solve.from_kb import KbConstraints, constraints_from_kb, problem_from_kb
 from aida_kb.solve.problem import Evaluation, Problem, build_problem
-from aida_kb.solve.report import ConstraintResidual, ResidualReport, residual_report
+from aida_kb.solve.report import (
+    ConstraintResidual,
+    ResidualReport,
+    residual_report,
+    residual_row,
+)
 from aida_kb.solve.solver import SolveResult, solve
 
 __all__ = [
@@ -26,5 +31,6 @@ __all__ = [
     "constraints_from_kb",
     "problem_from_kb",
     "residual_report",
+    "residual_row",
     "solve",
 ]

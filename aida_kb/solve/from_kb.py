@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.constraints.model import Constraint, EdgeData, PositionData
+from aida_kb.constraints import Constraint, EdgeData, Origin, PositionData
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.kb.model import ConceptModel, ConstraintSpec, KnowledgeBase
@@ -274,6 +274,13 @@ class _Walker:
                 label=label,
                 position=position,
                 edge=edge,
+                origin=Origin(
+                    label=spec.label,
+                    rule="knowledge",
+                    concept=spec.concept,
+                    owner=label.split(":", 1)[0].lstrip("."),
+                    span=spec.span,
+                ),
             )
         )
         self.specs.append(spec)

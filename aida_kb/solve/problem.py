@@ -10,30 +10,25 @@ analytic Jacobian (scipy CSR), evaluating every constraint kind in one vectorise
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from aida_kb.constraints.model import (
-    RESIDUAL_SIZE,
-    Constraint,
-    ConstraintBlock,
-    compile_blocks,
-    validate,
-)
+from aida_kb.constraints import Constraint, ConstraintBlock, compile_blocks
 from aida_kb.errors import GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.frames import PartFrames
+from aida_kb.geometry.rig import Rig
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
 Loss = Literal["linear", "soft_l1", "huber"]
 
-MEASUREMENT_KINDS = frozenset({"position", "edge"})
+_LOSS_BY_CODE: tuple[Loss, ...] = ("linear", "soft_l1", "huber")  # constraints.model.LOSS_CODES
 
 
 @dataclass(frozen=True)
@@ -46,9 +41,11 @@ class Problem:
     constraints : the constraints, part indices into ``0..P-1``.
     fixed_parts : parts whose planes are not moved.
     names : optional part names (role paths) for messages and reports.
-    cameras : the cameras that edge constraints refer to (by index).
+    cameras : the cameras that camera constraints (edge, camera_position) refer to.
     free_cameras : cameras whose poses ``[rvec, C]`` are unknowns (viewpoint registration);
         the others are fixed.
+    derived : ``(j, i, rig)``: camera j is the second camera of a stereo rig whose first is
+        camera i; its pose follows camera i's (a derived key: free when camera i is).
     """
 
     frames: PartFrames
@@ -58,6 +55,7 @@ class Problem:
     blocks: tuple[ConstraintBlock, ...] = field(default=(), repr=False, compare=False)
     cameras: tuple[PinholeCamera, ...] = ()
     free_cameras: frozenset[int] = frozenset()
+    derived: tuple[tuple[int, int, Rig], ...] = ()
 
     @property
     def n_parts(self) -> int:
@@ -69,19 +67,19 @@ class Problem:
         return self.names[i] if i < len(self.names) else f"part {i}"
 
     def describe(self, i: int) -> str:
-        """Constraint ``i`` for messages: its index, label and kind with its parts' names."""
+        """Constraint ``i`` for messages: index, label, where it was declared, kind and parts."""
         c = self.constraints[i]
         parts = ", ".join(self.part_name(int(p)) for p in c.parts)
         label = f" '{c.label}'" if c.label else ""
-        return f"constraint {i}{label} ({c.kind} of {parts})"
+        where = f" at {c.origin.where}" if c.origin is not None and c.origin.span else ""
+        return f"constraint {i}{label} ({c.kind} of {parts}){where}"
 
-    def with_frames(self, frames: PartFrames) -> Problem:
-        """The same problem relative to new initial frames (e.g. `PartFrames.rebased`)."""
-        return replace(self, frames=frames)
-
-    def with_fixed(self, fixed_parts: Iterable[int]) -> Problem:
-        """The same problem with another set of fixed parts."""
-        return replace(self, fixed_parts=_check_parts(fixed_parts, self.n_parts, "fixed part"))
+    def base_camera(self, j: int) -> int:
+        """The camera whose pose camera ``j``'s follows (``j`` itself unless derived)."""
+        for derived, base, _ in self.derived:
+            if derived == j:
+                return base
+        return j
 
 
 def _check_parts(parts: Iterable[int], n_parts: int, what: str) -> frozenset[int]:
@@ -104,6 +102,7 @@ def build_problem(
     names: Sequence[str] = (),
     cameras: Sequence[PinholeCamera] = (),
     free_cameras: Iterable[int] = (),
+    derived: Sequence[tuple[int, int, Rig]] = (),
 ) -> Problem:
     """Build a problem from initial planes ``n·x = d`` and constraints.
 
@@ -117,6 +116,8 @@ def build_problem(
     names : optional part names (P of them).
     cameras : cameras referred to by edge constraints (`aida_kb.geometry.camera`).
     free_cameras : indices of cameras whose poses are solved for (default: all fixed).
+    derived : ``(j, i, rig)``: camera j is rig's second camera of camera i (its start pose is
+        replaced by the one the rig gives; it is free when camera i is).
 
     Raises
     ------
@@ -139,9 +140,19 @@ def build_problem(
         if not isinstance(cam, PinholeCamera):
             raise SolveError(f"camera {i}: a PinholeCamera expected, got {type(cam).__name__}")
     free_cams = _check_parts(free_cameras, len(cams), "free camera")
+    links = tuple((int(j), int(i), rig) for j, i, rig in derived)
+    cam_list = list(cams)
+    for j, i, rig in links:
+        _check_parts((j, i), len(cams), "derived camera")
+        if j == i or j in free_cams or any(i == jj for jj, _, _ in links):
+            raise SolveError(
+                f"derived camera {j}: must follow another camera ({i}) that is not itself "
+                "derived, and cannot be free itself"
+            )
+        cam_list[j] = rig.right_of(cam_list[i])
     cons = tuple(constraints)
     blocks = compile_blocks(cons, frames.n_parts, len(cams))
-    return Problem(frames, cons, fixed, tuple(names), blocks, cams, free_cams)
+    return Problem(frames, cons, fixed, tuple(names), blocks, tuple(cam_list), free_cams, links)
 
 
 def _robust(z: FloatArray, loss: Loss) -> tuple[FloatArray, FloatArray]:
@@ -161,7 +172,8 @@ class Evaluation:
 
     The unknowns ``x`` are 3 parameters per free part (delta m, alpha rad, beta rad; in the
     order of ``free_parts``) followed by 6 per free camera (its pose ``[rvec, C]``, in the order
-    of ``free_cameras``).
+    of ``free_cameras``). A derived camera (`Problem.derived`) has no unknowns of its own: its
+    constraints' pose Jacobians are chained onto its base camera's columns.
 
     Parameters
     ----------
@@ -169,8 +181,9 @@ class Evaluation:
     free_parts : (F,) sorted indices of the parts whose parameters are unknowns.
     active : indices of the constraints taken into account (default all).
     free_cameras : (G,) indices of the cameras whose poses are unknowns.
-    loss, f_scale : robust loss applied to the whitened residuals of measurement constraints
-        (``f_scale`` in whitened units, i.e. multiples of sigma).
+    loss, f_scale : the default robust loss of measurement constraints (those whose own
+        ``loss`` is None), applied to each constraint's whitened block norm (``f_scale`` in
+        whitened units, i.e. multiples of sigma).
     """
 
     def __init__(
@@ -189,10 +202,13 @@ class Evaluation:
         self.loss: Loss = loss
         self.f_scale = float(f_scale)
         P = problem.n_parts
+        n_cams = len(problem.cameras)
         self.col_of_part = np.full(P, -1, dtype=np.intp)
         self.col_of_part[self.free_parts] = np.arange(self.free_parts.size)
-        self.col_of_camera = np.full(len(problem.cameras), -1, dtype=np.intp)
+        self.col_of_camera = np.full(n_cams, -1, dtype=np.intp)
         self.col_of_camera[self.free_cameras] = np.arange(self.free_cameras.size)
+        for j, i, _ in problem.derived:  # a derived camera moves with its base
+            self.col_of_camera[j] = self.col_of_camera[i]
         self.n_part_params = 3 * int(self.free_parts.size)
         self.n_params = self.n_part_params + 6 * int(self.free_cameras.size)
         if active is None:
@@ -200,7 +216,7 @@ class Evaluation:
         else:
             keep = np.zeros(len(problem.constraints), dtype=bool)
             keep[np.asarray(list(active), dtype=np.intp)] = True
-            blocks = tuple(_sub_block(b, keep[b.members]) for b in problem.blocks)
+            blocks = tuple(b.subset(keep[b.members]) for b in problem.blocks)
             blocks = tuple(b for b in blocks if b.size)
         self.blocks = blocks
         # residual rows and the Jacobian's sparsity pattern, block by block
@@ -210,7 +226,7 @@ class Evaluation:
         self._cam_masks: list[npt.NDArray[np.bool_] | None] = []
         row = 0
         for b in blocks:
-            k = RESIDUAL_SIZE[b.kind]
+            k = b.kind.residual_size
             M, a = b.idx.shape
             rows = row + np.arange(M * k, dtype=np.intp).reshape(M, k)
             cols_part = self.col_of_part[b.idx]  # (M, a)
@@ -224,8 +240,8 @@ class Evaluation:
             cols_all.append(cols_b[mask])
             self._masks.append(mask)
             cam_mask = None
-            if b.kind == "edge" and self.free_cameras.size:
-                cam_col = self.col_of_camera[b.data["camera"].astype(np.intp)]  # (M,)
+            if b.camera is not None and self.free_cameras.size:
+                cam_col = self.col_of_camera[b.camera]  # (M,)
                 cshape = (M, k, 6)
                 cam_mask = np.broadcast_to(cam_col[:, None, None] >= 0, cshape)
                 ccols = self.n_part_params + 6 * cam_col[:, None, None] + np.arange(6)
@@ -237,7 +253,7 @@ class Evaluation:
         # the constraint of each residual row (messages about degenerate geometry)
         self.constraint_of_row = (
             np.concatenate(
-                [np.repeat(b.members, RESIDUAL_SIZE[b.kind]).astype(np.intp) for b in blocks]
+                [np.repeat(b.members, b.kind.residual_size).astype(np.intp) for b in blocks]
             )
             if blocks
             else np.zeros(0, dtype=np.intp)
@@ -263,7 +279,8 @@ class Evaluation:
         return p
 
     def cameras(self, x: FloatArray) -> tuple[PinholeCamera, ...]:
-        """All cameras: the free ones at the poses in ``x``, the others as they are."""
+        """All cameras: the free ones at the poses in ``x``, derived ones following their
+        base, the others as they are."""
         if not self.free_cameras.size:
             return self.base_cameras
         cams = list(self.base_cameras)
@@ -273,6 +290,8 @@ class Evaluation:
                 cams[int(c)] = cams[int(c)].with_pose(pose)
             except GeometryError as exc:
                 raise SolveError(f"camera {int(c)}: {exc}") from exc
+        for j, i, rig in self.problem.derived:
+            cams[j] = rig.right_of(cams[i])
         return tuple(cams)
 
     def x_from(self, params: FloatArray, cameras: Sequence[PinholeCamera] = ()) -> FloatArray:
@@ -284,18 +303,30 @@ class Evaluation:
         xc = np.concatenate([cams[int(c)].pose for c in self.free_cameras])
         return np.concatenate([xp, xc])
 
+    def _pose_chain(self, cameras: Sequence[PinholeCamera]) -> FloatArray | None:
+        """(n_cameras, 6, 6): d(camera pose)/d(its base's pose) — the identity except for
+        derived cameras (`aida_kb.geometry.rig.Rig.pose_jacobian`); None without any."""
+        if not self.problem.derived:
+            return None
+        chain = np.broadcast_to(np.eye(6), (len(cameras), 6, 6)).copy()
+        for j, i, rig in self.problem.derived:
+            chain[j] = rig.pose_jacobian(cameras[i].pose)[1]
+        return chain
+
     def raw(
         self, params: FloatArray, cameras: Sequence[PinholeCamera], *, jacobian: bool
     ) -> tuple[list[FloatArray], list[FloatArray], list[FloatArray | None]]:
         """Unweighted residuals (M, k) per block and, if asked, Jacobians by the unknowns.
 
-        Returns residuals, Jacobians by the part parameters (M, k, a, 3) and by the camera
-        pose (M, k, 6; edge blocks only, else None).
+        Returns residuals, Jacobians by the part parameters (M, k, a, 3) and by the pose of
+        each constraint's (base) camera (M, k, 6; camera kinds only, else None).
         """
         frames = self.problem.frames
+        chain = None
         if jacobian:
             n, d, dn, dd = frames.planes_and_jacobian(params)
             G = np.concatenate([dn, dd[:, None, :]], axis=1)  # (P, 4, 3)
+            chain = self._pose_chain(cameras)
         else:
             n, d = frames.planes(params)
         rs: list[FloatArray] = []
@@ -308,6 +339,8 @@ class Evaluation:
             rs.append(r)
             if jacobian:
                 js.append(np.einsum("mkaf,mafq->mkaq", J, G[b.idx]))
+                if Jc is not None and chain is not None and b.camera is not None:
+                    Jc = np.einsum("mkp,mpq->mkq", Jc, chain[b.camera])
                 jcs.append(Jc)
         return rs, js, jcs
 
@@ -349,44 +382,52 @@ class Evaluation:
         ):
             f, scale = self._weigh(b, r)
             fs.append(f.reshape(-1))
-            vals.append((J * scale[:, :, None, None])[mask])
+            if scale.ndim == 1:  # a scalar per constraint
+                vals.append((J * scale[:, None, None, None])[mask])
+            else:
+                vals.append(np.einsum("mij,mjaq->miaq", scale, J)[mask])
             if cmask is not None:
                 assert Jc is not None
-                vals.append((Jc * scale[:, :, None])[cmask])
+                if scale.ndim == 1:
+                    vals.append((Jc * scale[:, None, None])[cmask])
+                else:
+                    vals.append(np.einsum("mij,mjq->miq", scale, Jc)[cmask])
         data = np.concatenate(vals) if vals else np.zeros(0)
         return (np.concatenate(fs) if fs else np.zeros(0)), data
 
     def _weigh(self, b: ConstraintBlock, r: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Weighted, robustified residuals (M, k) and the factor (M, k) for their Jacobian."""
-        sw = np.broadcast_to(b.sqrt_weight[:, None], r.shape)
-        f = sw * r
-        if self.loss == "linear" or b.kind not in MEASUREMENT_KINDS:
-            return f, sw
-        fs = self.f_scale
-        z = (f / fs) ** 2
-        rho, drho = _robust(z, self.loss)
-        small = z < 1e-24
-        ratio = np.where(small, 1.0, np.sqrt(rho) / np.sqrt(np.where(small, 1.0, z)))
-        # f~ = sign(f)·fs·sqrt(rho(z)) = f·ratio; df~/df = rho'(z)/ratio
-        deriv = np.where(small, 1.0, drho / ratio)
-        return f * ratio, sw * deriv
+        """Whitened, robustified residuals (M, k) and what takes the residuals' Jacobian to
+        theirs: a factor (M,) per constraint, or matrices (M, k, k).
 
-
-def _sub_block(b: ConstraintBlock, keep: npt.NDArray[np.bool_]) -> ConstraintBlock:
-    return ConstraintBlock(
-        kind=b.kind,
-        members=b.members[keep],
-        idx=b.idx[keep],
-        sqrt_weight=b.sqrt_weight[keep],
-        data={k: v[keep] for k, v in b.data.items()},
-    )
-
-
-def involved_parts(problem: Problem, active: Iterable[int]) -> frozenset[int]:
-    """The parts that the constraints ``active`` relate."""
-    return frozenset(int(p) for i in active for p in problem.constraints[i].parts)
-
-
-def revalidate(problem: Problem) -> None:
-    """Re-check a problem's constraints against its parts (after hand-made changes)."""
-    validate(problem.constraints, problem.n_parts)
+        The robust loss acts on each constraint's whitened block ``f``: with ``z = |f|²/s²``,
+        ``f~ = ratio·f``, ``ratio = sqrt(rho(z)/z)``, so that ``|f~|² = s²·rho(z)``; its exact
+        derivative is ``df~/df = ratio·I + c·f fᵀ`` with ``c = (rho'·z - rho)/(s² z² ratio)``
+        (for one component: ``rho'/ratio``).
+        """
+        f = b.whiten(r)
+        W: FloatArray = b.sqrt_weight
+        if b.sqrt_information is not None:
+            W = b.sqrt_weight[:, None, None] * b.sqrt_information
+        code = b.loss.astype(np.intp)
+        if b.kind.measurement:
+            code = np.where(code < 0, _LOSS_BY_CODE.index(self.loss), code)
+        else:
+            code = np.where(code < 0, 0, code)
+        if not np.any(code):
+            return f, W
+        fs = np.where(np.isnan(b.loss_scale), self.f_scale, b.loss_scale)
+        z = np.sum(f * f, axis=1) / fs**2
+        ratio = np.ones(b.size)
+        c = np.zeros(b.size)
+        for code_k in np.unique(code[code > 0]):
+            sel = (code == code_k) & (z > 1e-24)  # below: the loss is the identity
+            zs = z[sel]
+            rho, drho = _robust(zs, _LOSS_BY_CODE[int(code_k)])
+            rt = np.sqrt(rho / zs)
+            ratio[sel] = rt
+            c[sel] = (drho * zs - rho) / (fs[sel] ** 2 * zs**2 * rt)
+        k = f.shape[1]
+        D = ratio[:, None, None] * np.eye(k) + c[:, None, None] * np.einsum("mi,mj->mij", f, f)
+        if W.ndim == 1:
+            return f * ratio[:, None], D * W[:, None, None]
+        return f * ratio[:, None], np.einsum("mij,mjl->mil", D, W)

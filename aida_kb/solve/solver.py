@@ -29,6 +29,7 @@ import numpy.typing as npt
 import scipy.sparse as sp
 from scipy.optimize import least_squares, minimize
 
+from aida_kb.constraints import kind_of
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.solve.problem import Evaluation, Loss, Problem
@@ -163,8 +164,9 @@ def solve(
     problem : the problem (`aida_kb.solve.build_problem`).
     method : "trf" (sparse least squares, default) or "cg" (the paper's conjugate gradients
         with numerical gradients).
-    loss : "linear", "soft_l1" or "huber": robust loss on measurement constraints only.
-    f_scale : the robust loss's soft threshold, in whitened units (multiples of sigma).
+    loss : "linear", "soft_l1" or "huber": the default robust loss of measurement
+        constraints (a constraint's own ``loss`` overrides it), on its whitened block norm.
+    f_scale : the default loss's soft threshold, in whitened units (multiples of sigma).
     levels : hierarchical mode: lists of part indices, solved level by level, each fixed
         before the next is added.
     max_iterations : cap on function evaluations (trf) or iterations (cg); default scipy's.
@@ -189,16 +191,13 @@ def solve(
     message = "no free parts"
     used: list[str] = []
     constraint_parts = [frozenset(int(p) for p in c.parts) for c in problem.constraints]
+    cameras_of = [kind_of(c.kind).camera(c) for c in problem.constraints]
     for level in stages:
         allowed |= level
         active = [i for i, ps in enumerate(constraint_parts) if ps <= allowed]
         involved = {p for i in active for p in constraint_parts[i]}
         free = np.array(sorted((involved & level) - fixed), dtype=np.intp)
-        seen_by = {
-            int(problem.constraints[i].edge.camera)  # type: ignore[union-attr]
-            for i in active
-            if problem.constraints[i].kind == "edge"
-        }
+        seen_by = {problem.base_camera(cam) for i in active if (cam := cameras_of[i]) is not None}
         free_cams = np.array(sorted(seen_by & problem.free_cameras), dtype=np.intp)
         if (free.size or free_cams.size) and active:
             ev = Evaluation(

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.constraints.model import Constraint, PositionData
+from aida_kb.constraints import Constraint, PositionData
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -117,7 +117,7 @@ class _Builder:
         label = f"{kind}({', '.join(names)})"
         self.internal.append(
             Constraint(
-                kind=kind,  # type: ignore[arg-type]
+                kind=kind,
                 parts=tuple(self.i(n) for n in names),
                 value=value,
                 sigma=math.radians(sigma_deg),

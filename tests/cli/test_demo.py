@@ -46,8 +46,25 @@ def test_demo_reconstructs_the_house_within_the_targets(
     assert float(vertex.group(1)) <= 2.0
     model = read_model(tmp_path / "model" / "model.json")
     assert len(model.parts) == 7
-    assert read_interpretation(tmp_path / "model" / "interpretation.json").accepted
+    interp = read_interpretation(tmp_path / "model" / "interpretation.json")
+    assert interp.accepted
     assert (tmp_path / "model" / "model.obj").read_text().count("\nf ") == 7
+    # every constraint of the knowledge base names its .kb line, in the file and the output
+    kb_lines = (ROOT / "kb" / "buildings.kb").read_text(encoding="utf-8").splitlines()
+    knowledge = [r for r in interp.residuals if r.rule == "knowledge"]
+    assert knowledge
+    assert all(r.span is not None and r.span.file.endswith("buildings.kb") for r in knowledge)
+    # the HipRoof alternative was rejected by a constraint: its trace entry points at the
+    # line of buildings.kb that declares that constraint, and the output shows the line
+    hip = [h for h in interp.rejected() if "HipRoof" in h.reason and h.constraint is not None]
+    assert hip
+    span = hip[0].span
+    assert span is not None
+    assert span.file.endswith("buildings.kb")
+    declared = kb_lines[span.line - 1]
+    assert f"constraint {hip[0].constraint}:" in declared
+    assert f"buildings.kb:{span.line}:{span.column}: note[KB400]" in out
+    assert declared.strip() in out
 
 
 def test_demo_on_a_broken_kb_fails_with_diagnostics(capsys: pytest.CaptureFixture[str]) -> None:

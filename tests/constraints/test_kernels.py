@@ -138,7 +138,7 @@ def test_position_kernel(plane_derivative: Derivative) -> None:
 
 
 def test_position_scales_in_pixels() -> None:
-    from aida_kb.constraints.model import Constraint, PositionData, compile_blocks
+    from aida_kb.constraints import Constraint, PositionData, compile_blocks
     from aida_kb.errors import SolveError
 
     base = PositionData((0.0, 0.0, -1.0), (0.0, 0.0, 20.0), px_per_m=40.0, radius_m=3.0)

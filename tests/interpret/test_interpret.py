@@ -119,7 +119,7 @@ def test_wing_at_135_degrees_is_a_skew_wing(interpreted: Get, generate: ModuleTy
     assert deg < 1.0
     assert metres < 0.35
     meet = next(r for r in interp.residuals if r.label == "wings_meet")
-    assert meet.parts == ["body.front", "body.wings[0].front"]
+    assert meet.parts == ("body.front", "body.wings[0].front")
     assert meet.normalised_cost < 1.0
     assert interp.model is not None
     # 13 parts and the wing's bottom, closed by the body's floor plane: two closed solids
@@ -218,7 +218,7 @@ def test_wing_at_90_degrees_is_a_right_wing(interpreted: Get, generate: ModuleTy
         region = interp.instance(f"body.wings[0].{side}.region")
         assert region.bindings[0].startswith("00/")
     meet = next(r for r in interp.residuals if r.label == "wings_meet")
-    assert meet.parts == ["body.front", "body.wings[0].front"]
+    assert meet.parts == ("body.front", "body.wings[0].front")
     assert meet.normalised_cost < 1.0
     # which eave side of a right-angled wing is its front is a convention (both meet the
     # body's front at 90 degrees): compare each part with the truth's nearest face of its solid

@@ -7,14 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from aida_kb.constraints.model import Constraint
+from aida_kb.constraints import Constraint, Origin
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import CameraView, RegionView
 from aida_kb.interpret.verify import (
     EdgeEvidence,
     PlaneInit,
-    Source,
     Verification,
     build_verification,
     position_data,
@@ -36,8 +35,8 @@ def _region(rid: str, normal: np.ndarray, centroid: list[float]) -> RegionView:
     return RegionView(rid, "00", normal, np.asarray(centroid, float), 9000.0, 10000.0, 0.01)
 
 
-def _position(part: int, region: RegionView, sigma: float = 1.0) -> tuple[Constraint, Source]:
-    c = Constraint(
+def _position(part: int, region: RegionView, sigma: float = 1.0) -> Constraint:
+    return Constraint(
         kind="position",
         parts=(part,),
         sigma=sigma,
@@ -46,8 +45,8 @@ def _position(part: int, region: RegionView, sigma: float = 1.0) -> tuple[Constr
         measurement=True,
         label="Region#1",
         position=position_data(region, CAMERA),
+        origin=Origin("Region#1", "knowledge", "Region", region.id),
     )
-    return c, Source("Region#1", "Region", region.id, f"'Region#1' of {region.id}")
 
 
 def _angle(parts: tuple[int, int], value: float, sigma_deg: float, reject_deg: float) -> Constraint:
@@ -69,11 +68,7 @@ def test_perpendicular_walls_meet_the_regions_part_way() -> None:
     planes = tuple(PlaneInit(r, "Wall", n, float(n @ c)) for r, (n, c) in seen.items())
     positions = [_position(i, _region(r, n, c)) for i, (r, (n, c)) in enumerate(seen.items())]
     corner = _angle((0, 1), math.pi / 2, 1.0, 5.0)
-    v = Verification(
-        planes,
-        (corner, *(c for c, _ in positions)),
-        (Source("corner", "Test", ""), *(s for _, s in positions)),
-    )
+    v = Verification(planes, (corner, *positions))
     out = verify(v)
     n_a, n_b = out.planes["a"][0], out.planes["b"][0]
     meeting = 180.0 - math.degrees(math.acos(float(n_a @ n_b)))
@@ -81,7 +76,7 @@ def test_perpendicular_walls_meet_the_regions_part_way() -> None:
     # degree of corner costs 1 sigma: minimising 2·0.9·x² + (2 - 2x)² leaves 2 - 2x = 0.621
     assert meeting == pytest.approx(90.0 + 2.0 - 2.0 * 8.0 / 11.6, abs=0.01)
     corner_row = next(r for r in out.residuals if r.label == "corner")
-    assert corner_row.normalised == pytest.approx((meeting - 90.0) ** 2, rel=0.02)
+    assert corner_row.normalised_cost == pytest.approx((meeting - 90.0) ** 2, rel=0.02)
     assert corner_row.threshold == pytest.approx(25.0)  # (reject above / sigma)²
     assert out.worst_rejected() is None
 
@@ -101,14 +96,14 @@ def test_a_contradiction_over_the_threshold_is_flagged_and_fixed_parts_stay() ->
         unit="rad",
         label="parallel",
     )
-    pos, src = _position(1, _region("b", tilted, [3.0, 0.0, 20.0]), sigma=0.01)
-    out = verify(Verification(planes, (strict, pos), (Source("parallel", "T", ""), src)))
+    pos = _position(1, _region("b", tilted, [3.0, 0.0, 20.0]), sigma=0.01)
+    out = verify(Verification(planes, (strict, pos)))
     np.testing.assert_allclose(out.planes["a"][0], n)
     worst = out.worst_rejected()
     assert worst is not None
     assert worst.label == "parallel"
     assert worst.residual > math.radians(2.0)
-    assert worst.normalised > worst.threshold
+    assert worst.normalised_cost > worst.threshold
 
 
 def test_fragments_of_one_edge_share_one_verdict(buildings_kb: KnowledgeBase) -> None:
@@ -126,13 +121,13 @@ def test_fragments_of_one_edge_share_one_verdict(buildings_kb: KnowledgeBase) ->
     edges = [EdgeEvidence(("body.front", "body.left"), "body.front", 0, f) for f in fragments]
     v = build_verification(knowledge, "body", "HouseBody", planes, {}, {}, edges, set(), (cam,))
     assert [c.kind for c in v.constraints] == ["angle", "edge", "edge"]
-    assert [s.owner for s in v.sources] == [
+    assert [c.source.owner for c in v.constraints] == [
         "body",
         "body.front.region.contours[0]",
         "body.front.region.contours[1]",
     ]
     fixed = tuple(PlaneInit(p.role, p.concept, p.normal, p.offset_m, fixed=True) for p in planes)
-    out = verify(Verification(fixed, v.constraints, v.sources, v.cameras))
+    out = verify(Verification(fixed, v.constraints, v.cameras))
     edge = [r for r in out.residuals if r.kind == "edge"]
     assert len(edge) == 1  # pooled: RMS over the fragments, summed costs and thresholds
     assert edge[0].residual == pytest.approx(math.sqrt((2 * 1.0 + 2 * 25.0) / 2), rel=1e-3)
@@ -154,15 +149,18 @@ def test_constraints_come_from_the_knowledge_base(buildings_kb: KnowledgeBase) -
     v = build_verification(
         knowledge, "body", "HouseBody", planes, fillers, {}, [], set(), (), tilts
     )
-    labels = {(s.label, s.owner) for s in v.sources}
+    labels = {(c.source.label, c.source.owner) for c in v.constraints}
     # the body's own constraints relate fixed parts only: verified with the body, left out
     assert ("corner_fl", "body") not in labels
     assert ("wings_meet", "body") in labels
-    meet = v.constraints[[s.label for s in v.sources].index("wings_meet")]
+    meet = next(c for c in v.constraints if c.source.label == "wings_meet")
     assert meet.value == pytest.approx(math.radians(135.0))
     assert ("Wing#1", "body.wings[0]") in labels
     assert ("Wall.tilt", "body.wings[0].back") in labels
-    tilt = v.constraints[[s.owner for s in v.sources].index("body.wings[0].back")]
+    tilt = next(c for c in v.constraints if c.source.owner == "body.wings[0].back")
+    assert tilt.source.rule == "attribute"
+    assert tilt.source.span is not None
+    assert tilt.source.span.file.endswith("buildings.kb")
     assert tilt.sigma == pytest.approx(math.radians(1.0))
     assert tilt.reject_above == pytest.approx(math.radians(5.0))
 
@@ -174,8 +172,7 @@ def test_levels_are_solved_main_parts_first() -> None:
     seen = _turn(front, 1.0)  # the body's region: 1 degree off
     body = Verification(
         (PlaneInit("body.front", "Wall", seen, float(seen @ [0, 0, 20.0])),),
-        (_position(0, _region("b", seen, [0, 0, 20.0]))[0],),
-        (Source("Region#1", "Region", "body.front.region", "'Region#1' of body.front"),),
+        (_position(0, _region("b", seen, [0, 0, 20.0])),),
     )
     main = verify(body)
     n_main, d_main = main.planes["body.front"]
@@ -184,14 +181,13 @@ def test_levels_are_solved_main_parts_first() -> None:
     strict = Constraint(
         kind="parallel", parts=(0, 1), sigma=math.radians(0.5), unit="rad", label="aligned"
     )
-    pos, src = _position(1, _region("o", oriel_seen, [1.0, 0, 19.0]))
+    pos = _position(1, _region("o", oriel_seen, [1.0, 0, 19.0]))
     oriel = Verification(
         (
             PlaneInit("body.front", "Wall", n_main, d_main, fixed=True),
             PlaneInit("body.oriels[0].front", "Wall", oriel_seen, float(oriel_seen @ [1, 0, 19])),
         ),
         (strict, pos),
-        (Source("aligned", "HouseBody", "body"), src),
     )
     small = verify(oriel)
     whole = verify_levels([body, oriel])
@@ -202,8 +198,6 @@ def test_levels_are_solved_main_parts_first() -> None:
     assert [r.label for r in whole.residuals] == ["Region#1", "aligned", "Region#1"]
     # solved jointly instead, the oriel's evidence would pull the body's front
     free = tuple(PlaneInit(p.role, p.concept, p.normal, p.offset_m) for p in oriel.planes)
-    joint = verify(
-        Verification(free, (body.constraints[0], strict, pos), (body.sources[0], *oriel.sources))
-    )
+    joint = verify(Verification(free, (body.constraints[0], strict, pos)))
     moved = math.degrees(math.acos(min(1.0, float(joint.planes["body.front"][0] @ n_main))))
     assert moved > 0.1

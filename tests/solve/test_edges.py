@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from aida_kb.constraints.model import Constraint, EdgeData
+from aida_kb.constraints import Constraint, EdgeData
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.solve.problem import build_problem

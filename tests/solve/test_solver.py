@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from aida_kb.constraints import Constraint, PositionData
 from aida_kb.constraints.kernels import meeting_angle
-from aida_kb.constraints.model import Constraint, PositionData
 from aida_kb.errors import SolveError
 from aida_kb.solve.problem import Evaluation, build_problem
 from aida_kb.solve.solver import EXACT_MAX_UNKNOWNS, SolveResult, choose_tr_solver, solve
@@ -83,9 +83,9 @@ def test_wrong_hypothesis_is_flagged_right_one_is_not(house: SyntheticScene) -> 
 
     right = solve(_build(house, with_value(135.0))).report.by_label(label)
     wrong = solve(_build(house, with_value(90.0))).report.by_label(label)
-    assert not right.exceeds
+    assert not right.rejected
     assert right.normalised_cost < 0.1 * right.threshold
-    assert wrong.exceeds
+    assert wrong.rejected
     assert wrong.normalised_cost > 20 * wrong.threshold
     assert math.degrees(wrong.residual) > 20.0
 
@@ -212,9 +212,9 @@ def test_robust_loss_limits_a_bad_measurement(house: SyntheticScene) -> None:
 
     assert drag(robust) < 0.5 * drag(plain)
     assert drag(huber) < 0.5 * drag(plain)
-    assert huber.report.rows[k].exceeds
-    assert robust.report.rows[k].exceeds
-    assert not plain.report.rows[k - 1].exceeds
+    assert huber.report.rows[k].rejected
+    assert robust.report.rows[k].rejected
+    assert not plain.report.rows[k - 1].rejected
 
 
 def test_sparse_jacobian_matches_finite_differences(house: SyntheticScene) -> None:
