@@ -47,7 +47,11 @@ def test_explain_names_the_rejecting_constraint_and_its_cost(
         for x in text.splitlines()
         if "[body.roof=GableRoof; front=00/1]" in x and x.startswith("  #")
     )
-    assert "rejected: constraint 'slopes' cost " in line
+    assert "rejected: constraint 'slopes' at " in line
+    # the rejecting constraint's .kb line: in the trace line and as a note with the source line
+    assert "buildings.kb:" in line
+    assert "note[KB400]: 'slopes' rejected HouseBody" in text
+    assert "constraint slopes:" in text
     assert "(normalised)" in line
 
 
