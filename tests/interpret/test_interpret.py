@@ -97,7 +97,9 @@ def test_asymmetric_roof_is_rejected_with_constraint_and_cost(interpreted: Get) 
     assert interp.message.startswith("no House in the evidence: ")
     assert "alternatives rejected, e.g. constraint 'slopes' (cost " in interp.message
     text = "\n".join(explanation(interp))
-    assert f"constraint '{gable[0].constraint}' cost" in text
+    assert f"constraint '{gable[0].constraint}' at " in text
+    assert gable[0].span is not None
+    assert gable[0].span.file.endswith("buildings.kb")
 
 
 def test_wing_at_135_degrees_is_a_skew_wing(interpreted: Get, generate: ModuleType) -> None:
