@@ -113,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     if not refs:
         raise FormatError(f"no scene (a folder with scene.yaml) under {', '.join(args.dirs)}")
     kb_path = args.kb or str(packaged_kb("buildings.kb"))
-    kb = load_kb(kb_path)
+    kb, _ = load_kb(kb_path)
     check_goal(kb, args.goal)
     options = BatchOptions(
         goal=args.goal,
