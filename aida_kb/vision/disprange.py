@@ -3,9 +3,10 @@
 Dense NCC searches a fixed interval of disparities; a building whose disparities lie beyond it
 gets no depth or wrong depth (Herz-Jesu at 768 px: 127-210 px, against a default of 0-127).
 `disparity_range` finds the interval from ORB features matched between the rectified images:
-a match must pass Lowe's ratio test and lie on the same row (|Δy| <= EPIPOLAR_TOL_PX, what
-rectification promises); the interval spans the RANGE_QUANTILE quantiles of the matches'
-disparities, widened by RANGE_MARGIN_FRACTION of its span and at least RANGE_MARGIN_PX.
+a match must pass Lowe's ratio test, lie on the same row (|Δy| <= EPIPOLAR_TOL_PX, what
+rectification promises) and agree with the matches around it; the interval spans the
+RANGE_QUANTILE quantiles of the matches' disparities, widened by RANGE_MARGIN_FRACTION of
+its span and at least RANGE_MARGIN_PX.
 `saturation_warnings` says when a dense result or the sparse matches run into the ends of the
 interval searched.
 """
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import cKDTree
 
 from aida_kb.vision.stereo import DisparityMap
 
@@ -26,8 +28,13 @@ F64 = npt.NDArray[np.float64]
 ORB_FEATURES = 4000  # enough for a few hundred good matches on a 1-megapixel facade
 RATIO_TEST = 0.8  # Lowe's ratio: best Hamming distance below this fraction of the second
 EPIPOLAR_TOL_PX = 1.5  # a rectified match lies on the same row (calibration error included)
-MIN_MATCHES = 30  # fewer matches than this say nothing reliable about the range
-RANGE_QUANTILE = 0.01  # the extreme 1 % of matches on either side may be wrong matches
+MIN_MATCHES = 30
+# A match is kept when its disparity lies within max(3 px, 10 %) of the median of its 6 nearest
+# matches in the image: a slanted wall changes by far less between neighbouring features.
+NEIGHBOURS = 6
+NEIGHBOUR_TOL_PX = 3.0
+NEIGHBOUR_TOL_FRACTION = 0.1  # fewer matches than this say nothing reliable about the range
+RANGE_QUANTILE = 0.002  # the extreme 0.2 % of matches on either side may be wrong matches
 RANGE_MARGIN_FRACTION = 0.25  # surfaces beyond the matched features (plain walls, ground)
 RANGE_MARGIN_PX = 8.0  # ... and at least this much (the subpixel peak needs neighbours)
 MIN_NUM_DISP = 16  # the smallest interval searched
@@ -60,9 +67,9 @@ class DisparityRange:
 def sparse_disparities(left: npt.NDArray[np.uint8], right: npt.NDArray[np.uint8]) -> F64:
     """Disparities (M,), pixels (x_left - x_right), of ORB matches of a rectified grey pair.
 
-    left, right : (H, W) uint8 rectified images. Only matches that pass the ratio test and lie
-    on the same row (EPIPOLAR_TOL_PX) are kept; disparities may be negative (wrong matches or
-    points beyond infinity of a miscalibrated rig).
+    left, right : (H, W) uint8 rectified images. Only matches that pass the ratio test, lie
+    on the same row (EPIPOLAR_TOL_PX) and agree with their neighbours in the image are kept;
+    disparities may be negative (points beyond infinity of a miscalibrated rig).
     """
     orb = cv2.ORB_create(nfeatures=ORB_FEATURES)  # type: ignore[attr-defined]
     kl, dl = orb.detectAndCompute(left, None)
@@ -76,8 +83,22 @@ def sparse_disparities(left: npt.NDArray[np.uint8], right: npt.NDArray[np.uint8]
     pl = np.array([kl[m.queryIdx].pt for m in good], np.float64)
     pr = np.array([kr[m.trainIdx].pt for m in good], np.float64)
     on_row = np.abs(pl[:, 1] - pr[:, 1]) <= EPIPOLAR_TOL_PX
-    disparities: F64 = (pl[:, 0] - pr[:, 0])[on_row]
-    return disparities
+    pl, d = pl[on_row], (pl[:, 0] - pr[:, 0])[on_row]
+    return d[_agrees_with_neighbours(pl, d)]
+
+
+def _agrees_with_neighbours(points: F64, d: F64) -> npt.NDArray[np.bool_]:
+    """True for the matches (points (M, 2) pixels, disparities d (M,)) whose disparity is
+    within NEIGHBOUR_TOL of the median of their NEIGHBOURS nearest matches in the image:
+    surfaces are mostly smooth, so a match alone with its disparity is a wrong one (periodic
+    texture: bricks, windows in a row)."""
+    if len(d) <= NEIGHBOURS:
+        return np.ones(len(d), bool)
+    _, idx = cKDTree(points).query(points, k=NEIGHBOURS + 1)
+    local = np.median(d[idx[:, 1:]], axis=1)
+    tol = np.maximum(NEIGHBOUR_TOL_PX, NEIGHBOUR_TOL_FRACTION * np.abs(local))
+    agrees: npt.NDArray[np.bool_] = np.abs(d - local) <= tol
+    return agrees
 
 
 def disparity_range(

@@ -39,13 +39,13 @@ def truth_planes_camera(truth: SceneTruth, view: str) -> dict[int, tuple[F64, fl
 def truth_disparity(
     truth: SceneTruth, view: str, labels: npt.NDArray[np.uint16], rect: Rectification
 ) -> F32:
-    """Exact disparity (H, W) float32 of the rectified left image; NaN where no labelled part.
+    """Exact disparity (H', W') float32 of the rectified left image; NaN where no labelled part.
 
     labels : (H, W) labels.png of the ORIGINAL left image; each rectified pixel takes the label
     of the nearest original pixel and the exact depth of that label's plane along its ray.
     """
     planes = truth_planes_camera(truth, view)
-    W, H = rect.size
+    W, H = rect.rect_size
     lab = remap(labels.astype(np.float32), rect.map_left, nearest=True, border=0.0)
     lab = lab.astype(np.int64)
     f = rect.focal_px

@@ -194,7 +194,7 @@ def _plane_regions(
     the normalisation window): unbiased by the matcher's subpixel interpolation, which
     matters on narrow faces. Where the refinement fails, the disparity fit stays.
     """
-    W, H = rect.size
+    W, H = rect.rect_size
     rect_regions = remap(regions.astype(np.float32), rect.map_left, nearest=True, border=0.0)
     rect_regions = np.nan_to_num(rect_regions, nan=0.0).astype(np.int32)
     f, cx, cy, B = rect.focal_px, float(rect.P1[0, 2]), float(rect.P1[1, 2]), rect.baseline_m
