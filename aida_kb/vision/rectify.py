@@ -9,8 +9,9 @@ otherwise (cv2's alpha = 0 crops 25-42 % of real toed-in pairs, alpha = 1 shrink
 and the rectified image is as large as the whole original left image seen through R1.
 Both cameras share the principal point (zero disparity at infinity). A pair whose rectified
 left image would be more than MAX_SIZE_FACTOR times the original's pixels, or would have to
-show rays at more than MAX_RAY_ANGLE_DEG from its axis, is refused with the reason: that is forward motion (the
-right camera in front of the left one), where planar rectification blows the image up.
+show rays at more than MAX_RAY_ANGLE_DEG from its axis, is refused with the reason: that is
+forward motion (the right camera in front of the left one), where planar rectification blows
+the image up.
 
 The rectified left camera is the original left camera turned by R1 (same centre): a point
 x_orig in the original left camera frame is x_rect = R1·x_orig. Disparity d at a rectified
