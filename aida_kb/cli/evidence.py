@@ -92,10 +92,10 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.vision.debug import write_debug
     from aida_kb.vision.evidence import STAGES, VisionParams, scene_evidence
 
+    check_max_disp(args.max_disp)
     scene = read_scene(args.scene, with_truth=False)
     check_outputs([args.output], scene.files, directories=[args.debug] if args.debug else [])
     views = parse_views(args.views)
-    check_max_disp(args.max_disp)
     params = VisionParams(num_disp=args.max_disp, window=args.window)
     n_views = len(views) if views is not None else len(scene.views)
     console = Console(stderr=True)

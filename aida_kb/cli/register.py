@@ -91,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
     )
     from aida_kb.vision.evidence import VisionParams, scene_evidence
 
+    check_max_disp(args.max_disp)
     if args.init_angle is not None and not math.isfinite(args.init_angle):
         raise FormatError(f"--init-angle must be a finite number of degrees, got {args.init_angle}")
     model_file = read_model(args.model)
@@ -105,7 +106,6 @@ def run(args: argparse.Namespace) -> int:
     model = RigidModel.from_model(model_file)
     check_reference_camera(model, ref_entry, args.model, index)
     scene = read_scene(args.scene, with_truth=False)
-    check_max_disp(args.max_disp)
     evidence, products = scene_evidence(
         scene, views=[args.view], params=VisionParams(num_disp=args.max_disp)
     )

@@ -56,3 +56,26 @@ def test_a_world_layer_goal_is_refused_before_the_vision_stage(
     line = _one_error_line(capsys)
     assert code == 1
     assert "goal 'Roof' is a concept of the world layer" in line
+
+
+@pytest.mark.parametrize("command", ["reconstruct", "evidence", "register"])
+@pytest.mark.parametrize("value", ["2", "300"])
+def test_max_disp_out_of_range_is_refused_before_any_work(
+    command: str, value: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    scene = tmp_path / "no-scene"
+    argv = {
+        "reconstruct": ["reconstruct", KB, str(scene), "-o", str(out)],
+        "evidence": ["evidence", str(scene), "-o", str(out)],
+        "register": ["register", str(scene / "model.json"), str(scene), "--view", "01"],
+    }[command]
+    code = main(
+        [*argv, "--max-disp", value, "--quiet"]
+        if command != "register"
+        else [*argv, "--max-disp", value]
+    )
+    line = _one_error_line(capsys)
+    assert code == 1
+    assert line == f"aida-kb: error: --max-disp {value}: must lie within 3..256"
+    assert not out.exists()
