@@ -32,9 +32,10 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from aida_kb.geometry.polygon import intersect_planes  # noqa: E402
 from aida_kb.solve.problem import build_problem  # noqa: E402
 from aida_kb.solve.solver import solve  # noqa: E402
-from aida_kb.solve.synthetic import house_row, intersect_planes, perturbed  # noqa: E402
+from aida_kb.solve.synthetic import house_row, perturbed  # noqa: E402
 
 
 def _problem(n_houses: int):  # type: ignore[no-untyped-def]
@@ -70,7 +71,7 @@ def main() -> int:
         f"({cg.message})",
         file=sys.stderr,
     )
-    v = intersect_planes(trf.normals, trf.offsets, scene.vertex_planes)
+    v = intersect_planes(trf.normals[scene.vertex_planes], trf.offsets[scene.vertex_planes])
     vertex_err = float(np.max(np.linalg.norm(v - scene.vertices, axis=1)) / scene.size)
 
     sizes, times = [], []

@@ -172,11 +172,6 @@ class PartFrames:
         n, d = self.planes(p)
         return PartFrames.from_planes(n, d, self.centres(p))
 
-    def subset(self, index: npt.ArrayLike) -> PartFrames:
-        """The frames of the parts ``index`` (an integer array), in that order."""
-        i = np.asarray(index, dtype=np.intp)
-        return PartFrames(origin=self.origin[i], axes=self.axes[i])
-
     def _params(self, params: FloatArray) -> FloatArray:
         p = np.asarray(params, dtype=np.float64)
         if p.shape != (self.n_parts, 3):

@@ -13,13 +13,13 @@ The sequence of the paper:
    turn as the last (a symmetric model's pose is taken nearest to it), against that model;
    after each, the model and the new pose are adjusted with all views so far.
 4. The model is refined with all views at once (planes and every later view's pose), twice,
-   each time with the segments matched again and the regions' positions taken again at the
-   adjusted poses. This is done with one later view too: a later view's region positions are
-   put into the world frame with its pose at the start of an adjustment and do not follow the
-   pose while it is adjusted, so they hold the model near the registered pose; taken again at
-   the adjusted pose they let it converge (the 135-degree L-shape: view 01 0.35 m off after
-   registration and the model shifted 0.3-0.6 m with it; after the rounds 0.11 m, vertex
-   error 1.96 % -> 1.38 %).
+   each time with the segments matched again at the adjusted poses (`FINAL_ROUNDS`).
+
+Every view's regions are measured in its own camera frame (``camera_position`` factors of
+`aida_kb.constraints`): they follow the view's pose while it is adjusted. Edge factors whiten
+a segment's two end-point residuals as those of a fitted line. All of it is one problem of
+`aida_kb.solve` per adjustment, with the views' cameras as keys (the right images can join
+through rig-derived cameras: `JOINT_RIGHT_IMAGES`).
 
 The model's edges are those within a solid (a house body, each wing): a segment on the edge
 between a wing and the body (e.g. the wing's foot on the body's inserted floor) is never a
@@ -38,11 +38,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.constraints import Constraint, EdgeData, PositionData
+from aida_kb.constraints import CameraPositionData, Constraint, EdgeData, Origin
 from aida_kb.constraints.kernels import meeting_angle
+from aida_kb.constraints.kinds.edge import segment_sqrt_information
 from aida_kb.errors import GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.polyhedron import Polyhedron
+from aida_kb.geometry.rig import Rig
 from aida_kb.interpret.result import Interpretation
 from aida_kb.interpret.run import interpret
 from aida_kb.io.evidence import Evidence
@@ -51,6 +53,7 @@ from aida_kb.io.scene import Scene
 from aida_kb.register import (
     RegistrationOptions,
     RigidModel,
+    StereoSegments,
     match_regions,
     match_segments,
 )
@@ -75,9 +78,11 @@ __all__ = [
     "reconstruct_views",
 ]
 
-JOINT_EDGE_SIGMA_PX = 2.0
+JOINT_EDGE_SIGMA_PX = 4.0
 """Edge constraints of the joint adjustment: an edge point's standard deviation across its
-edge, pixels; a segment's end points get ``2 sigma / sqrt(length)`` (at least sigma/10)."""
+edge, pixels (loose: a model edge is not exactly an image edge — eaves, shading, texture); a
+segment's mean end-point residual gets ``sigma / sqrt(length)``, their half difference
+``sigma·sqrt(3/length)`` (`segment_sqrt_information`)."""
 JOINT_ANGLE_SIGMA_DEG = 0.3
 """The first shape's angles between adjacent parts, kept to this standard deviation."""
 PRIOR_ANGLE_SIGMA_DEG = 2.0
@@ -85,8 +90,15 @@ PRIOR_ANGLE_SIGMA_DEG = 2.0
 JOINT_MATCH_PX = 3.0
 """Segments within this distance of a projected model edge are its evidence."""
 FINAL_ROUNDS = 2
-"""Adjustments of the model and every later pose at the end (each re-matches the segments and
-takes the regions' positions again at the adjusted poses)."""
+"""Adjustments of the model and every later pose at the end (each re-matches the segments at
+the adjusted poses). Still needed with the regions measured in their camera's frame: with none,
+`benchmarks/reconstruct.py` gave house seed 1 0.52 deg / 0.69 % instead of 0.17 deg / 0.26 %."""
+JOINT_RIGHT_IMAGES = False
+"""Whether the joint adjustments also use the segments of each view's right image (through a
+camera that follows the view's by the stereo calibration; registration always does). Off:
+measured with `benchmarks/reconstruct.py`, the right images turned house seed 1's inserted
+floor by 0.9 deg about the depth axis (0.91 deg / 1.03 % instead of 0.17 deg / 0.26 %): the
+floor's roll is held only by the first shape's angles (2 degrees) and wall-bottom segments."""
 
 
 def _model_camera(view: str, cam: PinholeCamera) -> ModelCamera:
@@ -119,6 +131,7 @@ def joint_adjustment(
     *,
     angles: Mapping[tuple[int, int], float] | None = None,
     internal: Sequence[Constraint] = (),
+    stereo: Sequence[StereoSegments | None] = (),
 ) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...]]:
     """Adjust the model's planes and the free cameras' poses to all views at once.
 
@@ -130,6 +143,11 @@ def joint_adjustment(
     free_cameras : indices of the cameras whose poses are unknowns (the others fix the frame).
     internal : the knowledge base's constraints among the parts (`kb_constraints`); with them
         the first shape's angles are kept only loosely (`PRIOR_ANGLE_SIGMA_DEG`).
+    stereo : per view, the segments of its right image and its rig (or None): their edge
+        factors look through a camera that follows the view's (a derived key of the solve).
+
+    Each view's regions are measured in its own camera frame (``camera_position`` factors):
+    they follow the view's pose while it is adjusted.
 
     Returns
     -------
@@ -142,49 +160,38 @@ def joint_adjustment(
     """
     opts = RegistrationOptions()
     cons: list[Constraint] = []
+    all_cameras = list(cameras)
+    derived: list[tuple[int, int, Rig]] = []
     for ci, (cam, m) in enumerate(zip(cameras, views, strict=True)):
-        vis = model.visible_edges(cam)
-        mt = match_segments(
-            vis.a,
-            vis.b,
-            m.p1,
-            m.p2,
-            max_distance_px=JOINT_MATCH_PX,
-            max_angle_rad=math.radians(opts.max_angle_deg),
-        )
-        faces = model.edge_faces[vis.index[mt.edge]]
-        for (a, b), p, q in zip(faces, m.p1[mt.segment], m.p2[mt.segment], strict=True):
-            cons.append(
-                Constraint(
-                    kind="edge",
-                    parts=(int(a), int(b)),
-                    sigma=_segment_sigma(p, q),
-                    unit="px",
-                    measurement=True,
-                    label=f"edge({model.names[a]}, {model.names[b]})@{m.view}",
-                    edge=EdgeData(ci, (float(p[0]), float(p[1])), (float(q[0]), float(q[1]))),
-                )
+        cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view)
+        pair = stereo[ci] if ci < len(stereo) else None
+        if pair is not None:  # the right image: a camera that follows this view's
+            right = len(all_cameras)
+            all_cameras.append(pair.rig.right_of(cam))
+            derived.append((right, ci, pair.rig))
+            cons += _edge_factors(
+                model, all_cameras[right], right, pair.p1, pair.p2, f"{m.view} (right)"
             )
         obs = match_regions(model, cam, m.regions, opts) if m.regions.size else None
         if obs is None:
             continue
-        R, C = cam.R_cam_world, cam.centre
-        for part, n, c, s in zip(
-            obs.part, obs.normal_cam @ R, obs.centre_cam @ R + C, obs.sigma_m, strict=True
-        ):
-            n = n / np.linalg.norm(n)
+        for k in range(obs.size):
+            part = int(obs.part[k])
+            inv_m, inv_rad = 1.0 / float(obs.sigma_m[k]), 1.0 / float(obs.sigma_rad[k])
+            n, c = obs.normal_cam[k], obs.centre_cam[k]
             cons.append(
                 Constraint(
-                    kind="position",
-                    parts=(int(part),),
-                    sigma=float(s),
-                    unit="m",
+                    kind="camera_position",
+                    parts=(part,),
                     measurement=True,
                     label=f"position({model.names[part]})@{m.view}",
-                    position=PositionData(
+                    camera_position=CameraPositionData(
+                        ci,
                         (float(n[0]), float(n[1]), float(n[2])),
                         (float(c[0]), float(c[1]), float(c[2])),
                     ),
+                    sqrt_information=((inv_m, 0.0, 0.0), (0.0, inv_rad, 0.0), (0.0, 0.0, inv_rad)),
+                    origin=Origin(f"position({model.names[part]})@{m.view}", "evidence"),
                 )
             )
     if angles is None:
@@ -200,6 +207,7 @@ def joint_adjustment(
                 sigma=math.radians(sigma_deg),
                 unit="rad",
                 label=f"first-shape angle({model.names[a]}, {model.names[b]})",
+                origin=Origin(f"first-shape angle({model.names[a]}, {model.names[b]})", "prior"),
             )
         )
     problem = build_problem(
@@ -207,17 +215,52 @@ def joint_adjustment(
         model.offsets,
         cons,
         names=model.names,
-        cameras=cameras,
+        cameras=all_cameras,
         free_cameras=free_cameras,
+        derived=derived,
     )
     result = solve(problem, loss="soft_l1", f_scale=2.0)
-    return result.normals, result.offsets, result.cameras
+    return result.normals, result.offsets, result.cameras[: len(cameras)]
 
 
-def _segment_sigma(p: FloatArray, q: FloatArray) -> float:
-    """A segment's end points' sigma across it: a line fitted to one point per pixel."""
-    length = max(float(np.hypot(*(q - p))), 4.0)
-    return max(2.0 * JOINT_EDGE_SIGMA_PX / math.sqrt(length), 0.1 * JOINT_EDGE_SIGMA_PX)
+def _edge_factors(
+    model: RigidModel,
+    camera: PinholeCamera,
+    index: int,
+    p1: FloatArray,
+    p2: FloatArray,
+    view: str,
+) -> list[Constraint]:
+    """Edge factors of the segments (S, 2) px that match the model's edges seen by ``camera``
+    (camera ``index`` of the problem): each whitened as a line fitted to one edge point per
+    pixel with `JOINT_EDGE_SIGMA_PX` (`segment_sqrt_information`)."""
+    vis = model.visible_edges(camera)
+    mt = match_segments(
+        vis.a,
+        vis.b,
+        p1,
+        p2,
+        max_distance_px=JOINT_MATCH_PX,
+        max_angle_rad=math.radians(RegistrationOptions().max_angle_deg),
+    )
+    faces = model.edge_faces[vis.index[mt.edge]]
+    out = []
+    for (a, b), p, q in zip(faces, p1[mt.segment], p2[mt.segment], strict=True):
+        e1, e2 = (float(p[0]), float(p[1])), (float(q[0]), float(q[1]))
+        label = f"edge({model.names[a]}, {model.names[b]})@{view}"
+        out.append(
+            Constraint(
+                kind="edge",
+                parts=(int(a), int(b)),
+                unit="px",
+                measurement=True,
+                label=label,
+                edge=EdgeData(index, e1, e2),
+                sqrt_information=segment_sqrt_information(e1, e2, JOINT_EDGE_SIGMA_PX),
+                origin=Origin(label, "evidence"),
+            )
+        )
+    return out
 
 
 def kb_constraints(
@@ -305,11 +348,12 @@ def _adjusted(
     free: Sequence[int],
     angles: Mapping[tuple[int, int], float],
     internal: Sequence[Constraint],
+    stereo: Sequence[StereoSegments | None],
 ) -> tuple[RigidModel, list[FloatArray], list[PinholeCamera]] | str:
     """`joint_adjustment` and the rebuilt model, or why it failed (the caller keeps the old)."""
     try:
         n, d, adjusted = joint_adjustment(
-            model, cameras, views, free, angles=angles, internal=internal
+            model, cameras, views, free, angles=angles, internal=internal, stereo=stereo
         )
         rigid, polygons = _rebuilt(model, n, d)
     except (GeometryError, SolveError) as exc:
@@ -357,6 +401,10 @@ def reconstruct_views(
     internal = kb_constraints(kb, interp, rigid.names)
     views = [measurements_of(v) for v in known]
     ids = [v.id for v in known]
+    use_right = scene is not None and JOINT_RIGHT_IMAGES
+    pairs: list[StereoSegments | None] = [
+        right_segments(scene, v.id) if use_right and scene is not None else None for v in known
+    ]
     cams: list[PinholeCamera] = []
     for v, m in zip(known, views, strict=True):
         K, R, t = (np.array(a, dtype=np.float64) for a in (v.left.K, v.left.R, v.left.t))
@@ -378,9 +426,10 @@ def reconstruct_views(
         cams.append(reg.camera)
         views.append(measurements_of(v))
         ids.append(v.id)
+        pairs.append(stereo if use_right else None)
         # the model and the new view's pose in one joint optimisation (for the second view:
         # the first shape and the second pose), the views before it held where they are
-        step = _adjusted(rigid, cams, views[: len(cams)], [len(cams) - 1], angles, internal)
+        step = _adjusted(rigid, cams, views, [len(cams) - 1], angles, internal, pairs)
         if isinstance(step, str):
             notes.append(f"joint adjustment with view {v.id} skipped: {step}")
         else:
@@ -388,7 +437,9 @@ def reconstruct_views(
     for _ in range(FINAL_ROUNDS if len(cams) > n_known else 0):
         if progress is not None:
             progress(f"refining the model with all {len(cams)} views")
-        step = _adjusted(rigid, cams, views, list(range(n_known, len(cams))), angles, internal)
+        step = _adjusted(
+            rigid, cams, views, list(range(n_known, len(cams))), angles, internal, pairs
+        )
         if isinstance(step, str):
             notes.append(f"refinement with all views skipped: {step}")
             break

@@ -8,9 +8,10 @@
 
 from __future__ import annotations
 
+from aida_kb.geometry.rig import Rig
 from aida_kb.register.match import Matches, chamfer_cost, match_segments
 from aida_kb.register.model import RigidModel, VisibleEdges
-from aida_kb.register.pose import EdgeObservations, PoseFit, RegionObservations, Rig, fit_pose
+from aida_kb.register.pose import EdgeObservations, PoseFit, RegionObservations, fit_pose
 from aida_kb.register.register import (
     RegionMeasurements,
     Registration,

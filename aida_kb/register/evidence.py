@@ -13,11 +13,11 @@ import numpy.typing as npt
 
 from aida_kb.errors import FormatError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.geometry.rig import Rig
 from aida_kb.io.evidence import ViewEvidence
 from aida_kb.io.model import ModelCamera
 from aida_kb.io.scene import Scene, read_image
 from aida_kb.register.model import RigidModel
-from aida_kb.register.pose import Rig
 from aida_kb.register.register import (
     RegionMeasurements,
     Registration,

@@ -27,10 +27,11 @@ import numpy.typing as npt
 
 from aida_kb.errors import GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.geometry.rig import Rig
 from aida_kb.geometry.rotation import rotation_from_rvec, rvec_from_rotation
 from aida_kb.register.match import chamfer_cost, match_segments
 from aida_kb.register.model import RigidModel
-from aida_kb.register.pose import EdgeObservations, RegionObservations, Rig, fit_pose
+from aida_kb.register.pose import EdgeObservations, RegionObservations, fit_pose
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]

@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.constraints import Constraint, PositionData
+from aida_kb.geometry.polygon import intersect_planes
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -60,14 +61,6 @@ class SyntheticScene:
         return self.names.index(name)
 
 
-def intersect_planes(normals: FloatArray, offsets: FloatArray, triples: IntArray) -> FloatArray:
-    """Points (V, 3) where the planes ``triples`` (V, 3) meet (world frame, metres)."""
-    A = normals[triples]  # (V, 3, 3)
-    b = offsets[triples]  # (V, 3)
-    out: FloatArray = np.linalg.solve(A, b[:, :, None])[:, :, 0].astype(np.float64)
-    return out
-
-
 def _convex_vertices(
     normals: FloatArray, offsets: FloatArray, solid: tuple[int, ...]
 ) -> tuple[list[tuple[int, int, int]], list[FloatArray]]:
@@ -76,7 +69,7 @@ def _convex_vertices(
     det = np.abs(np.linalg.det(A))
     ok = det > 1e-6
     triples, det = triples[ok], det[ok]
-    pts = intersect_planes(normals, offsets, triples)
+    pts = intersect_planes(normals[triples], offsets[triples])
     s = np.array(solid, dtype=np.intp)
     inside = np.all(pts @ normals[s].T <= offsets[s] + 1e-7, axis=1)
     triples, det, pts = triples[inside], det[inside], pts[inside]

@@ -97,3 +97,30 @@ def test_a_single_later_view_pose_converges_in_the_final_rounds(
     Rt, tt = np.array(true.R), np.array(true.t)
     assert np.linalg.norm(R.T @ t - Rt.T @ tt) < 0.15  # metres, at 26 m (0.06 m now)
     assert compare_with_truth(interp.model, truth).max_vertex_error_rel < 0.04
+
+
+def test_joint_adjustment_can_take_the_right_images_through_rig_cameras(
+    house: Path, evidence: Evidence, buildings_kb: object, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # off by default (JOINT_RIGHT_IMAGES' measurement); on, each view's right image joins the
+    # adjustments through a camera that follows the view's, and the model stays right
+    import aida_kb.interpret.multiview as mv
+
+    monkeypatch.setattr(mv, "JOINT_RIGHT_IMAGES", True)
+    seen: list[int] = []
+    original = mv.joint_adjustment
+
+    def spy(*args: object, **kwargs: object) -> object:
+        stereo = kwargs.get("stereo", ())
+        seen.append(sum(s is not None for s in stereo))  # type: ignore[attr-defined]
+        return original(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(mv, "joint_adjustment", spy)
+    scene = read_scene(house, with_truth=False)
+    interp = mv.reconstruct_views(buildings_kb, evidence, scene=scene)  # type: ignore[arg-type]
+    assert seen
+    assert all(n == 2 for n in seen)  # both views' right images, in every adjustment
+    assert interp.model is not None
+    truth = read_scene(house).truth
+    assert truth is not None
+    assert compare_with_truth(interp.model, truth).max_vertex_error_rel < 0.02

@@ -23,8 +23,9 @@ from aida_kb.register import (
     turned,
     vertical_axis,
 )
-from aida_kb.register.pose import region_residuals, right_jacobian
+from aida_kb.register.pose import EdgeObservations, pose_factors
 from aida_kb.register.synthetic import simulated_segments
+from aida_kb.solve.problem import Evaluation, build_problem
 
 K = np.array([[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]])
 
@@ -103,7 +104,7 @@ def test_matching_takes_the_nearest_parallel_edge() -> None:
     np.testing.assert_allclose(m.distance_px, [0.9, 1.25])
 
 
-def test_region_residual_jacobian_matches_finite_differences() -> None:
+def test_pose_factors_jacobian_matches_finite_differences() -> None:
     model = _box()
     cam = turned(_reference(), np.array([0.0, -1.0, 0.0]), model.centroid, 0.4)
     rng = np.random.default_rng(3)
@@ -115,15 +116,29 @@ def test_region_residual_jacobian_matches_finite_differences() -> None:
         np.array([0.01, 0.02]),
         np.array([0.03, 0.05]),
     )
-    pose = cam.pose
-    _, J = region_residuals(model, pose, regions)
-    eps = 1e-7
-    for i in range(6):
-        dp = np.zeros(6)
-        dp[i] = eps
-        rp, _ = region_residuals(model, pose + dp, regions)
-        rm, _ = region_residuals(model, pose - dp, regions)
-        np.testing.assert_allclose(J[:, :, i], (rp - rm) / (2 * eps), rtol=1e-5, atol=1e-4)
+    vis = model.visible_edges(cam)
+    k = min(4, vis.a.shape[0])
+    edges = EdgeObservations(model.edge_faces[vis.index[:k]], vis.a[:k] + 0.7, vis.b[:k] - 0.4)
+    factors = pose_factors(edges, regions, None, sigma_px=1.0, f_scale=2.0)
+    assert [f.kind for f in factors] == ["edge"] * k + ["camera_position"] * 2
+    problem = build_problem(
+        model.normals,
+        model.offsets,
+        factors,
+        fixed_parts=range(model.normals.shape[0]),
+        cameras=[cam],
+        free_cameras=[0],
+    )
+    for loss in ("linear", "soft_l1"):
+        ev = Evaluation(problem, np.zeros(0, dtype=np.intp), free_cameras=np.array([0]), loss=loss)
+        x = cam.pose
+        _, J = ev.residuals_and_dense_jacobian(x)
+        eps = 1e-7
+        for i in range(6):
+            dp = np.zeros(6)
+            dp[i] = eps
+            fd = (ev.residuals(x + dp) - ev.residuals(x - dp)) / (2 * eps)
+            np.testing.assert_allclose(J[:, i], fd, rtol=1e-5, atol=1e-3)
 
 
 @pytest.mark.parametrize("turn_deg", [40.0, -65.0])
@@ -168,7 +183,7 @@ def _rig() -> Rig:
 def test_right_camera_pose_jacobian_matches_finite_differences() -> None:
     rig = _rig()
     x = np.array([0.3, -1.2, 0.4, 0.5, -0.2, 1.0])
-    right, J = right_jacobian(rig, x)
+    right, J = rig.pose_jacobian(x)
     np.testing.assert_allclose(
         right.centre, rig.right_of(PinholeCamera.from_pose(K, x, 640, 480)).centre
     )
@@ -176,7 +191,7 @@ def test_right_camera_pose_jacobian_matches_finite_differences() -> None:
     for i in range(6):
         dx = np.zeros(6)
         dx[i] = eps
-        fd = (right_jacobian(rig, x + dx)[0].pose - right_jacobian(rig, x - dx)[0].pose) / (2 * eps)
+        fd = (rig.pose_jacobian(x + dx)[0].pose - rig.pose_jacobian(x - dx)[0].pose) / (2 * eps)
         np.testing.assert_allclose(J[:, i], fd, rtol=1e-6, atol=1e-7)
 
 

@@ -11,11 +11,12 @@ import pytest
 
 from aida_kb.constraints import EdgeData, PositionData
 from aida_kb.errors import SolveError
+from aida_kb.geometry.polygon import intersect_planes
 from aida_kb.kb import compile_path
 from aida_kb.kb.model import KnowledgeBase
 from aida_kb.solve.from_kb import constraints_from_kb, problem_from_kb
 from aida_kb.solve.solver import solve
-from aida_kb.solve.synthetic import SyntheticScene, house_row, intersect_planes, perturbed
+from aida_kb.solve.synthetic import SyntheticScene, house_row, perturbed
 
 KB = Path(__file__).resolve().parents[2] / "kb" / "buildings.kb"
 
@@ -103,7 +104,9 @@ def test_kb_problem_solves_and_rejects_the_wrong_wing(
         # ... are not parts of the concepts, so they stay where they started)
         used = {p for c in found.constraints for p in c.parts}
         rows = [k for k, t in enumerate(scene.vertex_planes) if set(t.tolist()) <= used]
-        v = intersect_planes(result.normals, result.offsets, scene.vertex_planes[rows])
+        v = intersect_planes(
+            result.normals[scene.vertex_planes[rows]], result.offsets[scene.vertex_planes[rows]]
+        )
         err = np.max(np.linalg.norm(v - scene.vertices[rows], axis=1))
         assert len(rows) >= 15
         assert err < 0.01 * scene.size

@@ -11,9 +11,10 @@ import pytest
 from aida_kb.constraints import Constraint, PositionData
 from aida_kb.constraints.kernels import meeting_angle
 from aida_kb.errors import SolveError
+from aida_kb.geometry.polygon import intersect_planes
 from aida_kb.solve.problem import Evaluation, build_problem
 from aida_kb.solve.solver import EXACT_MAX_UNKNOWNS, SolveResult, choose_tr_solver, solve
-from aida_kb.solve.synthetic import SyntheticScene, house_row, intersect_planes, perturbed
+from aida_kb.solve.synthetic import SyntheticScene, house_row, perturbed
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +36,7 @@ def _build(scene: SyntheticScene, constraints: tuple[Constraint, ...] | None = N
 
 
 def _vertex_error(scene: SyntheticScene, result: SolveResult) -> float:
-    v = intersect_planes(result.normals, result.offsets, scene.vertex_planes)
+    v = intersect_planes(result.normals[scene.vertex_planes], result.offsets[scene.vertex_planes])
     return float(np.max(np.linalg.norm(v - scene.vertices, axis=1)))
 
 
