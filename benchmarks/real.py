@@ -48,10 +48,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from stereo import at_density, opencv_disparity
 
-from aida_kb.cli.interpret import load_kb
 from aida_kb.interpret.observe import estimate_up, slope_deg, view_of
 from aida_kb.interpret.run import interpret
 from aida_kb.io.scene import read_labels, read_scene
+from aida_kb.kb import compile_path
 from aida_kb.vision.disprange import disparity_range
 from aida_kb.vision.evaluate import score_disparity
 from aida_kb.vision.evidence import scene_evidence
@@ -177,7 +177,8 @@ def motorcycle() -> dict[str, Any]:
 def main() -> None:
     """Run every real scene and Motorcycle; print one JSON line."""
     real = Path(sys.argv[1]) if len(sys.argv) > 1 else REAL
-    kb = load_kb(str(ROOT / "kb" / "buildings.kb"))
+    kb = compile_path(str(ROOT / "kb" / "buildings.kb")).kb
+    assert kb is not None, "kb/buildings.kb has errors"
     out: dict[str, Any] = {}
     for path in sorted(p for p in real.iterdir() if (p / "scene.yaml").is_file()):
         out[path.name] = real_scene(path, kb)

@@ -44,7 +44,12 @@ from aida_kb.vision.planes import (
     refine_plane_photometric,
 )
 from aida_kb.vision.rectify import Rectification, remap, stereo_rectification
-from aida_kb.vision.segmentation import local_planes, region_contours, segment_planes
+from aida_kb.vision.segmentation import (
+    local_planes,
+    merge_coplanar,
+    region_contours,
+    segment_planes,
+)
 from aida_kb.vision.stereo import DisparityMap, ncc_disparity
 
 F32 = npt.NDArray[np.float32]
@@ -304,6 +309,36 @@ def _inliers_per_region(
     return {int(i): int(c) for i, c in enumerate(counts.tolist()) if c > 0}
 
 
+def _merge_coplanar(
+    regions: I32,
+    plane_regions: list[Region],
+    pose: tuple[F64, F64],
+    disp: DisparityMap,
+    depth: DepthMap,
+    rect: Rectification,
+    rays: F64,
+    calib: StereoCalib,
+    p: VisionParams,
+    to_frame: tuple[F64, F64] | None,
+    photometric: PhotometricPair | None,
+) -> tuple[I32, list[Region]]:
+    """Regions of one plane merged (`segmentation.merge_coplanar`) and their planes refitted.
+
+    pose : (R_cam_world, t_cam_world) of the frame the regions' planes are given in.
+    """
+    R_w, t_w = pose
+    ids = np.array([r.id for r in plane_regions], np.int64)
+    normals = np.array([R_w @ np.array(r.n_init) for r in plane_regions])
+    centroids = np.array([R_w @ np.array(r.c_init) + t_w for r in plane_regions])
+    merged = merge_coplanar(regions, ids, normals, centroids)
+    if np.array_equal(merged, regions):
+        return regions, plane_regions
+    refit = _plane_regions(
+        merged, disp, depth, rect, rays, calib, p.window, to_frame, False, photometric
+    )
+    return merged, refit
+
+
 def process_view(
     scene: Scene,
     view_id: str,
@@ -372,6 +407,20 @@ def process_view(
         used == "labels",
         photometric,
     )
+    if used == "orientation" and len(plane_regions) > 1:
+        regions, plane_regions = _merge_coplanar(
+            regions,
+            plane_regions,
+            (R_w, t_w),
+            disp,
+            depth,
+            rect,
+            rays,
+            calib,
+            p,
+            to_frame,
+            photometric,
+        )
     kept = {r.id for r in plane_regions}
     regions = np.where(np.isin(regions, list(kept)), regions, 0).astype(np.int32)
     tick("lines")

@@ -51,3 +51,30 @@ def test_no_depth_no_regions() -> None:
     d = np.full((50, 60), np.nan, np.float32)
     cert = np.zeros_like(d)
     assert not segment_planes(d, cert, local_planes(d, cert)).any()
+
+
+def test_coplanar_regions_merge_across_a_window_hole() -> None:
+    """Two pieces of one wall 20 m away, 10 px apart across a window, merge; a piece 1 m in
+    front (a porch) and a turned piece (a side wall) touching them do not."""
+    from aida_kb.vision.segmentation import merge_coplanar
+
+    regions = np.zeros((60, 200), np.int32)
+    regions[:, 0:50] = 3  # wall, left of the window
+    regions[:, 60:110] = 5  # wall, right of the window (10 px of hole between)
+    regions[:, 110:150] = 7  # porch in front, touching
+    regions[:, 150:200] = 9  # side wall, touching the porch
+    n = np.array([0.0, 0.0, -1.0])
+    a = np.radians(40.0)
+    side = np.array([np.sin(a), 0.0, -np.cos(a)])
+    ids = np.array([3, 5, 7, 9])
+    normals = np.array([n, n, n, side])
+    centroids = np.array([[-2.0, 0, 20.0], [1.0, 0, 20.1], [3.0, 0, 19.0], [6.0, 0, 19.5]])
+    merged = merge_coplanar(regions, ids, normals, centroids)
+    assert set(np.unique(merged).tolist()) == {0, 3, 7, 9}
+    assert np.all(merged[:, 60:110] == 3)
+    assert np.all(merged[:, 110:150] == 7)
+    # without the neighbourhood nothing merges: pieces far apart stay apart
+    far = regions.copy()
+    far[:, 60:110] = 0
+    far[:, 90:110] = 5
+    assert set(np.unique(merge_coplanar(far, ids, normals, centroids)).tolist()) == {0, 3, 5, 7, 9}
