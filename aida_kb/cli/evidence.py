@@ -120,7 +120,11 @@ def run(args: argparse.Namespace) -> int:
             console.print(f"warning: {warning}", markup=False, soft_wrap=True)
     for view, prod in zip(evidence.views, products, strict=True):
         lo, num = prod.disparity_range
-        console.print(f"view {view.id}: disparities searched {lo}..{lo + num - 1} px", markup=False)
+        console.print(
+            f"view {view.id}: {prod.rectified}; disparities searched {lo}..{lo + num - 1} px",
+            markup=False,
+            soft_wrap=True,
+        )
         console.print(
             f"view {view.id} ({view.frame} frame, {view.segmentation}): "
             f"{len(view.regions)} regions, {len(view.lines)} lines, "

@@ -108,6 +108,7 @@ class ViewProducts:
     left_rectified: npt.NDArray[np.uint8]
     disparity_range: tuple[int, int] = (0, 0)  # (min_disp, num_disp) searched, pixels
     warnings: tuple[str, ...] = ()
+    rectified: str = ""  # the rectification's size, zoom and share of the left image kept
 
 
 def _camera(K: F64, D: F64, R: F64, t: F64, size: tuple[int, int]) -> EvidenceCamera:
@@ -472,6 +473,7 @@ def process_view(
         left=left,
         left_rectified=left_r,
         disparity_range=(min_disp, num_disp),
+        rectified=rect.summary(),
         warnings=tuple(f"view {view.id}: {w}" for w in warnings),
     )
 

@@ -146,7 +146,11 @@ def test_evidence_cli(
     for view in ("00", "01"):
         for kind in ("depth", "certainty", "segmentation", "lines", "disparity"):
             assert f"{view}_{kind}.png" in names
-    assert "wrote" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "wrote" in err
+    # the rectification and the disparity range found are reported
+    assert "view 00: rectified 320x240 (1.00x the pixels), zoom 1.0" in err
+    assert "of the left image kept; disparities searched" in err
 
 
 def test_evidence_cli_bad_input(
