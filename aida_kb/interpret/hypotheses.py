@@ -61,13 +61,6 @@ class Frame:
         out: FloatArray = table.get(role, self.right)
         return out
 
-    def rotated(self, angle_rad: float) -> Frame:
-        """The frame turned about up by `angle_rad` (positive: front turns towards right)."""
-        c, s = math.cos(angle_rad), math.sin(angle_rad)
-        front = c * self.front + s * self.right
-        right = np.cross(-front, self.up)
-        return Frame(front, right, self.up)
-
 
 @dataclass(frozen=True)
 class PlanarPart:

@@ -27,6 +27,7 @@ from functools import partial
 import numpy as np
 import numpy.typing as npt
 
+from aida_kb.constraints import kind_of
 from aida_kb.errors import AidaError, GeometryError, InterpretError
 from aida_kb.interpret.closure import ClosingFace, close, closing_faces, inside_face
 from aida_kb.interpret.edges import EdgeMatch, match_segments
@@ -793,7 +794,8 @@ class Interpreter:
         out: set[tuple[str, str]] = set()
         for node in structure.nodes:
             for spec in self.knowledge.concept(node.concept).constraints:
-                if not (spec.measurement and spec.kind == "edge" and len(spec.args) == 2):
+                segment = kind_of(spec.kind).evidence == "segment"
+                if not (spec.measurement and segment and len(spec.args) == 2):
                     continue
                 if not self.knowledge.holds(node.role, spec.requires, fillers):
                     continue

@@ -212,13 +212,6 @@ class Knowledge:
                 return False
         return True
 
-    def measurement(self, concept: str, kind: str) -> Any | None:
-        """The first measurement spec of `kind` ('position', 'edge') declared by `concept`."""
-        for s in self.concept(concept).constraints:
-            if s.measurement and s.kind == kind:
-                return s
-        return None
-
     def realisation(self, concept: str) -> Slot | None:
         """The con-of slot of `concept` (its realisation one layer down), if any."""
         for s in self.concept(concept).slots:

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -63,7 +64,7 @@ from aida_kb.register.evidence import (
     register_evidence_view,
     right_segments,
 )
-from aida_kb.solve import build_problem, constraints_from_kb, solve
+from aida_kb.solve import ResidualReport, build_problem, constraints_from_kb, solve
 
 if TYPE_CHECKING:
     from aida_kb.kb.model import KnowledgeBase
@@ -132,7 +133,7 @@ def joint_adjustment(
     angles: Mapping[tuple[int, int], float] | None = None,
     internal: Sequence[Constraint] = (),
     stereo: Sequence[StereoSegments | None] = (),
-) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...]]:
+) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...], ResidualReport]:
     """Adjust the model's planes and the free cameras' poses to all views at once.
 
     Parameters
@@ -151,7 +152,8 @@ def joint_adjustment(
 
     Returns
     -------
-    normals (P, 3), offsets (P,) and the cameras at their adjusted poses.
+    normals (P, 3), offsets (P,), the cameras at their adjusted poses and the residual report
+    of every factor of the adjustment (with its origin).
 
     Raises
     ------
@@ -220,7 +222,7 @@ def joint_adjustment(
         derived=derived,
     )
     result = solve(problem, loss="soft_l1", f_scale=2.0)
-    return result.normals, result.offsets, result.cameras[: len(cameras)]
+    return result.normals, result.offsets, result.cameras[: len(cameras)], result.report
 
 
 def _edge_factors(
@@ -291,7 +293,12 @@ def kb_constraints(
             found = constraints_from_kb(kb, top.concept, assignment, fillers=fillers)
         except SolveError:
             continue
-        out.extend(c for c in found.constraints if not c.measurement)
+        for c in found.constraints:
+            if c.measurement:
+                continue
+            o = c.source
+            owner = f"{top.role}.{o.owner}" if o.owner else top.role
+            out.append(replace(c, origin=replace(o, owner=owner)))
     return out
 
 
@@ -349,16 +356,16 @@ def _adjusted(
     angles: Mapping[tuple[int, int], float],
     internal: Sequence[Constraint],
     stereo: Sequence[StereoSegments | None],
-) -> tuple[RigidModel, list[FloatArray], list[PinholeCamera]] | str:
+) -> tuple[RigidModel, list[FloatArray], list[PinholeCamera], ResidualReport] | str:
     """`joint_adjustment` and the rebuilt model, or why it failed (the caller keeps the old)."""
     try:
-        n, d, adjusted = joint_adjustment(
+        n, d, adjusted, report = joint_adjustment(
             model, cameras, views, free, angles=angles, internal=internal, stereo=stereo
         )
         rigid, polygons = _rebuilt(model, n, d)
     except (GeometryError, SolveError) as exc:
         return str(exc)
-    return rigid, polygons, list(adjusted)
+    return rigid, polygons, list(adjusted), report
 
 
 def reconstruct_views(
@@ -377,8 +384,11 @@ def reconstruct_views(
 
     With one view (or no view of unknown pose) this is `interpret` itself. Otherwise the
     returned interpretation is the first view's, with the model replaced by the one refined
-    with every view and a camera for every view. A view that cannot be registered is left out
-    of the model (no camera), and the message names it and says why.
+    with every view and a camera for every view, and its residuals (and cost) those of the
+    last adjustment of that model: every factor with its origin (the knowledge base's with
+    their ``.kb`` lines, each view's segments and regions, the first shape's angles). A view
+    that cannot be registered is left out of the model (no camera), and the message names it
+    and says why.
     """
     later = [v for v in evidence.views[1:] if v.frame == "camera"]
     known = [v for v in evidence.views if v.frame == "world"]
@@ -412,6 +422,7 @@ def reconstruct_views(
     n_known = len(cams)
     turn: float | None = None
     notes: list[str] = []
+    report: ResidualReport | None = None  # the last adjustment's, for interpretation.json
     for v in later:
         if progress is not None:
             progress(f"registering view {v.id}")
@@ -433,7 +444,7 @@ def reconstruct_views(
         if isinstance(step, str):
             notes.append(f"joint adjustment with view {v.id} skipped: {step}")
         else:
-            rigid, polygons, cams = step
+            rigid, polygons, cams, report = step
     for _ in range(FINAL_ROUNDS if len(cams) > n_known else 0):
         if progress is not None:
             progress(f"refining the model with all {len(cams)} views")
@@ -443,7 +454,7 @@ def reconstruct_views(
         if isinstance(step, str):
             notes.append(f"refinement with all views skipped: {step}")
             break
-        rigid, polygons, cams = step
+        rigid, polygons, cams, report = step
     parts = []
     by_role = {p.role: p for p in model0.parts}
     for i, name in enumerate(rigid.names):
@@ -461,8 +472,12 @@ def reconstruct_views(
     model = ReconstructedModel(
         parts=parts, cameras=[_model_camera(i, c) for i, c in zip(ids, cams, strict=True)]
     )
+    update: dict[str, object] = {}
+    if report is not None:  # the residuals of the model this interpretation holds
+        update = {"residuals": list(report.rows), "cost": report.reduced_cost}
     return interp.model_copy(
         update={
+            **update,
             "model": model,
             "message": f"{interp.message}; {len(cams) - n_known} more view(s) registered and "
             f"the model refined with all {len(ids)}" + "".join(f"; {n}" for n in notes),

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.constraints import Constraint, EdgeData, Origin, PositionData
+from aida_kb.constraints import Constraint, EdgeData, Origin, PositionData, kind_of
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.kb.model import ConceptModel, ConstraintSpec, KnowledgeBase
@@ -223,7 +223,8 @@ class _Walker:
                     f"{label}: requires {concrete} to be {' or '.join(allowed)} (is {filler})"
                 )
                 return
-        if spec.kind == "edge" and args == ["self"]:
+        evidence = kind_of(spec.kind).evidence
+        if evidence == "segment" and args == ["self"]:
             found = self.contours.get(path[:-1])
             if found is None:
                 self.skipped.append(f"{label}: no image segment for this contour")
@@ -237,13 +238,13 @@ class _Walker:
             self.skipped.append(f"{label}: unassigned {', '.join(missing)}")
             return
         ids = tuple(int(p) for p in parts if p is not None)
-        if spec.kind == "position":
+        if evidence == "region":
             pos = self.positions.get(ids[0])
             if pos is None:
                 self.skipped.append(f"{label}: no region evidence for part {ids[0]}")
                 return
             self.add(spec, ids, label, position=pos)
-        elif spec.kind == "edge":
+        elif evidence == "segment":
             segs = self.edges.get((min(ids), max(ids)), ())
             if not segs:
                 self.skipped.append(f"{label}: no image segment of this edge")

@@ -49,6 +49,14 @@ def test_two_view_house_registers_the_second_view_and_refines_the_model(
     assert np.linalg.norm(R.T @ t - Rt.T @ tt) < 0.2  # metres, at 30 m
     angle = np.degrees(np.arccos(np.clip((np.trace(R @ Rt.T) - 1) / 2, -1.0, 1.0)))
     assert angle < 0.5
+    # the residuals are the joint adjustment's: both views' evidence, the knowledge's own
+    # constraints at their .kb lines, the first shape's angles as a prior
+    rules = {r.rule for r in interp.residuals}
+    assert {"evidence", "knowledge", "prior"} <= rules
+    assert any(r.label.endswith("@01") for r in interp.residuals)
+    knowledge = [r for r in interp.residuals if r.rule == "knowledge"]
+    assert all(r.span is not None and r.span.file.endswith("buildings.kb") for r in knowledge)
+    assert {r.owner for r in knowledge} == {"body"}
 
 
 def test_a_view_that_cannot_be_registered_is_left_out_and_named(

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +34,9 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BlockData = dict[str, npt.NDArray[Any]]
 """A block's packed measurement: named arrays with a first axis of M (one row per member)."""
+
+Evidence = Literal["region", "segment"] | None
+"""What a knowledge-base measure of a kind is fed with (`Kind.evidence`)."""
 
 Evaluated = tuple[FloatArray, FloatArray, FloatArray | None]
 """``(r, J, J_camera)``: residuals (M, k) in the constraints' unit, Jacobian (M, k, a, 4) by
@@ -49,6 +52,9 @@ class Kind:
     dof: ClassVar[int]
     measurement: ClassVar[bool] = False
     uses_camera: ClassVar[bool] = False
+    evidence: ClassVar[Evidence] = None
+    """What a knowledge-base measure of this kind is fed with: a region's plane fit
+    (`PositionData`), an image segment (`EdgeData`), or nothing (an internal constraint)."""
     summary: ClassVar[str]
     """One line for the documentation: what the residual measures, in which unit."""
 

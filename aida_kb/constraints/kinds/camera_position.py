@@ -26,6 +26,7 @@ from aida_kb.constraints.kernels import cross
 from aida_kb.constraints.kinds.base import (
     BlockData,
     Evaluated,
+    Evidence,
     FloatArray,
     IntArray,
     Kind,
@@ -55,6 +56,8 @@ class CameraPosition(Kind):
     dof: ClassVar[int] = 3
     measurement: ClassVar[bool] = True
     uses_camera: ClassVar[bool] = True
+    # made by code from matched regions (registration, multi-view), never from a .kb measure
+    evidence: ClassVar[Evidence] = None
     summary: ClassVar[str] = (
         "distance of a region's centre (camera frame) from its plane, m, and the normals' "
         "angle, rad (eq. 4 through a camera)"

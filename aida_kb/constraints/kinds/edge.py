@@ -19,6 +19,7 @@ from aida_kb.constraints.factor import Constraint, EdgeData
 from aida_kb.constraints.kinds.base import (
     BlockData,
     Evaluated,
+    Evidence,
     FloatArray,
     IntArray,
     Kind,
@@ -65,6 +66,7 @@ class Edge(Kind):
     dof: ClassVar[int] = 2
     measurement: ClassVar[bool] = True
     uses_camera: ClassVar[bool] = True
+    evidence: ClassVar[Evidence] = "segment"
     summary: ClassVar[str] = "end points' distance from the edge, m or px (eq. 5)"
 
     def camera(self, c: Constraint) -> int | None:

@@ -20,6 +20,7 @@ from aida_kb.constraints.factor import Constraint, PositionData
 from aida_kb.constraints.kinds.base import (
     BlockData,
     Evaluated,
+    Evidence,
     FloatArray,
     IntArray,
     Kind,
@@ -44,6 +45,7 @@ class Position(Kind):
     residual_size: ClassVar[int] = 4
     dof: ClassVar[int] = 3
     measurement: ClassVar[bool] = True
+    evidence: ClassVar[Evidence] = "region"
     summary: ClassVar[str] = "tilt and shift of a plane from its region's fit, rad+m or px (eq. 4)"
 
     def multiplicity(self, c: Constraint) -> float:
