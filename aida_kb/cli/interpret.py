@@ -16,7 +16,10 @@ what it does:
   con-of, part-of and is-a, matches the world parts to the evidence regions, inserts the
   parts no view can see, adjusts every alternative by weighted least squares and rejects
   those whose constraints cost too much. Prints the accepted instances as a tree.
-  A scene without the goal object is not an error: the interpretation is empty (exit 0).
+  The verdict (aida_kb.interpret.verdict) then checks the accepted interpretation against
+  the constraints' thresholds, the evidence and the knowledge's measured attributes.
+  exit status: 0 verified, 3 doubtful (reasons in the summary line), 4 nothing found
+  (a scene without the goal object; interpretation.json is still written), 1 an error.
 
 examples:
   aida-kb interpret kb/buildings.kb out/evidence.json
@@ -139,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
     """Interpret; print the tree; write interpretation.json when asked."""
     from aida_kb.interpret.result import write_interpretation
     from aida_kb.interpret.run import check_goal, interpret
+    from aida_kb.interpret.verdict import judge, with_verdict
     from aida_kb.io.atomic import check_output
     from aida_kb.io.evidence import read_evidence
 
@@ -148,8 +152,22 @@ def run(args: argparse.Namespace) -> int:
     check_goal(kb, args.goal)
     evidence = read_evidence(args.evidence)
     interp = interpret(kb, evidence, goal=args.goal, source=args.evidence)
+    interp = with_verdict(interp, judge(kb, interp, evidence))
     print_interpretation(interp, explain=args.explain, sources=sources)
     if args.output:
         write_interpretation(args.output, interp)
         print(f"wrote {args.output}")
+    return verdict_status(interp)
+
+
+EXIT_DOUBTFUL = 3  # an interpretation was found, but the verdict doubts it (reasons printed)
+EXIT_NOTHING = 4  # no interpretation of the goal was found
+
+
+def verdict_status(interp: Interpretation) -> int:
+    """The exit status of a result: 0 verified, EXIT_DOUBTFUL, EXIT_NOTHING."""
+    if interp.verdict == "doubtful":
+        return EXIT_DOUBTFUL
+    if interp.verdict == "nothing" or not interp.accepted:
+        return EXIT_NOTHING
     return 0

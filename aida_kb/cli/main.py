@@ -34,6 +34,7 @@ COMMANDS: tuple[str, ...] = (
     "reconstruct",
     "batch",
     "register",
+    "evaluate",
 )
 
 EXIT_OK = 0

@@ -11,6 +11,8 @@ writes into OUT:
   interpretation.json  instances, residual of every constraint, hypothesis trace
   model.json           each part's plane (n, d) and closed polygon; each view's camera
   model.obj            the closed mesh (only when the goal object was found)
+exit status: 0 verified, 3 doubtful (the reasons are printed first), 4 nothing found,
+  1 an error, 2 unreadable input (aida_kb.interpret.verdict).
 
 examples:
   aida-kb synth house -o out/house
@@ -54,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import Progress, TextColumn, TimeElapsedColumn
 
     from aida_kb.cli.evidence import check_max_disp, parse_views
-    from aida_kb.cli.interpret import load_kb, print_interpretation
+    from aida_kb.cli.interpret import load_kb, print_interpretation, verdict_status
     from aida_kb.interpret.pipeline import reconstruct_scene
     from aida_kb.interpret.run import check_goal
     from aida_kb.io.atomic import make_dirs
@@ -87,4 +89,4 @@ def run(args: argparse.Namespace) -> int:
     print_interpretation(result.interpretation, explain=args.explain, sources=sources)
     for path in result.files:
         print(f"wrote {path}")
-    return 0
+    return verdict_status(result.interpretation)

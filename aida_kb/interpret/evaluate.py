@@ -5,23 +5,34 @@ paired by role path; a true face whose namesake faces another way (which eave si
 right-angled wing is its front is a convention) is paired with the unpaired part of its solid
 (the body, ``body.wings[0]``, ...) that faces its way most (within 25 degrees). Angles are
 the dihedral angles between parts whose true polygons share an edge (the angle between their
-normals); vertex errors are, for every true vertex, the distance to the nearest vertex of the
+normals); normal errors are the angles between each paired part's normal and its true one;
+vertex errors are, for every true vertex, the distance to the nearest vertex of the
 reconstructed polygon paired with its face, relative to the size of the true object (the
 diagonal of its bounding box). Angles are those at which the planes meet inside the solid
 (the knowledge base's convention: a wall corner is 90 degrees, the eaves of a roof pitched at
 35 degrees 125, the ridge 110).
+
+`evaluate` judges a whole result (`interpretation.json` with its model) against a scene's
+truth: the right outcome (an object found where there is one, nothing where there is none),
+the specialisations chosen (truth.json's `concepts`), the normals, the vertices and every
+view's camera. It is what `aida-kb evaluate`, `aida-kb demo` and `benchmarks/robustness.py`
+report.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from aida_kb.io.model import ModelPart, ReconstructedModel
 from aida_kb.io.scene import PartTruth, SceneTruth
+
+if TYPE_CHECKING:
+    from aida_kb.interpret.result import Interpretation
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -50,6 +61,13 @@ class TruthComparison:
     max_vertex_error_m: float
     size_m: float
     missing: list[str]  # true roles with no reconstructed part
+    normal_errors_deg: dict[str, float] = field(default_factory=dict)  # true role -> angle
+    extra: list[str] = field(default_factory=list)  # model roles paired with no true part
+
+    @property
+    def max_normal_error_deg(self) -> float:
+        """The largest angle between a part's normal and its true normal, degrees."""
+        return max(self.normal_errors_deg.values(), default=0.0)
 
     @property
     def max_vertex_error_rel(self) -> float:
@@ -117,6 +135,15 @@ def compare_with_truth(
     )
     missing = [p.role for p in true_parts if p.role not in parts]
     angles: list[AngleError] = []
+    normal_errors = {
+        t.role: math.degrees(
+            math.acos(float(np.clip(np.dot(parts[t.role].normal, t.normal), -1.0, 1.0)))
+        )
+        for t in true_parts
+        if t.role in parts
+    }
+    paired = {m.role for m in parts.values()}
+    extra = [] if roles is not None else [m.role for m in model.parts if m.role not in paired]
     worst_vertex = 0.0
     polys = {p.role: np.asarray(p.polygon, dtype=np.float64) for p in true_parts}
     for i, p in enumerate(true_parts):
@@ -133,4 +160,179 @@ def compare_with_truth(
             model_deg = _angle_deg(np.asarray(mine.normal), np.asarray(parts[q.role].normal))
             angles.append(AngleError(p.role, q.role, truth_deg, model_deg))
     worst_angle = max((a.error_deg for a in angles), default=0.0)
-    return TruthComparison(angles, worst_angle, worst_vertex, size, missing)
+    return TruthComparison(
+        angles, worst_angle, worst_vertex, size, missing, normal_errors, sorted(set(extra))
+    )
+
+
+# ---- a whole result against a scene's truth ---------------------------------------------------
+NORMAL_TARGET_DEG = 0.5  # the paper's accuracy: plane normals within half a degree
+VERTEX_TARGET = 0.02  # vertices within 2 % of the object's size (bounding-box diagonal)
+CAMERA_ANGLE_TARGET_DEG = 0.1  # a registered view's rotation within 0.1 degree (Table 1)
+CAMERA_DISTANCE_TARGET = 0.01  # its centre within 1 % of its distance to the object
+
+
+@dataclass(frozen=True)
+class CameraError:
+    """One view's camera against the truth: rotation angle (deg) and centre distance (m)."""
+
+    view: str
+    angle_deg: float
+    centre_m: float
+    distance_m: float  # from the true camera centre to the object's centre
+
+    @property
+    def centre_rel(self) -> float:
+        """The centre error as a fraction of the camera's distance to the object."""
+        return self.centre_m / self.distance_m if self.distance_m > 0 else math.inf
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """A result judged against the truth: correct or not, and the first reason why not.
+
+    expected_object : the truth has the goal object (else nothing must be found).
+    outcome : the result's verdict ('verified', 'doubtful' or 'nothing').
+    cause : '' when correct, else the first failed check ('nothing found', 'found an
+    object where there is none', 'specialisation', 'missing part', 'extra part',
+    'normals', 'vertices', 'camera').
+    """
+
+    expected_object: bool
+    outcome: str
+    correct: bool
+    cause: str
+    specialisations: dict[str, tuple[str, str]]  # role -> (true, chosen) that differ
+    comparison: TruthComparison | None
+    cameras: list[CameraError]
+
+    def summary(self) -> dict[str, object]:
+        """The figures as a JSON-ready mapping."""
+        c = self.comparison
+        return {
+            "expected_object": self.expected_object,
+            "outcome": self.outcome,
+            "correct": self.correct,
+            "cause": self.cause,
+            "specialisations": {k: list(v) for k, v in self.specialisations.items()},
+            "max_normal_error_deg": None if c is None else round(c.max_normal_error_deg, 4),
+            "max_vertex_error_pct": None if c is None else round(100 * c.max_vertex_error_rel, 3),
+            "missing": [] if c is None else c.missing,
+            "extra": [] if c is None else c.extra,
+            "cameras": [
+                {
+                    "view": e.view,
+                    "angle_deg": round(e.angle_deg, 4),
+                    "centre_pct": round(100 * e.centre_rel, 3),
+                }
+                for e in self.cameras
+            ],
+        }
+
+
+def outcome_of(interp: Interpretation) -> str:
+    """'verified', 'doubtful' or 'nothing': what the result claims."""
+    verdict = getattr(interp, "verdict", None)
+    if verdict in ("verified", "doubtful", "nothing"):
+        return str(verdict)
+    return "verified" if interp.accepted and interp.model is not None else "nothing"
+
+
+def _camera_errors(model: ReconstructedModel, truth: SceneTruth) -> list[CameraError]:
+    """Every true view's camera against the model's camera of that view (missing: inf)."""
+    pts = np.array([v for p in truth.parts for v in p.polygon], dtype=np.float64)
+    centre = pts.mean(axis=0) if len(pts) else np.zeros(3)
+    mine = {c.view: c for c in model.cameras}
+    out = []
+    for pose in truth.views:
+        R_t = np.asarray(pose.R, dtype=np.float64)
+        C_t = -R_t.T @ np.asarray(pose.t, dtype=np.float64)
+        dist = float(np.linalg.norm(C_t - centre))
+        cam = mine.get(pose.view)
+        if cam is None:
+            out.append(CameraError(pose.view, math.inf, math.inf, dist))
+            continue
+        R_m = np.asarray(cam.R, dtype=np.float64)
+        C_m = -R_m.T @ np.asarray(cam.t, dtype=np.float64)
+        cos = (float(np.trace(R_m @ R_t.T)) - 1.0) / 2.0
+        angle = math.degrees(math.acos(float(np.clip(cos, -1.0, 1.0))))
+        out.append(CameraError(pose.view, angle, float(np.linalg.norm(C_m - C_t)), dist))
+    return out
+
+
+def evaluate(interp: Interpretation, truth: SceneTruth, *, goal: str | None = None) -> Evaluation:
+    """Judge `interp` (with its model) against `truth` (see `Evaluation`).
+
+    goal : the concept searched for (default: the interpretation's goal). A truth whose
+    object is another concept, or has no parts, expects nothing to be found.
+    """
+    goal = goal or interp.goal
+    expected = truth.object == goal and bool(truth.parts)
+    outcome = outcome_of(interp)
+    found = outcome != "nothing" and interp.model is not None
+    chosen = {inst.role: inst.concept for inst in interp.instances}
+    wrong_kind = {
+        role: (concept, chosen.get(role, "-"))
+        for role, concept in truth.concepts.items()
+        if chosen.get(role) != concept
+    }
+    model = interp.model
+    comparison = (
+        compare_with_truth(model, truth) if model is not None and found and expected else None
+    )
+    cameras = _camera_errors(model, truth) if model is not None and comparison is not None else []
+    cause = ""
+    if not expected:
+        cause = "found an object where there is none" if found else ""
+    elif not found:
+        cause = "nothing found"
+    elif wrong_kind:
+        cause = "specialisation"
+    elif comparison is not None and comparison.missing:
+        cause = "missing part"
+    elif comparison is not None and comparison.extra:
+        cause = "extra part"
+    elif comparison is not None and comparison.max_normal_error_deg > NORMAL_TARGET_DEG:
+        cause = "normals"
+    elif comparison is not None and comparison.max_vertex_error_rel > VERTEX_TARGET:
+        cause = "vertices"
+    elif any(
+        e.angle_deg > CAMERA_ANGLE_TARGET_DEG or e.centre_rel > CAMERA_DISTANCE_TARGET
+        for e in cameras
+    ):
+        cause = "camera"
+    correct = cause == "" and (found == expected) and (outcome == "verified" or not expected)
+    if expected and found and cause == "" and outcome != "verified":
+        cause = "right but doubtful"
+    return Evaluation(expected, outcome, correct, cause, wrong_kind, comparison, cameras)
+
+
+def format_evaluation(result: Evaluation) -> list[str]:
+    """The evaluation as lines for people: the verdict, then each figure against its target."""
+    word = "correct" if result.correct else f"NOT correct ({result.cause})"
+    expected = "an object" if result.expected_object else "nothing"
+    lines = [f"{word}: the result is {result.outcome!r}, the truth has {expected}"]
+    for role, (true, chosen) in result.specialisations.items():
+        lines.append(f"  specialisation of {role}: chose {chosen}, truth {true}")
+    c = result.comparison
+    if c is not None:
+        if c.missing:
+            lines.append(f"  missing parts: {', '.join(c.missing)}")
+        if c.extra:
+            lines.append(f"  parts not in the truth: {', '.join(c.extra)}")
+        worst = max(c.normal_errors_deg.items(), key=lambda kv: kv[1], default=("-", 0.0))
+        lines.append(
+            f"  largest normal error: {worst[1]:.3f} deg ({worst[0]}; target {NORMAL_TARGET_DEG})"
+        )
+        lines.append(
+            f"  largest vertex error: {c.max_vertex_error_m:.3f} m = "
+            f"{100 * c.max_vertex_error_rel:.2f}% of the object's size {c.size_m:.2f} m "
+            f"(target {100 * VERTEX_TARGET:g}%)"
+        )
+    for e in result.cameras:
+        lines.append(
+            f"  camera of view {e.view}: {e.angle_deg:.3f} deg, {e.centre_m:.3f} m = "
+            f"{100 * e.centre_rel:.2f}% of its distance {e.distance_m:.1f} m (targets "
+            f"{CAMERA_ANGLE_TARGET_DEG} deg, {100 * CAMERA_DISTANCE_TARGET:g}%)"
+        )
+    return lines

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
+from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.atomic import check_outputs, check_publishable, output_lock, publish_dir
 from aida_kb.io.evidence import Evidence, write_evidence
 from aida_kb.io.model import write_model, write_obj
@@ -93,6 +94,7 @@ def _reconstruct(
         scene=scene,
         progress=progress,
     )
+    interp = with_verdict(interp, judge(kb, interp, evidence))
     names = ["evidence.json", "interpretation.json"]
     with publish_dir(out) as work:
         write_evidence(work / "evidence.json", evidence)

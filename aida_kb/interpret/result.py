@@ -78,6 +78,10 @@ class Interpretation(_Frozen):
     trace: list[HypothesisTrace] = Field(default_factory=list)
     expanded: int = Field(ge=0, description="number of hypotheses the search expanded")
     cost: FiniteCost | None = Field(default=None, description="total normalised cost of the result")
+    verdict: Literal["verified", "doubtful", "nothing"] | None = Field(
+        default=None, description="aida_kb.interpret.verdict: None where it was not judged"
+    )
+    doubts: list[str] = Field(default_factory=list, description="why it is doubtful")
 
     def instance(self, role: str) -> Instance:
         """The instance with role path `role` (KeyError if none)."""

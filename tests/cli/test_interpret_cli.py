@@ -39,7 +39,7 @@ def test_explain_names_the_rejecting_constraint_and_its_cost(
 ) -> None:
     code = main(["interpret", KB, str(FIXTURES / "house_asymmetric_roof.json"), "--explain"])
     text = capsys.readouterr().out
-    assert code == 0
+    assert code == 4  # nothing found (aida_kb.cli.interpret.EXIT_NOTHING)
     assert text.startswith("no House in the evidence: ")
     assert "alternatives rejected, e.g. constraint 'slopes' (cost " in text.splitlines()[0]
     line = next(
@@ -55,10 +55,12 @@ def test_explain_names_the_rejecting_constraint_and_its_cost(
     assert "(normalised)" in line
 
 
-def test_no_house_exits_zero_with_a_clear_message(capsys: pytest.CaptureFixture[str]) -> None:
+def test_no_house_exits_with_nothing_found_and_a_clear_message(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
     code = main(["interpret", KB, str(FIXTURES / "no_house.json")])
     captured = capsys.readouterr()
-    assert code == 0
+    assert code == 4  # nothing found, not an error
     assert captured.out.startswith("no House in the evidence: ")
     assert "Traceback" not in captured.err
 

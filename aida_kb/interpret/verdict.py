@@ -1,0 +1,485 @@
+"""The verdict on an accepted interpretation: verified, doubtful (with the reasons) or nothing.
+
+The search accepts the best hypothesis whose constraints stay under their thresholds. That
+alone lets a wrong model through when the evidence it fails to use is simply ignored (a roof
+"inserted from knowledge" while a roof region fills a third of the image). An interpretation
+is **verified** only when it also
+
+(a) keeps every instantiated constraint under its threshold (the residual report);
+(b) explains the evidence: of the certainty weight of the regions that lie inside the model's
+    projection (the ray through a region's centre meets a model face), most lies on a model
+    face (the region's plane within `DEPTH_TOLERANCE` of the face and its normal within
+    `NORMAL_TOLERANCE_DEG`, its centre inside the face's polygon). A region the model covers
+    but does not explain contradicts it: seen *through* the model (beyond the face the ray
+    meets) or on a face at another orientation. A region in front of the model may be
+    something standing before it (a tree) and counts neither way;
+(c) agrees with every registered view: the same test in each view, at the camera the
+    reconstruction gave it; a view that does not explain its evidence is named;
+(d) meets the knowledge's attribute ranges: every attribute of an instantiated concept that
+    stands for a geometric measure (`is slope(self)`, `height(self)`, ...; docs/language.md
+    3.10) is measured on the model and must lie in its range; and every part the knowledge
+    orients at a fixed slope (`orient top: upward`, 3.9) has it. "Up" is the direction of a
+    part the knowledge orients upward or downward (the floor).
+
+Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
+where. An interpretation that found no object is **nothing**. Everything is read from the
+compiled knowledge base and the files: no concept or attribute of a particular .kb is named.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.interpret.result import INSERTED, Interpretation
+from aida_kb.io.evidence import Evidence, ViewEvidence
+from aida_kb.io.model import ReconstructedModel
+from aida_kb.kb.model import KnowledgeBase
+
+FloatArray = npt.NDArray[np.float64]
+
+VERIFIED, DOUBTFUL, NOTHING = "verified", "doubtful", "nothing"
+
+DEPTH_TOLERANCE = 0.015  # a region lies on a face within 1.5 % of its distance from the camera
+DEPTH_TOLERANCE_MIN_M = 0.05  # ... and never tighter than 5 cm (stereo noise of near faces)
+NORMAL_TOLERANCE_DEG = 8.0  # a region's normal within 8 degrees of the face's (plane fits of
+# small, slanted or weakly textured regions scatter by a few degrees)
+INSIDE_MARGIN = 0.05  # a region's centre may lie this fraction of the face's size outside it
+EXPLAINED_MIN = 0.75  # the explained share of the weight inside the projection, at least
+CONTRADICTION_MAX = 0.08  # one region that contradicts the model may carry at most this
+# share of the weight inside the projection (8 %: a misfitted roof plane is far above)
+MIN_WEIGHT_SHARE = 0.002  # regions lighter than this share of a view's weight are noise
+STANDING_OUT_MAX = 0.15  # a parallel region this share of the model's size in front of a
+# face stands out of it (a part the model lacks), further away it may be an occluder
+ORIENTATION_TOLERANCE_DEG = 4.0  # a part the knowledge orients (a flat roof's top upward)
+# lies within 4 degrees of that slope (a shed roof of 8-25 degrees is no flat roof)
+RANGE_SLACK_REL = 1e-3  # measured attributes: a range is met within this relative slack
+
+
+EDGE_TOLERANCE_PX = 3.0  # a segment shows a projected model edge within 3 px (a segment's
+# ends scatter by about a pixel; a camera 0.3 degree off moves edges by several pixels)
+EDGE_ANGLE_DEG = 4.0  # ... and within 4 degrees of its direction
+EDGE_MIN_LENGTH_PX = 25.0  # only projected edges at least this long are checked
+SEEN_EDGE_COVER_MIN = 0.4  # edges between two parts bound to the evidence: at least this share
+EDGE_COVER_MIN = 0.25  # at least this share of the visible edges' length is seen as segments
+# (edges between faces of like brightness or under an occluder show no segment)
+
+
+@dataclass(frozen=True)
+class ViewCheck:
+    """How well the model explains one view's regions (weights are certainty sums, eq. 4)
+    and segments (`edge_cover`: the share of the visible model edges' projected length that
+    image segments lie on; None when no edge is long enough to check)."""
+
+    view: str
+    inside_weight: float  # regions inside the model's projection (explained + contradicting)
+    explained_weight: float
+    contradicting: list[tuple[int, float, str]]  # (region id, weight share, why)
+    edge_cover: float | None = None
+
+    @property
+    def explained_share(self) -> float:
+        """The share of the weight inside the projection that the model explains."""
+        return self.explained_weight / self.inside_weight if self.inside_weight > 0 else 1.0
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The verdict and its reasons (empty when verified); views named as not explained."""
+
+    verdict: str
+    reasons: tuple[str, ...]
+    views_not_explained: tuple[str, ...]
+    checks: tuple[ViewCheck, ...]
+
+
+# ---- geometry of the model ---------------------------------------------------------------------
+def _faces(model: ReconstructedModel) -> list[tuple[str, FloatArray, float, FloatArray]]:
+    """(role, unit normal (3,), offset d, polygon (N, 3)) of every part, world frame."""
+    return [
+        (p.role, np.asarray(p.normal, dtype=np.float64), float(p.offset_m), np.asarray(p.polygon))
+        for p in model.parts
+    ]
+
+
+def _size(model: ReconstructedModel) -> float:
+    """The diagonal of the model's bounding box, metres."""
+    pts = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
+    return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+
+
+def _inside_polygon(points: FloatArray, poly: FloatArray, normal: FloatArray) -> FloatArray:
+    """Even-odd test of points (M, 3) on the plane of `poly` (N, 3); the polygon is grown by
+    INSIDE_MARGIN of its size about its centre. Returns (M,) bool."""
+    centre = poly.mean(axis=0)
+    grown = centre + (poly - centre) * (1.0 + INSIDE_MARGIN)
+    a = np.cross(normal, [1.0, 0.0, 0.0])
+    if np.linalg.norm(a) < 0.1:
+        a = np.cross(normal, [0.0, 1.0, 0.0])
+    u = a / np.linalg.norm(a)
+    v = np.cross(normal, u)
+    pu, pv = points @ u, points @ v
+    qu, qv = grown @ u, grown @ v
+    inside = np.zeros(len(points), bool)
+    for i in range(len(qu)):
+        au, av, bu, bv = qu[i], qv[i], qu[i - 1], qv[i - 1]
+        if av == bv:
+            continue
+        crosses = (av > pv) != (bv > pv)
+        inside ^= crosses & (pu < au + (pv - av) * ((bu - au) / (bv - av)))
+    return inside
+
+
+def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | None:
+    """Check (b) for one view at the model's camera of that view (None: no such camera)."""
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    regions = [r for r in view.regions if r.w_c > 0 and r.depth_pixel_count > 0]
+    if camera is None or not regions:
+        return None
+    R = np.asarray(camera.R, dtype=np.float64)
+    t = np.asarray(camera.t, dtype=np.float64)
+    C = -R.T @ t
+    centres = np.array([r.c_init for r in regions], dtype=np.float64)
+    normals = np.array([r.n_init for r in regions], dtype=np.float64)
+    if view.frame == "camera":  # this view's own left camera -> world
+        centres = (centres - t) @ R
+        normals = normals @ R
+    weights = np.array([r.w_c for r in regions], dtype=np.float64)
+    keep = weights >= MIN_WEIGHT_SHARE * weights.sum()
+    rays = centres - C  # (M, 3); the region's centre at parameter 1
+    dist = np.linalg.norm(rays, axis=1)
+    tol = np.maximum(DEPTH_TOLERANCE * dist, DEPTH_TOLERANCE_MIN_M)
+    cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
+    m = len(regions)
+    explained = np.zeros(m, bool)
+    nearest = np.full(m, np.inf)  # ray parameter of the first model face the ray meets
+    nearest_cos = np.zeros(m)  # |cos| between the region's normal and that face's
+    for _, n, d, poly in _faces(model):
+        # (1) the region lies on this face
+        on_plane = np.abs(centres @ n - d) <= tol
+        aligned = np.abs(normals @ n) >= cos_tol
+        cand = on_plane & aligned
+        if cand.any():
+            explained[cand] |= _inside_polygon(centres[cand], poly, n)
+        # (2) where the ray through the region's centre meets this face
+        denom = rays @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (d - C @ n) / denom
+        hit_ok = np.isfinite(s) & (s > 0)
+        if hit_ok.any():
+            idx = np.nonzero(hit_ok)[0]
+            pts = C + s[idx, None] * rays[idx]
+            hit = np.zeros(m, bool)
+            hit[idx] = _inside_polygon(pts, poly, n)
+            closer = hit & (s < nearest)
+            nearest[closer] = s[closer]
+            nearest_cos[closer] = np.abs(normals[closer] @ n)
+    inside = keep & np.isfinite(nearest)
+    gap = (nearest - 1.0) * dist  # > 0: the model's surface lies beyond the region
+    size = _size(model)
+    # in front of the model: something standing before it (neutral) unless it is close to
+    # the surface and parallel to it (a part standing out that the model lacks: an oriel)
+    before = inside & ~explained & (gap > tol)
+    standing_out = before & (gap < STANDING_OUT_MAX * size) & (nearest_cos >= cos_tol)
+    in_front = before & ~standing_out
+    counted = inside & ~in_front
+    through = counted & ~explained & (gap < -tol)
+    turned = counted & ~explained & ~through & ~standing_out
+    total = float(weights[counted].sum())
+    contradicting = []
+    for i in np.nonzero(through | turned | standing_out)[0]:
+        if through[i]:
+            why = f"seen {-gap[i]:.2f} m beyond the model's surface"
+        elif standing_out[i]:
+            why = f"standing {gap[i]:.2f} m out of the model's surface, parallel to it"
+        else:
+            angle = math.degrees(math.acos(min(1.0, nearest_cos[i])))
+            why = f"on the model's surface at {angle:.0f} deg to its face"
+        contradicting.append((regions[i].id, float(weights[i]) / max(total, 1e-12), why))
+    contradicting.sort(key=lambda c: -c[1])
+    return ViewCheck(
+        view.id,
+        total,
+        float(weights[counted & explained].sum()),
+        contradicting,
+        edge_cover(view, model),
+    )
+
+
+def edge_cover(
+    view: ViewEvidence, model: ReconstructedModel, between: frozenset[str] | None = None
+) -> float | None:
+    """The share of the projected length of the model edges the view's camera sees that
+    image segments lie on (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG); None: no edge to
+    check or no camera. Segments are undistorted with the view's distortion first.
+    between : only the edges both of whose parts are in this set of roles."""
+    from aida_kb.register.evidence import camera_of, measurements_of
+    from aida_kb.register.match import match_segments
+    from aida_kb.register.model import RigidModel
+
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    if camera is None or not view.lines:
+        return None
+    rigid = RigidModel.from_model(model)
+    edges = rigid.visible_edges(camera_of(camera), min_length_px=EDGE_MIN_LENGTH_PX)
+    if between is not None:
+        names = np.array([n in between for n in rigid.names])
+        sel = names[rigid.edge_faces[edges.index]].all(axis=1)
+        edges = type(edges)(edges.index[sel], edges.a[sel], edges.b[sel], edges.length_px[sel])
+    if edges.index.size == 0:
+        return None
+    meas = measurements_of(view)
+    matches = match_segments(
+        edges.a,
+        edges.b,
+        meas.p1,
+        meas.p2,
+        max_distance_px=EDGE_TOLERANCE_PX,
+        max_angle_rad=math.radians(EDGE_ANGLE_DEG),
+    )
+    if matches.size == 0:
+        return 0.0
+    a, b = edges.a[matches.edge], edges.b[matches.edge]
+    length = edges.length_px[matches.edge]
+    u = (b - a) / np.maximum(length, 1e-12)[:, None]
+    t1 = np.einsum("mk,mk->m", meas.p1[matches.segment] - a, u)
+    t2 = np.einsum("mk,mk->m", meas.p2[matches.segment] - a, u)
+    lo = np.clip(np.minimum(t1, t2), 0.0, length)
+    hi = np.clip(np.maximum(t1, t2), 0.0, length)
+    covered = np.zeros(edges.index.size)
+    np.add.at(covered, matches.edge, hi - lo)  # pieces of one edge rarely overlap
+    covered = np.minimum(covered, edges.length_px)
+    return float(covered.sum() / edges.length_px.sum())
+
+
+# ---- (d) measured attributes ------------------------------------------------------------
+def _parts_under(
+    model: ReconstructedModel, role: str
+) -> list[tuple[FloatArray, float, FloatArray]]:
+    prefix = role + "."
+    return [
+        (np.asarray(p.normal, dtype=np.float64), float(p.offset_m), np.asarray(p.polygon))
+        for p in model.parts
+        if p.role == role or p.role.startswith(prefix) or role == ""
+    ]
+
+
+def _join(role: str, path: str) -> str:
+    if path == "self":
+        return role
+    return f"{role}.{path}" if role else path
+
+
+def _up(kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel) -> FloatArray | None:
+    """The world's up direction from a part the knowledge orients up- or downward."""
+    by_role = {p.role: np.asarray(p.normal, dtype=np.float64) for p in model.parts}
+    # the outermost composite's up- or downward part (the body's floor before a roof's top)
+    for inst in sorted(interp.instances, key=lambda i: (i.role.count("."), i.role != "")):
+        concept = kb.concepts.get(inst.concept)
+        if concept is None:
+            continue
+        for part, o in concept.orientations.items():
+            n = by_role.get(_join(inst.role, part))
+            if n is not None and o.direction in ("upward", "downward"):
+                return n if o.direction == "upward" else -n
+    return None
+
+
+def _forward(
+    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel, role: str, up: FloatArray
+) -> FloatArray | None:
+    """The horizontal direction the frame anchor of the composite at `role` (or a whole) faces."""
+    by_role = {p.role: np.asarray(p.normal, dtype=np.float64) for p in model.parts}
+    concepts = {i.role: i.concept for i in interp.instances}
+    while True:
+        concept = kb.concepts.get(concepts.get(role, ""))
+        if concept is not None and concept.frame is not None:
+            n = by_role.get(_join(role, concept.frame.anchor))
+            if n is None:
+                return None
+            f = n - (n @ up) * up
+            norm = float(np.linalg.norm(f))
+            return f / norm if norm > 1e-9 else None
+        if role == "":
+            return None
+        role = role.rsplit(".", 1)[0] if "." in role else ""
+
+
+def _measure(
+    kind: str,
+    args: list[str],
+    model: ReconstructedModel,
+    up: FloatArray,
+    forward: FloatArray | None,
+) -> float | None:
+    """The measure's value (radians or metres) on the model, None when it cannot be taken."""
+    sets = [_parts_under(model, a) for a in args]
+    if any(not s for s in sets):
+        return None
+    if kind in ("height", "width", "depth"):
+        if kind == "height":
+            axis = up
+        elif forward is None:
+            return None
+        else:
+            axis = np.cross(up, forward) if kind == "width" else forward
+        pts = np.vstack([poly for _, _, poly in sets[0]]) @ axis
+        return float(pts.max() - pts.min())
+    if any(len(s) != 1 for s in sets):
+        return None  # slope, angle and distance take one plane each
+    if kind == "slope":
+        return math.acos(float(np.clip(sets[0][0][0] @ up, -1.0, 1.0)))
+    (n1, d1, _), (n2, _, poly2) = sets[0][0], sets[1][0]
+    if kind == "angle":
+        return math.pi - math.acos(float(np.clip(n1 @ n2, -1.0, 1.0)))
+    if kind == "distance":
+        return abs(float(poly2.mean(axis=0) @ n1) - d1)
+    return None
+
+
+def check_orientations(
+    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel
+) -> list[str]:
+    """Every planar part the knowledge orients with a fixed slope (`orient top: upward`,
+    `orient front: forward` — vertical —, `tilted by 35 deg`) has that slope on the model
+    within ORIENTATION_TOLERANCE_DEG (reasons). Slopes left to an attribute without a
+    default are the evidence's and not checked here."""
+    up = _up(kb, interp, model)
+    if up is None:
+        return []
+    by_role = {p.role: np.asarray(p.normal, dtype=np.float64) for p in model.parts}
+    reasons = []
+    for inst in interp.instances:
+        concept = kb.concepts.get(inst.concept)
+        if concept is None:
+            continue
+        for part, o in concept.orientations.items():
+            n = by_role.get(_join(inst.role, part))
+            if n is None or o.tilt is None:
+                continue
+            slope = math.degrees(math.acos(float(np.clip(n @ up, -1.0, 1.0))))
+            if abs(slope - math.degrees(o.tilt)) > ORIENTATION_TOLERANCE_DEG:
+                reasons.append(
+                    f"{_join(inst.role, part)}: slope {slope:.1f} deg, but {concept.name} "
+                    f"orients it {o.direction} at {math.degrees(o.tilt):.0f} deg "
+                    f"(within {ORIENTATION_TOLERANCE_DEG:g})"
+                )
+    return reasons
+
+
+def check_attributes(
+    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel
+) -> list[str]:
+    """Check (d): every measured attribute of every instance inside its range (reasons)."""
+    up = _up(kb, interp, model)
+    if up is None:
+        return []
+    reasons = []
+    for inst in interp.instances:
+        concept = kb.concepts.get(inst.concept)
+        if concept is None:
+            continue
+        for attr in concept.attributes.values():
+            m = attr.measure
+            if m is None or (attr.low is None and attr.high is None):
+                continue
+            fwd = _forward(kb, interp, model, inst.role, up)
+            value = _measure(m.kind, [_join(inst.role, a) for a in m.args], model, up, fwd)
+            if value is None:
+                continue
+            low = -math.inf if attr.low is None else attr.low
+            high = math.inf if attr.high is None else attr.high
+            slack = RANGE_SLACK_REL * max(
+                abs(low) if math.isfinite(low) else 0.0, abs(high) if math.isfinite(high) else 0.0
+            )
+            if not low - slack <= value <= high + slack:
+                shown = math.degrees(value) if attr.unit == "rad" else value
+                unit = "deg" if attr.unit == "rad" else attr.unit
+                lo = math.degrees(low) if attr.unit == "rad" else low
+                hi = math.degrees(high) if attr.unit == "rad" else high
+                reasons.append(
+                    f"{inst.role or inst.concept}: {attr.name} = {shown:.3g} {unit} outside "
+                    f"[{lo:.3g}, {hi:.3g}] ({concept.name})"
+                )
+    return reasons
+
+
+# ---- the verdict -----------------------------------------------------------------------
+def _bound_parts(interp: Interpretation) -> set[str]:
+    """Roles of the parts bound to evidence: an instance bound to regions, or the whole
+    its bound con-of realisation (the region) hangs on."""
+    out = set()
+    for inst in interp.instances:
+        if not inst.bindings or INSERTED in inst.bindings:
+            continue
+        out.add(inst.parent if inst.link == "con-of" and inst.parent is not None else inst.role)
+    return out
+
+
+def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verdict:
+    """The verdict on `interp` (see the module docstring)."""
+    model = interp.model
+    if not interp.accepted or model is None:
+        return Verdict(NOTHING, (), (), ())
+    reasons: list[str] = []
+    # (a) every constraint under its threshold
+    for r in interp.residuals:
+        if r.rejected:
+            reasons.append(
+                f"constraint {r.label} ({r.kind}, {', '.join(r.parts)}) over its threshold: "
+                f"cost {r.normalised_cost:.3g} of {r.threshold:.3g}"
+            )
+    # (b), (c) every view's evidence explained
+    checks = []
+    not_explained = []
+    for view in evidence.views:
+        check = check_view(view, model)
+        if check is None:
+            continue
+        checks.append(check)
+        problems = []
+        if check.explained_share < EXPLAINED_MIN:
+            problems.append(
+                f"explains {100 * check.explained_share:.0f}% of the region weight inside "
+                f"its projection (at least {100 * EXPLAINED_MIN:.0f}%)"
+            )
+        if check.edge_cover is not None and check.edge_cover < EDGE_COVER_MIN:
+            problems.append(
+                f"edges are seen along {100 * check.edge_cover:.0f}% of their length "
+                f"(at least {100 * EDGE_COVER_MIN:.0f}% within {EDGE_TOLERANCE_PX:g} px)"
+            )
+        worst = check.contradicting[0] if check.contradicting else None
+        if worst is not None and worst[1] > CONTRADICTION_MAX:
+            problems.append(
+                f"region {view.id}/{worst[0]} ({100 * worst[1]:.0f}% of the weight) is {worst[2]}"
+            )
+        if problems:
+            not_explained.append(view.id)
+            reasons.append(f"view {view.id}: the model " + "; ".join(problems))
+    # (c) in the interpreted view, the edges between parts bound to its evidence are seen
+    reference = evidence.views[0]
+    bound = _bound_parts(interp)
+    seen = edge_cover(reference, model, frozenset(bound)) if len(bound) > 1 else None
+    if seen is not None and seen < SEEN_EDGE_COVER_MIN:
+        reasons.append(
+            f"view {reference.id}: the edges between the parts bound to its evidence are seen "
+            f"along {100 * seen:.0f}% of their length (at least {100 * SEEN_EDGE_COVER_MIN:.0f}%)"
+        )
+    # (d) the knowledge's measured attributes
+    reasons += check_attributes(kb, interp, model)
+    reasons += check_orientations(kb, interp, model)
+    verdict = DOUBTFUL if reasons else VERIFIED
+    return Verdict(verdict, tuple(reasons), tuple(not_explained), tuple(checks))
+
+
+def with_verdict(interp: Interpretation, verdict: Verdict) -> Interpretation:
+    """`interp` carrying the verdict; a doubtful one's summary line says so first."""
+    message = interp.message
+    if verdict.verdict == DOUBTFUL:
+        message = f"{interp.goal} doubtful: {'; '.join(verdict.reasons)} (was: {message})"
+    return interp.model_copy(
+        update={"verdict": verdict.verdict, "doubts": list(verdict.reasons), "message": message}
+    )

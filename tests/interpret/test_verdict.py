@@ -1,0 +1,115 @@
+"""The verdict: a right interpretation is verified; a wrong model, camera or size is doubtful."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.verdict import DOUBTFUL, NOTHING, VERIFIED, judge, with_verdict
+from aida_kb.io.evidence import Evidence, read_evidence
+from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
+from aida_kb.kb.model import KnowledgeBase
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
+Get = Callable[[str], Interpretation]
+
+
+def _moved(
+    model: ReconstructedModel, scale: float, shift: tuple[float, float, float]
+) -> ReconstructedModel:
+    """Every part mapped x -> scale·x + shift (normals unchanged), cameras kept."""
+    parts = []
+    for p in model.parts:
+        poly = np.asarray(p.polygon) * scale + np.asarray(shift)
+        n = np.asarray(p.normal)
+        parts.append(
+            ModelPart(
+                role=p.role,
+                concept=p.concept,
+                normal=p.normal,
+                offset_m=float(n @ poly[0]),
+                polygon=[tuple(v) for v in poly],  # type: ignore[misc]
+            )
+        )
+    return ReconstructedModel(parts=parts, cameras=model.cameras)
+
+
+def _evidence(name: str) -> Evidence:
+    return read_evidence(FIXTURES / name)
+
+
+def test_the_right_house_is_verified(buildings_kb: KnowledgeBase, interpreted: Get) -> None:
+    interp = interpreted("house_correct.json")
+    verdict = judge(buildings_kb, interp, _evidence("house_correct.json"))
+    assert verdict.verdict == VERIFIED
+    assert verdict.reasons == ()
+    (check,) = verdict.checks
+    assert check.explained_share > 0.95
+    assert check.edge_cover is not None
+    assert check.edge_cover > 0.9
+    assert with_verdict(interp, verdict).verdict == VERIFIED
+
+
+def test_no_house_is_nothing(buildings_kb: KnowledgeBase, interpreted: Get) -> None:
+    interp = interpreted("no_house.json")
+    assert judge(buildings_kb, interp, _evidence("no_house.json")).verdict == NOTHING
+
+
+def test_a_model_two_metres_off_is_doubtful(buildings_kb: KnowledgeBase, interpreted: Get) -> None:
+    interp = interpreted("house_correct.json")
+    assert interp.model is not None
+    wrong = interp.model_copy(update={"model": _moved(interp.model, 1.0, (0.0, 0.0, 2.0))})
+    verdict = judge(buildings_kb, wrong, _evidence("house_correct.json"))
+    assert verdict.verdict == DOUBTFUL
+    assert verdict.views_not_explained == ("00",)
+    assert "view 00: the model" in verdict.reasons[0]
+    judged = with_verdict(wrong, verdict)
+    assert judged.message.startswith("House doubtful: view 00")
+    assert judged.doubts == list(verdict.reasons)
+
+
+def test_a_camera_half_a_metre_off_does_not_explain_the_edges(
+    buildings_kb: KnowledgeBase, interpreted: Get
+) -> None:
+    interp = interpreted("house_correct.json")
+    assert interp.model is not None
+    cam = interp.model.cameras[0]
+    moved = ModelCamera(
+        view=cam.view,
+        K=cam.K,
+        R=cam.R,
+        t=(cam.t[0] + 0.5, cam.t[1], cam.t[2]),
+        image_width=cam.image_width,
+        image_height=cam.image_height,
+    )
+    model = interp.model.model_copy(update={"cameras": [moved]})
+    verdict = judge(
+        buildings_kb, interp.model_copy(update={"model": model}), _evidence("house_correct.json")
+    )
+    assert verdict.verdict == DOUBTFUL
+    assert any("edges are seen along" in r for r in verdict.reasons)
+
+
+def test_a_doll_house_breaks_the_measured_attribute_ranges(
+    buildings_kb: KnowledgeBase, interpreted: Get
+) -> None:
+    interp = interpreted("house_correct.json")
+    assert interp.model is not None
+    tiny = interp.model_copy(update={"model": _moved(interp.model, 0.03, (0.0, 0.0, 0.0))})
+    verdict = judge(buildings_kb, tiny, _evidence("house_correct.json"))
+    assert verdict.verdict == DOUBTFUL
+    ranges = [r for r in verdict.reasons if "outside [" in r]
+    assert ranges  # read from the compiled knowledge: the walls' measured height
+    assert any(" m outside [2, 30]" in r for r in ranges)
+
+
+@pytest.mark.parametrize("status", [("verified", 0), ("doubtful", 3), ("nothing", 4)])
+def test_exit_status_of_each_verdict(interpreted: Get, status: tuple[str, int]) -> None:
+    from aida_kb.cli.interpret import verdict_status
+
+    interp = interpreted("house_correct.json").model_copy(update={"verdict": status[0]})
+    assert verdict_status(interp) == status[1]
