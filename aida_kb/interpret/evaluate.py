@@ -205,6 +205,7 @@ class Evaluation:
     specialisations: dict[str, tuple[str, str]]  # role -> (true, chosen) that differ
     comparison: TruthComparison | None
     cameras: list[CameraError]
+    doubts: tuple[str, ...] = ()  # the verdict's reasons when the result is doubtful
 
     def summary(self) -> dict[str, object]:
         """The figures as a JSON-ready mapping."""
@@ -214,6 +215,7 @@ class Evaluation:
             "outcome": self.outcome,
             "correct": self.correct,
             "cause": self.cause,
+            "doubts": list(self.doubts),
             "specialisations": {k: list(v) for k, v in self.specialisations.items()},
             "max_normal_error_deg": None if c is None else round(c.max_normal_error_deg, 4),
             "max_vertex_error_pct": None if c is None else round(100 * c.max_vertex_error_rel, 3),
@@ -304,7 +306,9 @@ def evaluate(interp: Interpretation, truth: SceneTruth, *, goal: str | None = No
     correct = cause == "" and (found == expected) and (outcome == "verified" or not expected)
     if expected and found and cause == "" and outcome != "verified":
         cause = "right but doubtful"
-    return Evaluation(expected, outcome, correct, cause, wrong_kind, comparison, cameras)
+    return Evaluation(
+        expected, outcome, correct, cause, wrong_kind, comparison, cameras, tuple(interp.doubts)
+    )
 
 
 def format_evaluation(result: Evaluation) -> list[str]:
@@ -312,6 +316,7 @@ def format_evaluation(result: Evaluation) -> list[str]:
     word = "correct" if result.correct else f"NOT correct ({result.cause})"
     expected = "an object" if result.expected_object else "nothing"
     lines = [f"{word}: the result is {result.outcome!r}, the truth has {expected}"]
+    lines += [f"  doubted: {reason}" for reason in result.doubts]
     for role, (true, chosen) in result.specialisations.items():
         lines.append(f"  specialisation of {role}: chose {chosen}, truth {true}")
     c = result.comparison

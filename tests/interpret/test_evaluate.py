@@ -91,6 +91,11 @@ def test_a_perfect_result_is_correct_and_each_fault_is_named() -> None:
     assert evaluate(_result(truth, turn_deg=0.3), truth).correct
     assert evaluate(_result(truth, cam_shift_m=0.5), truth).cause == "camera"
     assert evaluate(_result(truth, accepted=False), truth).cause == "nothing found"
+    doubted = _result(truth).model_copy(update={"verdict": "doubtful", "doubts": ["view 00: x"]})
+    right_but_doubted = evaluate(doubted, truth)
+    assert not right_but_doubted.correct
+    assert right_but_doubted.cause == "right but doubtful"
+    assert right_but_doubted.summary()["doubts"] == ["view 00: x"]
 
 
 def test_a_scene_without_the_object_expects_nothing() -> None:
