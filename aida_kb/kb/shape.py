@@ -36,10 +36,15 @@ _RIGHT_ANGLE = 1.5707963267948966
 
 
 def is_planar(table: Table, concept: str | None) -> bool:
-    """True for a concept without parts (a plane), known to the table."""
+    """True for a concept known to the table that, like all its specialisations, has no parts
+    (a plane; an abstract roof whose specialisations have planes is no plane)."""
     if concept is None or concept not in table.concepts:
         return False
-    return not any(s.kind == "part" for s in table.concepts[concept].slots.values())
+    return not any(
+        s.kind == "part"
+        for c in (concept, *table.descendants(concept))
+        for s in table.concepts[c].slots.values()
+    )
 
 
 def _part(
