@@ -12,10 +12,11 @@ if TYPE_CHECKING:
 
 EXAMPLE = """\
 what it does:
-  establishes the goal hypothesis (a scene concept, House by default), expands it along
-  con-of, part-of and is-a, matches the world parts to the evidence regions, inserts the
-  parts no view can see, adjusts every alternative by weighted least squares and rejects
-  those whose constraints cost too much. Prints the accepted instances as a tree.
+  establishes the goal hypothesis (a scene concept; by default the knowledge base's only
+  one), expands it along con-of, part-of and is-a, matches the world parts to the evidence
+  regions, inserts the parts no view can see, adjusts every alternative by weighted least
+  squares and rejects those whose constraints cost too much. Prints the accepted instances
+  as a tree.
   The verdict (aida_kb.interpret.verdict) then checks the accepted interpretation against
   the constraints' thresholds, the evidence and the knowledge's measured attributes.
   exit status: 0 verified, 3 doubtful (reasons in the summary line), 4 nothing found
@@ -42,7 +43,11 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("kb", metavar="KB", help="knowledge base (.kb file)")
     p.add_argument("evidence", metavar="EVIDENCE", help="evidence.json (aida-kb evidence)")
-    p.add_argument("--goal", default="House", help="goal concept (default: House)")
+    p.add_argument(
+        "--goal",
+        default=None,
+        help="goal concept (default: the knowledge base's only scene concept)",
+    )
     p.add_argument("--explain", action="store_true", help="say why each rejected hypothesis fell")
     p.add_argument(
         "-o", "--output", metavar="FILE", default=None, help="write interpretation.json here"
@@ -149,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         check_output(args.output, [args.kb, args.evidence])
     kb, sources = load_kb(args.kb)
-    check_goal(kb, args.goal)
+    args.goal = check_goal(kb, args.goal)
     evidence = read_evidence(args.evidence)
     interp = interpret(kb, evidence, goal=args.goal, source=args.evidence)
     interp = with_verdict(interp, judge(kb, interp, evidence))

@@ -40,7 +40,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("kb", metavar="KB", help="knowledge base (.kb file)")
     p.add_argument("scene", metavar="SCENE_DIR", help="scene directory (scene.yaml)")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
-    p.add_argument("--goal", default="House", help="goal concept (default: House)")
+    p.add_argument(
+        "--goal",
+        default=None,
+        help="goal concept (default: the knowledge base's only scene concept)",
+    )
     p.add_argument(
         "--views", default=None, metavar="IDS", help="comma-separated view ids (default: all)"
     )
@@ -65,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     check_max_disp(args.max_disp)
     make_dirs(args.output)
     kb, sources = load_kb(args.kb)
-    check_goal(kb, args.goal)
+    args.goal = check_goal(kb, args.goal)
     console = Console(stderr=True)
     with Progress(
         TextColumn("{task.description}"), TimeElapsedColumn(), console=console, disable=args.quiet

@@ -297,11 +297,12 @@ class Unseen:
 
 @dataclass(frozen=True, slots=True)
 class Attach:
-    """``attach oriels: backward in front, left [as back]``: a sub-object's open face lies in
-    one of its whole's planes."""
+    """``attach oriels: backward against front, left [as back]``: a sub-object's open face lies
+    in one of its whole's planes, facing the same way (``in``) or into it (``against``)."""
 
     part: Path
     face: Name
+    contact: Name
     planes: tuple[Path, ...]
     name: Name | None
     span: Span

@@ -372,9 +372,12 @@ class _Builder(Transformer[Token, Any]):
 
     def attach(self, ch: list[Any]) -> ast.Attach:
         paths = [c for c in ch if isinstance(c, ast.Path)]
-        face = next(c for c in ch if isinstance(c, ast.Name))
+        face, contact = (c for c in ch if isinstance(c, ast.Name))
         name = self.name(ch[-1]) if isinstance(ch[-1], Token) and ch[-1].type == "NAME" else None
-        return ast.Attach(paths[0], face, tuple(paths[1:]), name, self.span(ch))
+        return ast.Attach(paths[0], face, contact, tuple(paths[1:]), name, self.span(ch))
+
+    def contact(self, ch: list[Token]) -> ast.Name:
+        return self.name(ch[0])
 
     def attr_range(self, ch: list[Any]) -> ast.Range:
         return ast.Range(ch[1], ch[3], self.span(ch))

@@ -8,26 +8,41 @@ faces with shared vertices, so every edge belongs to exactly two faces; it needs
 `GeometryError` naming the faces (a face that does not close, planes that cross over).
 
 A structure the knowledge gives fewer faces than a closed solid needs is closed by the planes
-of the verified level it belongs to (`closing_faces`): a wing standing on the ground by its
-whole's floor (its bottom face, ``<wing>.floor``), an oriel standing out of a wall by that
-wall (its back face, ``<oriel>.back``, facing into the body). Several structures together
-(a body with wings) form a union of closed solids.
+of the verified level it belongs to (`closing_faces`), as its whole's ``attach`` declaration
+says (docs/language.md §3.12): a wing standing on the ground by its whole's floor, an oriel
+standing out of a wall by that wall (its open back facing into the body). Several structures
+together (a body with wings) form a union of closed solids.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 from aida_kb.errors import GeometryError
 from aida_kb.geometry.polyhedron import Polyhedron
+from aida_kb.interpret.hypotheses import HORIZONTAL, Frame, PlanarPart
+
+if TYPE_CHECKING:
+    from aida_kb.kb.model import AttachmentModel
 
 FloatArray = npt.NDArray[np.float64]
 
 MIN_FACE_FRACTION = 0.01  # a face smaller than this fraction of the largest one is missing
+# the whole's plane that closes an open face must be this parallel to it (cosine of the angle)
+MIN_CLOSING_ALIGNMENT = 0.9
+_OPPOSITE = {
+    "forward": "backward",
+    "backward": "forward",
+    "leftward": "rightward",
+    "rightward": "leftward",
+    "upward": "downward",
+    "downward": "upward",
+}
 
 
 @dataclass(frozen=True)
@@ -48,49 +63,69 @@ class ClosingFace:
 
 def closing_faces(
     root: str,
-    leaves: Sequence[tuple[str, str, bool]],
-    front_normal: FloatArray,
+    leaves: Sequence[PlanarPart],
+    frame: Frame,
     fixed: Mapping[str, tuple[FloatArray, float]],
+    attachment: AttachmentModel | None,
+    concepts: Mapping[str, str],
 ) -> list[ClosingFace]:
-    """The faces a structure lacks for a closed solid, from the planes of verified levels.
+    """The face a structure lacks for a closed solid, from the planes of verified levels.
 
     Parameters
     ----------
     root : the structure's role path (``body.wings[0]``).
-    leaves : its planar parts as (role path, last role name, pitched).
-    front_normal : (3,) the unit normal of its front part, world frame.
-    fixed : role path -> (unit normal (3,), offset m) of the verified levels' planes; only
-        the whole's own parts (``body.floor`` for ``body.wings[0]``) are used.
+    leaves : its planar parts (with the directions they face).
+    frame : the structure's frame (unit vectors, world frame).
+    fixed : role path -> (unit normal (3,), offset m) of the verified levels' planes.
+    attachment : how the structure attaches to its whole (its whole's ``attach``), or None.
+    concepts : role path -> concept of the fixed planes.
 
-    A structure without a floor (``floor``/``bottom``) stands on its whole's floor; one
-    without a back stands out of the whole's wall it faces away from (the wall whose normal
-    is closest to its front's). Nothing is added to a structure that has both, or when no fixed
-    plane fits.
+    The open face faces ``attachment.face`` in the structure's frame and lies in the one of the
+    whole's planes ``attachment.planes`` whose outward normal is nearest that direction
+    (``in``: the face continues the plane) or its opposite (``against``: the face lies against
+    the plane, facing into the whole), the cosine at least `MIN_CLOSING_ALIGNMENT`; it meets
+    the structure's parts that neither face the same way nor
+    the opposite way (for a vertical face: those that face a side untilted). Nothing is added
+    without an attachment, when a part of the structure already faces that way, or when no
+    fixed plane fits.
     """
-    whole = root.rsplit(".", 1)[0] if "." in root else ""
-    fixed = {r: p for r, p in fixed.items() if (r.rsplit(".", 1)[0] if "." in r else "") == whole}
-    names = {name for _, name, _ in leaves}
-    walls = [role for role, name, pitched in leaves if not pitched and name not in ("top",)]
-    out: list[ClosingFace] = []
-    if not names & {"floor", "bottom"}:
-        floors = sorted(r for r in fixed if r.rsplit(".", 1)[-1] == "floor")
-        if floors:
-            n, d = fixed[floors[0]]
-            out.append(ClosingFace(f"{root}.floor", "Floor", n, d, tuple(walls), floors[0]))
-    if "back" not in names and "front" in names:
-        front = f"{root}.front"
-        candidates = [
-            (float(np.asarray(n) @ front_normal), r)
-            for r, (n, _) in fixed.items()
-            if r.rsplit(".", 1)[-1] not in ("floor", "bottom")
-        ]
-        if candidates:
-            score, wall = max(candidates)
-            if score > 0.9:
-                n, d = fixed[wall]
-                around = tuple(r for r, _, _ in leaves if r != front) + tuple(c.role for c in out)
-                out.append(ClosingFace(f"{root}.back", "Wall", -n, -d, around, wall))
-    return out
+    if attachment is None or "." not in root:
+        return []
+    if any(leaf.direction == attachment.face for leaf in leaves):
+        return []
+    whole = root.rsplit(".", 1)[0]
+    sense = 1.0 if attachment.contact == "in" else -1.0
+    direction = frame.direction(attachment.face)
+    best: tuple[float, str] | None = None
+    for plane in attachment.planes:
+        role = f"{whole}.{plane}" if whole else plane
+        if role not in fixed:
+            continue
+        score = sense * float(np.asarray(fixed[role][0]) @ direction)
+        if best is None or score > best[0]:
+            best = (score, role)
+    if best is None or best[0] < MIN_CLOSING_ALIGNMENT:
+        return []
+    source = best[1]
+    n, d = fixed[source]
+    sign = sense
+    opposite = _OPPOSITE[attachment.face]
+    if attachment.face in HORIZONTAL:
+        around = tuple(leaf.role for leaf in leaves if leaf.direction != opposite)
+    else:
+        around = tuple(
+            leaf.role for leaf in leaves if leaf.direction in HORIZONTAL and not leaf.pitched
+        )
+    return [
+        ClosingFace(
+            f"{root}.{attachment.name}",
+            concepts.get(source, ""),
+            sign * np.asarray(n, dtype=np.float64),
+            sign * float(d),
+            around,
+            source,
+        )
+    ]
 
 
 def close(

@@ -1,39 +1,44 @@
 """Hypotheses for planar parts: predicted orientation, candidate regions, inserted planes.
 
-A composite world instance (a house body, a wing, an oriel) has an *instance frame*: the
-horizontal direction its front faces (`front`), the direction to its right as seen from
-the front (`right`) and `up`. Role names give each planar part a predicted orientation in
-that frame (DOMAIN.md): ``front``/``back``/``left``/``right`` face +front, -front, -right,
-+right horizontally (roof planes with those names are tilted up by their pitch),
-``top`` faces up and ``floor``/``bottom`` face down. Candidates for a part are the regions
-whose orientation fits the prediction and whose slope lies in the part concept's attribute
-range (`tilt` of a wall, `pitch` of a roof plane). Parts without a candidate that the
-reference camera could not see are *inserted* from the knowledge; their plane is initialised
-from the prediction and, for the offset, from the support function of the points observed
-on the same solid (a face of a convex solid touches the observed surface points that are
-most extreme along its normal).
+A composite world instance declared with a frame (``frame from ANCHOR``, docs/language.md
+§3.9) has an *instance frame*: the horizontal direction its anchor part faces (`front`), the
+direction to its right as seen from the front (`right`) and `up`. The knowledge base orients
+each planar part in that frame (``orient PART: DIRECTION [tilted by T]``): forward, backward,
+leftward, rightward face +front, -front, -right, +right horizontally (tilted parts rise from
+the ground towards that side by their tilt), upward and downward face up and down. Candidates
+for a part are the regions whose orientation fits the prediction and whose slope lies in the
+range of the part concept's slope attribute (``is slope(self)``). Parts without a candidate
+that the reference camera could not see are *inserted* from the knowledge; their plane is
+initialised from the prediction and, for the offset, from the support function of the points
+observed on the same solid (a face of a convex solid touches the observed surface points that
+are most extreme along its normal), moved out by the knowledge's placements (`placed_offsets`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from aida_kb.errors import InterpretError
 from aida_kb.interpret.observe import CameraView, RegionView, slope_deg
 
 FloatArray = npt.NDArray[np.float64]
 
-HORIZONTAL_ROLES = ("front", "back", "left", "right")
-UP_ROLES = ("top",)
-DOWN_ROLES = ("floor", "bottom")
+#: the directions of the language that face a side, and the vertical ones
+HORIZONTAL = ("forward", "backward", "leftward", "rightward")
+UPWARD, DOWNWARD = "upward", "downward"
 
 # How far a region's orientation may stray from the prediction and still be a candidate.
 HORIZONTAL_WINDOW_DEG = 30.0  # between horizontal directions (walls, pitched roof planes)
 CONE_WINDOW_DEG = 15.0  # around up or down (flat roofs, floors)
-DEFAULT_PITCH_DEG = 30.0  # an inserted roof plane with no seen counterpart
+# the initial tilt of an inserted tilted plane when neither a seen plane of its structure nor
+# the knowledge (a constant tilt or the tilt attribute's default) gives one
+DEFAULT_PITCH_DEG = 30.0
 
 
 @dataclass(frozen=True)
@@ -55,35 +60,53 @@ class Frame:
         right = np.cross(-front, up)
         return cls(front, right / np.linalg.norm(right), up)
 
-    def horizontal(self, role: str) -> FloatArray:
-        """The horizontal direction a part named `role` faces (front/back/left/right)."""
-        table = {"front": self.front, "back": -self.front, "left": -self.right}
-        out: FloatArray = table.get(role, self.right)
-        return out
+    def direction(self, name: str) -> FloatArray:
+        """The unit vector (world, (3,)) of a direction of the language in this frame."""
+        table = {
+            "forward": self.front,
+            "backward": -self.front,
+            "leftward": -self.right,
+            "rightward": self.right,
+            UPWARD: self.up,
+            DOWNWARD: -self.up,
+        }
+        return table[name]
 
 
 @dataclass(frozen=True)
 class PlanarPart:
-    """A planar part to be matched: its role path, role name, concept and slope range."""
+    """A planar part to be matched: role path, role name, concept, slope range, orientation."""
 
-    role: str  # absolute role path, e.g. "body.roof.front"
-    name: str  # the last role name, e.g. "front"
-    concept: str  # Wall, RoofPlane, Floor ...
-    slope_range_deg: tuple[float, float] | None  # from the concept's tilt / pitch attribute
-    pitched: bool  # a roof plane (tilted towards its horizontal direction)
+    role: str  # absolute role path
+    name: str  # the last role name
+    concept: str
+    slope_range_deg: tuple[float, float] | None  # from the concept's slope attribute
+    pitched: bool  # tilted towards the side it faces (``orient P: forward tilted by T``)
+    direction: str | None = None  # the direction it faces in its structure's frame
+    tilt_deg: float | None = None  # its declared tilt (None: the evidence says)
+    default_tilt_deg: float | None = None  # its slope attribute's default
 
 
 def predicted_normal(part: PlanarPart, frame: Frame, pitch_deg: float) -> FloatArray:
-    """The unit outward normal (world, (3,)) a part is expected to have in `frame`."""
-    if part.name in DOWN_ROLES:
-        return -frame.up
-    if part.name in UP_ROLES or part.name not in HORIZONTAL_ROLES:
-        return frame.up
-    h = frame.horizontal(part.name)
-    if not part.pitched:
-        return h
+    """The unit outward normal (world, (3,)) a part is expected to have in `frame`.
+
+    ``pitch_deg`` is the tilt of a tilted part (its slope against the ground).
+
+    Raises
+    ------
+    InterpretError
+        The part is not oriented by the knowledge base (no ``orient`` declares it).
+    """
+    if part.direction is None:
+        raise InterpretError(
+            f"{part.role} ({part.concept}) faces no declared direction: the knowledge base "
+            "has no 'orient' for it, so it cannot be inserted"
+        )
+    d = frame.direction(part.direction)
+    if part.direction not in HORIZONTAL or not part.pitched:
+        return d
     p = math.radians(pitch_deg)
-    out: FloatArray = math.cos(p) * frame.up + math.sin(p) * h
+    out: FloatArray = math.cos(p) * frame.up + math.sin(p) * d
     return out
 
 
@@ -99,16 +122,16 @@ def fits(part: PlanarPart, region: RegionView, frame: Frame) -> bool:
         lo, hi = part.slope_range_deg
         if not lo - 1e-9 <= slope <= hi + 1e-9:
             return False
-    if part.name in DOWN_ROLES:
-        return _angle_deg(region.normal, -frame.up) <= CONE_WINDOW_DEG
-    if part.name not in HORIZONTAL_ROLES:
-        return _angle_deg(region.normal, frame.up) <= CONE_WINDOW_DEG
+    if part.direction is None:
+        return False  # the knowledge says nothing about which way it faces
+    if part.direction not in HORIZONTAL:
+        return _angle_deg(region.normal, frame.direction(part.direction)) <= CONE_WINDOW_DEG
     h = region.normal - float(region.normal @ frame.up) * frame.up
     if float(np.linalg.norm(h)) < math.sin(math.radians(5.0)):
         return False  # horizontal plane: it faces no side
     if part.pitched and slope < 5.0:
         return False
-    return _angle_deg(h, frame.horizontal(part.name)) <= HORIZONTAL_WINDOW_DEG
+    return _angle_deg(h, frame.direction(part.direction)) <= HORIZONTAL_WINDOW_DEG
 
 
 def candidates(
@@ -144,3 +167,122 @@ def front_region(walls: list[RegionView], camera: CameraView) -> RegionView | No
         if s > score:
             best, score = r, s
     return best
+
+
+def placed_offsets(
+    placements: Sequence[tuple[Any, Mapping[str, str]]],
+    normal: FloatArray,
+    frame: Frame,
+    planes: Mapping[str, tuple[FloatArray, float]],
+    centroids: Mapping[str, FloatArray],
+    points_of: Callable[[str], FloatArray],
+    directions: Callable[[str], str | None],
+    tilted_points: FloatArray,
+) -> list[float]:
+    """The offsets (n·x = d, metres) the knowledge's placements give an unseen part.
+
+    Parameters
+    ----------
+    placements : the ``unseen`` declarations that apply (`PlacementModel`), each with the map
+        from its relative paths to absolute role paths (`Knowledge.placements`).
+    normal : (3,) the unseen part's predicted unit normal, world frame.
+    frame : its structure's frame.
+    planes : role path -> (unit normal (3,), offset m) of the seen parts (their regions' plane
+        fits) and of the verified levels' parts.
+    centroids : role path -> (3,) centroid of a seen part's region, world frame, metres.
+    points_of : role path of a seen part -> (N, 3) its evidence points, world frame, metres.
+    directions : role path -> the direction the part faces (None: not oriented).
+    tilted_points : (M, 3) evidence points of the structure's seen parts that are tilted towards
+        forward (a wing's front roof plane), world frame, metres.
+
+    ``mirror REF about edge(A, B)``: as far beyond the line as REF lies before it, along the
+    horizontal direction REF faces; the line is the far boundary of A's evidence along that
+    direction (when B is seen too, the line where the planes of A and B meet). ``at D from
+    REF``: parallel to REF, D behind it. ``reach edge(A, B)``: the point of the line where it
+    lies, along the frame's forward axis, at the far boundary of ``tilted_points``. A
+    placement whose references are not seen (nor verified) gives nothing.
+    """
+    out: list[float] = []
+    for p, paths in placements:
+        ref = paths.get(p.ref) if p.ref is not None else None
+        line = tuple(paths[x] for x in p.line) if p.line is not None else None
+        if p.kind == "mirror" and ref is not None and line is not None and ref in centroids:
+            found = _mirrored(ref, line, frame, planes, centroids, points_of, directions)
+            if found is not None:
+                out.append(float(normal @ found))
+        elif p.kind == "offset" and ref is not None and ref in planes and p.value is not None:
+            n_ref, d_ref = planes[ref]
+            on_ref = centroids.get(ref, n_ref * d_ref)
+            out.append(float(normal @ (on_ref - p.value * n_ref)))
+        elif p.kind == "reach" and line is not None:
+            point = _reached(line, frame, planes, tilted_points)
+            if point is not None:
+                out.append(float(normal @ point))
+    return out
+
+
+def _mirrored(
+    ref: str,
+    line: tuple[str, ...],
+    frame: Frame,
+    planes: Mapping[str, tuple[FloatArray, float]],
+    centroids: Mapping[str, FloatArray],
+    points_of: Callable[[str], FloatArray],
+    directions: Callable[[str], str | None],
+) -> FloatArray | None:
+    """The mirror image (3,) of REF's centroid about the line, along REF's direction."""
+    facing = directions(ref)
+    if facing not in HORIZONTAL:
+        return None
+    u = frame.direction(facing)
+    a, b = line
+    if a in centroids and b in centroids:
+        meet = _line(planes[a], planes[b])
+        if meet is None:
+            return None
+        far = float(u @ meet[0])
+    elif a in centroids:
+        along = points_of(a) @ u
+        if len(along) < 2:
+            return None
+        far = float(along.min())
+    else:
+        return None
+    c = centroids[ref]
+    out: FloatArray = c + 2.0 * (far - float(u @ c)) * u
+    return out
+
+
+def _line(
+    p1: tuple[FloatArray, float], p2: tuple[FloatArray, float]
+) -> tuple[FloatArray, FloatArray] | None:
+    """The line where two planes meet: a point (3,) and a direction (3,), or None if parallel."""
+    (n1, d1), (n2, d2) = p1, p2
+    u = np.cross(n1, n2)
+    if float(np.linalg.norm(u)) < 1e-6:
+        return None
+    p0 = np.linalg.solve(np.stack([n1, n2, u]), np.array([d1, d2, 0.0]))
+    return p0, u
+
+
+def _reached(
+    line: tuple[str, ...],
+    frame: Frame,
+    planes: Mapping[str, tuple[FloatArray, float]],
+    tilted_points: FloatArray,
+) -> FloatArray | None:
+    """The point (3,) of the line edge(A, B) at the far boundary of ``tilted_points`` along the
+    frame's forward axis (None: A or B unknown, the line parallel to that boundary, no points)."""
+    a, b = line
+    if a not in planes or b not in planes or len(tilted_points) < 2:
+        return None
+    meet = _line(planes[a], planes[b])
+    if meet is None:
+        return None
+    p0, u = meet
+    if abs(float(frame.front @ u)) < 0.1 * float(np.linalg.norm(u)):
+        return None
+    along = tilted_points @ frame.front
+    t = (float(along.min()) - float(frame.front @ p0)) / float(frame.front @ u)
+    point: FloatArray = p0 + t * u
+    return point

@@ -33,13 +33,14 @@ from aida_kb.interpret.closure import ClosingFace, close, closing_faces, inside_
 from aida_kb.interpret.edges import EdgeMatch, match_segments
 from aida_kb.interpret.hypotheses import (
     DEFAULT_PITCH_DEG,
-    DOWN_ROLES,
-    UP_ROLES,
+    DOWNWARD,
+    UPWARD,
     Frame,
     PlanarPart,
     candidates,
     faces_camera,
     front_region,
+    placed_offsets,
     predicted_normal,
     support_offset,
 )
@@ -165,7 +166,7 @@ class Interpreter:
 
     knowledge: Knowledge
     evidence: EvidenceView
-    goal: str = "House"
+    goal: str
     trace: Trace = field(default_factory=Trace)
     messages: list[str] = field(default_factory=list)
 
@@ -205,17 +206,27 @@ class Interpreter:
         """
         role, concept, _ = self.body_slot()
         structures = self.knowledge.structures(concept, role, None if not role else "", "con-of")
+        framed = [s for s in structures if s.anchor is not None]
+        if not framed:
+            hid = self.trace.create(concept, role, parent)
+            self.trace.reject(
+                hid, f"{concept} declares no frame ('frame from PART'): no part predicts the others"
+            )
+            return []
         walls = [r for r in self.regions if abs(slope_deg(r.normal, self.up) - 90.0) <= 15.0]
         fronts = _ranked_fronts(walls, self.evidence)
         if not fronts:
             hid = self.trace.create(concept, role, parent)
-            self.trace.reject(hid, f"no evidence for {join(role, 'front')}: no wall region seen")
+            anchor = framed[0].anchor_path
+            self.trace.reject(hid, f"no evidence for {anchor}: no vertical region seen")
             return []
         out: list[Pending] = []
-        for structure in structures:
+        for structure in framed:
             for front in fronts:
                 frame = Frame.from_front(front.normal, self.up)
-                options = self._assignments(structure, frame, {"front": front}, frozenset())
+                options = self._assignments(
+                    structure, frame, _forced(structure, front), frozenset()
+                )
                 bound = options[0] if not isinstance(options, str) else {}
                 estimate = self._unexplained_ids(set(bound))
                 out.append(Pending(structure, front, estimate))
@@ -224,7 +235,14 @@ class Interpreter:
     def verify_body(self, pending: Pending, parent: int) -> tuple[Level, float] | None:
         """Verify one alternative of the main body; its level and cost, or None if rejected."""
         frame = Frame.from_front(pending.front.normal, self.up)
-        level = self._try(pending.structure, frame, parent, {}, {}, forced={"front": pending.front})
+        level = self._try(
+            pending.structure,
+            frame,
+            parent,
+            {},
+            {},
+            forced=_forced(pending.structure, pending.front),
+        )
         if level is None:
             return None
         return level, level.misfit + self._unexplained([level])
@@ -259,6 +277,8 @@ class Interpreter:
                 continue
             sub_role = f"{join(role, slot.role)}[{count}]"
             for structure in self.knowledge.structures(slot.concept, sub_role, role, "part-of"):
+                if structure.anchor is None:
+                    continue
                 for front in _ranked_fronts(walls, self.evidence):
                     frame = Frame.from_front(front.normal, self.up)
                     level = self._try(
@@ -267,7 +287,7 @@ class Interpreter:
                         parent,
                         fixed_planes,
                         choices,
-                        forced={"front": front},
+                        forced=_forced(structure, front),
                         exclude=used,
                         body_frame=body.frame,
                         guessed=guessed,
@@ -340,7 +360,7 @@ class Interpreter:
                 reasons.append((_over(worst), worst))
                 continue
             try:
-                polygons, closing = self._close(structure, outcome, fixed)
+                polygons, closing = self._close(structure, outcome, fixed, frame)
             except GeometryError as exc:
                 reasons.append((f"its planes do not close a solid: {exc}", None))
                 continue
@@ -380,13 +400,13 @@ class Interpreter:
     def _level_with(
         self, leaf: PlanarPart, regions: list[RegionView], forced: dict[str, RegionView]
     ) -> list[RegionView]:
-        """The regions that can be a level part's evidence given the front: a top (a flat
-        roof, an oriel's top) lies above the front's centre, a floor or bottom below it (the
-        ground is neither)."""
-        front = forced.get("front")
-        if front is None or leaf.name not in (*UP_ROLES, *DOWN_ROLES):
+        """The regions that can be a level part's evidence given its anchor: a part facing
+        upward (a flat roof, an oriel's top) lies above the anchor's centre, one facing downward
+        below it (the ground is neither)."""
+        front = _anchor(forced)
+        if front is None or leaf.direction not in (UPWARD, DOWNWARD):
             return regions
-        sign = 1.0 if leaf.name in UP_ROLES else -1.0
+        sign = 1.0 if leaf.direction == UPWARD else -1.0
         return [r for r in regions if sign * float((r.centroid_m - front.centroid_m) @ self.up) > 0]
 
     def _assignments(
@@ -410,23 +430,19 @@ class Interpreter:
         available = [
             r for r in self.regions if r.id not in exclude and self._significant(r, minimum)
         ]
-        front = forced.get("front")
-        meets_front = {
-            b if a == join(structure.root, "front") else a
-            for a, b in structure.adjacency
-            if join(structure.root, "front") in (a, b)
-        }
+        front = _anchor(forced)
+        anchor = structure.anchor_path
+        meets_front = {b if a == anchor else a for a, b in structure.adjacency if anchor in (a, b)}
         for leaf in structure.leaves:
-            direct = leaf.role == join(structure.root, leaf.name)
-            if direct and leaf.name in forced:
-                options.append([forced[leaf.name]])
+            if leaf.role == anchor and front is not None:
+                options.append([front])
                 continue
             usable = self._level_with(leaf, available, forced)
             if smaller and front is not None and leaf.role in meets_front:
                 usable = [r for r in usable if self.evidence.beside(front.id, r.id)]
             found: list[RegionView | None] = list(candidates(leaf, usable, frame))
             if not found:
-                if leaf.name == "front" and direct:
+                if leaf.role == anchor:
                     return f"no evidence for {leaf.role} ({leaf.concept})"
                 found = [None]
             elif smaller:
@@ -477,7 +493,9 @@ class Interpreter:
             for leaf in structure.leaves
             if leaf.pitched and leaf.role in role_to_region
         ]
-        pitch = float(np.mean(pitches)) if pitches else DEFAULT_PITCH_DEG
+        # an inserted tilted plane starts at the seen tilted planes' mean slope, else at the
+        # tilt the knowledge declares (a constant, or its attribute's default)
+        pitch = float(np.mean(pitches)) if pitches else None
         planes: list[PlaneInit] = []
         inserted: list[str] = []
         visible: list[str] = []
@@ -487,17 +505,14 @@ class Interpreter:
                 planes.append(PlaneInit(leaf.role, leaf.concept, region.normal, region.offset_m))
                 continue
             inserted.append(leaf.role)
-            n = predicted_normal(leaf, frame, pitch)
+            tilt = leaf.tilt_deg if leaf.tilt_deg is not None else DEFAULT_PITCH_DEG
+            n = predicted_normal(leaf, frame, pitch if pitch is not None else tilt)
             if len(points):
                 d = support_offset(n, points)
             else:
                 d = float(n @ self.evidence.camera.centre_m) - 10.0
-            mirrored = self._mirrored_back(structure, leaf, frame, role_to_region)
-            if mirrored is not None:
-                d = max(d, mirrored)
-            inner = self._inner_end(structure, leaf, frame, role_to_region, fixed)
-            if inner is not None:
-                d = max(d, float(n @ inner))
+            for placed in self._placed(structure, leaf, n, frame, role_to_region, fixed, choices):
+                d = max(d, placed)
             centre = points.mean(axis=0) if len(points) else self.evidence.camera.centre_m
             on_plane = centre + (d - float(n @ centre)) * n
             if faces_camera(n, on_plane, self.evidence.camera):
@@ -528,10 +543,7 @@ class Interpreter:
         adjacency: dict[str, set[str]] = {}
         # a smaller part also meets the verified part it stands on or out of (an oriel's
         # sides meet the body's front wall): segments along those edges are its evidence too
-        front = join(structure.root, "front")
-        front_normal = next((p.normal for p in planes if p.role == front), self.up)
-        leaves = [(leaf.role, leaf.name, leaf.pitched) for leaf in structure.leaves]
-        closing = closing_faces(structure.root, leaves, front_normal, fixed)
+        closing = self._closing(structure, frame, fixed)
         pairs = [*structure.adjacency, *((n, c.source) for c in closing for n in c.neighbours)]
         for a, b in pairs:
             adjacency.setdefault(a, set()).add(b)
@@ -631,76 +643,44 @@ class Interpreter:
         text = f"{head}; without '{g[0]}' of {owner}{where} it would be {cost:.3g}{tail}"
         return text, blamed
 
-    def _mirrored_back(
+    def _placed(
         self,
         structure: Structure,
         leaf: PlanarPart,
-        frame: Frame,
-        seen: dict[str, RegionView],
-    ) -> float | None:
-        """The offset of a hidden back wall by the symmetry of a gable: the ridge in the middle.
-
-        When the front wall and the front roof plane are seen, the ridge is the seen roof's
-        edge farthest from the front wall (its least extent along the front direction), and
-        the back wall lies as far behind the ridge as the front wall lies in front of it.
-        None when that does not apply (not a back wall, or those parts not seen).
-        """
-        if leaf.name != "back" or leaf.pitched or leaf.role != join(structure.root, "back"):
-            return None
-        front = seen.get(join(structure.root, "front"))
-        roof = seen.get(join(structure.root, "roof.front"))
-        if front is None or roof is None:
-            return None
-        along = self.evidence.points_on(roof.id) @ frame.front
-        if len(along) < 2:
-            return None
-        ridge = float(along.min())
-        return float(frame.front @ front.centroid_m) - 2.0 * ridge
-
-    def _inner_end(
-        self,
-        structure: Structure,
-        leaf: PlanarPart,
+        normal: FloatArray,
         frame: Frame,
         seen: dict[str, RegionView],
         fixed: dict[str, tuple[FloatArray, float]],
-    ) -> FloatArray | None:
-        """Where a hidden gable end of a smaller part reaches into its whole: (3,) world, m.
-
-        A wing's inner end lies inside the body, where no camera sees it; by default it
-        reaches the body's ridge: the point where the wing's ridge (seen as the edge of its
-        front roof plane farthest from its front wall) crosses, seen from above, the ridge of
-        the fixed body. An end wall is moved there only if that point lies beyond it (so the
-        outer end stays where its evidence puts it). None when that does not apply.
-        """
-        if leaf.pitched or leaf.name not in ("left", "right") or not fixed:
-            return None
-        whole = structure.root.rsplit(".", 1)[0]
-        roofs = [fixed.get(join(whole, f"roof.{side}")) for side in ("front", "back")]
-        roof = seen.get(join(structure.root, "roof.front"))
-        if roofs[0] is None or roofs[1] is None or roof is None:
-            return None
-        (n1, d1), (n2, d2) = roofs[0], roofs[1]
-        u = np.cross(n1, n2)
-        if float(np.linalg.norm(u)) < 1e-6 or abs(float(frame.front @ u)) < 0.1 * float(
-            np.linalg.norm(u)
-        ):
-            return None
-        along = self.evidence.points_on(roof.id) @ frame.front
-        if len(along) < 2:
-            return None
-        # the point of the body's ridge line nearest the origin, then along it to the wing's ridge
-        a = np.stack([n1, n2, u])
-        p0 = np.linalg.solve(a, np.array([d1, d2, 0.0]))
-        t = (float(along.min()) - float(frame.front @ p0)) / float(frame.front @ u)
-        point: FloatArray = p0 + t * u
-        return point
+        choices: dict[str, str],
+    ) -> list[float]:
+        """The offsets the knowledge's ``unseen`` placements give an inserted part
+        (`hypotheses.placed_offsets`), from its structure's seen regions and the fixed planes."""
+        fillers = {**choices, **dict(structure.choices)}
+        found = [(p, paths) for p, _, paths in self.knowledge.placements(leaf.role, fillers)]
+        if not found:
+            return []
+        planes = {**fixed, **{r: (g.normal, g.offset_m) for r, g in seen.items()}}
+        tilted = [
+            self.evidence.points_on(seen[x.role].id)
+            for x in structure.leaves
+            if x.pitched and x.direction == "forward" and x.role in seen
+        ]
+        return placed_offsets(
+            found,
+            normal,
+            frame,
+            planes,
+            {r: g.centroid_m for r, g in seen.items()},
+            lambda role: self.evidence.points_on(seen[role].id),
+            self.knowledge.direction,
+            np.concatenate(tilted) if tilted else np.zeros((0, 3)),
+        )
 
     def _floor(self, structure: Structure, known: set[str]) -> str | None:
-        """The floor the walls' tilt refers to: the structure's own, else its whole's."""
-        floors = [r for r in known if r.rsplit(".", 1)[-1] == "floor"]
-        own = join(structure.root, "floor")
-        return own if own in known else (sorted(floors)[0] if floors else None)
+        """The ground the parts' slopes refer to: the outermost known part facing downward."""
+        grounds = [r for r in known if self.knowledge.direction(r) == DOWNWARD]
+        del structure
+        return min(grounds, key=lambda r: (r.count("."), r)) if grounds else None
 
     def _outside(self, binding: dict[str, str], polygons: dict[str, FloatArray]) -> str:
         """Why a bound region does not lie on its part's closed face ('' if all do).
@@ -728,7 +708,7 @@ class Interpreter:
         Its closed face, projected into the reference camera, must be smaller than
         `MAX_UNSEEN_SIDE_FRACTION` of the front's region.
         """
-        front = forced.get("front")
+        front = _anchor(forced)
         camera = self.evidence.camera
         for role in visible:
             pixels = camera.pinhole.project(polygons[role])
@@ -742,21 +722,32 @@ class Interpreter:
                 )
         return ""
 
+    def _closing(
+        self, structure: Structure, frame: Frame, fixed: dict[str, tuple[FloatArray, float]]
+    ) -> list[ClosingFace]:
+        """The face that closes a smaller structure in its whole (`closure.closing_faces`)."""
+        return closing_faces(
+            structure.root,
+            structure.leaves,
+            frame,
+            fixed,
+            self.knowledge.attachment(structure.root),
+            {r: self.knowledge.concept_at(r) for r in fixed},
+        )
+
     def _close(
         self,
         structure: Structure,
         outcome: Outcome,
         fixed: dict[str, tuple[FloatArray, float]],
+        frame: Frame,
     ) -> tuple[dict[str, FloatArray], tuple[ClosingFace, ...]]:
         """The closed solid of a structure's planes (`closure`): polygons and closing faces.
 
         Raises GeometryError (naming the parts) if the planes do not close a solid with a
         face for every part.
         """
-        leaves = [(leaf.role, leaf.name, leaf.pitched) for leaf in structure.leaves]
-        front = join(structure.root, "front")
-        front_normal = outcome.planes[front][0] if front in outcome.planes else self.up
-        closing = closing_faces(structure.root, leaves, front_normal, fixed)
+        closing = self._closing(structure, frame, fixed)
         faces = [(leaf.role, *outcome.planes[leaf.role]) for leaf in structure.leaves]
         faces += [(c.role, c.normal, c.offset_m) for c in closing]
         adjacency = list(structure.adjacency)
@@ -921,6 +912,17 @@ def _same_matches(a: list[EdgeMatch], b: list[EdgeMatch]) -> bool:
 
 class _UnseenError(AidaError):
     """An inserted part would be visible: the alternative predicts evidence that is missing."""
+
+
+def _forced(structure: Structure, region: RegionView) -> dict[str, RegionView]:
+    """The region taken as the evidence of a structure's frame anchor, by its relative role."""
+    assert structure.anchor is not None
+    return {structure.anchor: region}
+
+
+def _anchor(forced: dict[str, RegionView]) -> RegionView | None:
+    """The anchor's region of a forced assignment (None: none)."""
+    return next(iter(forced.values()), None)
 
 
 def _ranked_fronts(walls: list[RegionView], evidence: EvidenceView) -> list[RegionView]:

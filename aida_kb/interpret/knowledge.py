@@ -2,31 +2,37 @@
 
 `Knowledge` wraps a compiled `KnowledgeBase`: concepts with their slots (parts and con-of
 realisations with cardinalities), attribute ranges in SI units, expanded constraints and
-adjacencies, and the is-a hierarchy. `structures` unfolds a concept top-down along part-of
-into every fully specialised *structure*: the instance skeleton of one alternative, with its
-planar parts (the leaves that evidence regions can bind to), its is-a choices, and which
-planes meet (adjacency, absolute role paths). The constraints of a structure are not listed
-here: `aida_kb.solve.constraints_from_kb` finds them in the compiled knowledge base (`kb`).
+adjacencies, the is-a hierarchy, and the geometry the language declares (docs/language.md
+§3.9-3.12): frames, orientations, measured attributes, placements of unseen parts and
+attachments. `structures` unfolds a concept top-down along part-of into every fully
+specialised *structure*: the instance skeleton of one alternative, with its planar parts (the
+leaves that evidence regions can bind to, each with the direction it faces in the structure's
+frame), its is-a choices, its frame's anchor, and which planes meet (adjacency, absolute role
+paths). The constraints of a structure are not listed here: `aida_kb.solve.constraints_from_kb`
+finds them in the compiled knowledge base (`kb`). No concept, role or attribute name is known
+to this module: everything comes from the compiled knowledge base.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator
-from dataclasses import dataclass
+import re
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Literal
 
 from aida_kb.diagnostics.core import Span
 from aida_kb.errors import InterpretError
-from aida_kb.interpret.hypotheses import PlanarPart
+from aida_kb.interpret.hypotheses import HORIZONTAL, PlanarPart
 
 if TYPE_CHECKING:
-    from aida_kb.kb.model import ConceptModel, KnowledgeBase
+    from aida_kb.kb.model import AttachmentModel, ConceptModel, KnowledgeBase, PlacementModel
 
 Link = Literal["goal", "con-of", "part-of"]
 Requires = tuple[tuple[str, tuple[str, ...]], ...]
-SLOPE_ATTRIBUTES = ("tilt", "pitch")
+_INDEX = re.compile(r"\[\d+\]")
+_RIGHT_ANGLE_DEG = 90.0
 
 
 @dataclass(frozen=True)
@@ -49,13 +55,17 @@ class Slot:
 
 @dataclass(frozen=True)
 class Attribute:
-    """An attribute's range and value in SI units (radians, metres)."""
+    """An attribute's range and value in SI units (radians, metres); ``measure`` the geometric
+    measure it stands for (``"slope"``, ``"height"`` ...; None: none) and its arguments."""
 
     name: str
     low: float | None
     high: float | None
     value: float | None
     span: Span | None = None
+    measure: str | None = None
+    measure_args: tuple[str, ...] = ()
+    sigma: float | None = None
 
 
 @dataclass(frozen=True)
@@ -70,6 +80,10 @@ class Concept:
     attributes: dict[str, Attribute]
     constraints: tuple[Any, ...]  # ConstraintSpec (aida_kb.kb)
     adjacencies: tuple[tuple[str, str, Requires], ...]
+    frame: str | None = None  # the anchor part of its own frame (None: its whole's frame)
+    orientations: Mapping[str, Any] = field(default_factory=dict)  # part -> OrientationModel
+    placements: tuple[Any, ...] = ()  # PlacementModel (aida_kb.kb)
+    attachments: Mapping[str, Any] = field(default_factory=dict)  # part -> AttachmentModel
 
 
 @dataclass(frozen=True)
@@ -92,6 +106,12 @@ class Structure:
     leaves: tuple[PlanarPart, ...]
     adjacency: tuple[tuple[str, str], ...]
     choices: tuple[tuple[str, str], ...]  # (role path, concept chosen along is-a)
+    anchor: str | None = None  # the role (relative to root) its frame is taken from
+
+    @property
+    def anchor_path(self) -> str | None:
+        """The absolute role path of the frame's anchor part (None: no frame)."""
+        return join(self.root, self.anchor) if self.anchor is not None else None
 
     def describe(self) -> str:
         """The is-a choices, e.g. 'body.roof=GableRoof' ('' if none)."""
@@ -112,6 +132,10 @@ class Knowledge:
         self.concepts = concepts
         self.kb = kb
         self._children: dict[str, list[str]] = {name: [] for name in concepts}
+        # filled by `structures`: role path (no filler indices) -> direction / composite concept
+        self._directions: dict[str, str] = {}
+        self._composites: dict[str, str] = {}
+        self._planes: dict[str, str] = {}
         for c in concepts.values():
             for p in c.parents:
                 self._children.setdefault(p, []).append(c.name)
@@ -148,18 +172,75 @@ class Knowledge:
             return True
         return any(self.is_a(p, ancestor) for p in self.concept(name).parents)
 
+    def slope_attribute(self, concept: str) -> Attribute | None:
+        """The attribute of a planar concept that measures its own slope (``is slope(self)``)."""
+        for a in self.concept(concept).attributes.values():
+            if a.measure == "slope" and a.measure_args == ("self",):
+                return a
+        return None
+
     def slope_range_deg(self, concept: str) -> tuple[float, float] | None:
-        """The range of a planar concept's tilt or pitch attribute, degrees (None if none)."""
-        attrs = self.concept(concept).attributes
-        for name in SLOPE_ATTRIBUTES:
-            a = attrs.get(name)
-            if a is not None and a.low is not None and a.high is not None:
-                return (math.degrees(a.low), math.degrees(a.high))
+        """The range of a planar concept's slope attribute, degrees (None if none)."""
+        a = self.slope_attribute(concept)
+        if a is not None and a.low is not None and a.high is not None:
+            return (math.degrees(a.low), math.degrees(a.high))
         return None
 
     def is_planar(self, concept: str) -> bool:
         """True for a leaf of the world layer: a concept without part-of slots."""
         return not any(s.link == "part-of" for s in self.concept(concept).slots)
+
+    def direction(self, role: str) -> str | None:
+        """The direction a planar part (absolute role path) faces, once its structure has been
+        unfolded by `structures` (None: not oriented, or not unfolded)."""
+        return self._directions.get(_INDEX.sub("", role))
+
+    def concept_at(self, role: str) -> str:
+        """The concept of the planar part at an absolute role path, once unfolded ('' if none
+        is known; alternatives of one path share their concept's meaning, not always its name:
+        the first unfolded is given)."""
+        return self._planes.get(_INDEX.sub("", role), "")
+
+    def attachment(self, root: str) -> AttachmentModel | None:
+        """How the sub-object at role path ``root`` (``body.wings[0]``) attaches to its whole."""
+        if "." not in root:
+            return None
+        whole, slot = root.rsplit(".", 1)
+        concept = self._composites.get(_INDEX.sub("", whole))
+        if concept is None:
+            return None
+        found: AttachmentModel | None = self.concept(concept).attachments.get(_INDEX.sub("", slot))
+        return found
+
+    def placements(
+        self, role: str, fillers: Mapping[str, str]
+    ) -> list[tuple[PlacementModel, str, Mapping[str, str]]]:
+        """The placements that apply to the unseen planar part at ``role`` (absolute path).
+
+        Each comes with the role path of the composite that declares it and a map from the
+        placement's paths (relative to that composite) to absolute role paths (a path through a
+        role with several fillers takes the index of ``role``'s filler). Declared by every
+        composite above the part; those whose ``requires`` the ``fillers`` (role path ->
+        concept) do not meet are left out.
+        """
+        out: list[tuple[PlacementModel, str, Mapping[str, str]]] = []
+        parts = role.split(".")
+        for i in range(len(parts) - 1, -1, -1):
+            owner = ".".join(parts[:i])
+            concept = self._composites.get(_INDEX.sub("", owner))
+            if concept is None:
+                continue
+            rel = ".".join(parts[i:])
+            plain = _INDEX.sub("", rel)
+            for p in self.concept(concept).placements:
+                if p.part != plain:
+                    continue
+                paths = {
+                    x: _indexed(owner, x, rel) for x in (p.ref, *(p.line or ())) if x is not None
+                }
+                if self.holds(owner, _indexed_requires(p.requires, rel), fillers):
+                    out.append((p, owner, paths))
+        return out
 
     def structures(
         self, concept: str, role: str, parent: str | None, link: Link
@@ -175,15 +256,23 @@ class Knowledge:
             node = Node(role, special, special, parent, link)
             choice = ((role, special),) if special != concept else ()
             if self.is_planar(special):
+                slope = self.slope_attribute(special)
                 leaf = PlanarPart(
                     role,
                     role.rsplit(".", 1)[-1],
                     special,
                     self.slope_range_deg(special),
-                    self.is_a(special, "RoofPlane") or "pitch" in c.attributes,
+                    False,
+                    default_tilt_deg=(
+                        math.degrees(slope.value)
+                        if slope is not None and slope.value is not None
+                        else None
+                    ),
                 )
+                self._planes.setdefault(_INDEX.sub("", role), special)
                 yield Structure(role, (node,), (leaf,), (), choice)
                 continue
+            self._composites[_INDEX.sub("", role)] = special
             parts = [s for s in c.slots if s.link == "part-of" and s.obligatory]
             options = [
                 self.structures(s.concept, join(role, s.role), role, "part-of") for s in parts
@@ -196,21 +285,66 @@ class Knowledge:
                     for a, b, req in c.adjacencies
                     if self.holds(role, req, fillers)
                 )
+                leaves = tuple(
+                    self._oriented(leaf, role, c, fillers) for sub in combo for leaf in sub.leaves
+                )
                 yield Structure(
                     role,
                     nodes,
-                    tuple(leaf for sub in combo for leaf in sub.leaves),
+                    leaves,
                     adjacency + tuple(a for sub in combo for a in sub.adjacency),
                     choice + tuple(ch for sub in combo for ch in sub.choices),
+                    c.frame,
                 )
 
-    def holds(self, owner: str, requires: Requires, fillers: dict[str, str]) -> bool:
+    def _oriented(
+        self, leaf: PlanarPart, owner: str, c: Concept, fillers: dict[str, str]
+    ) -> PlanarPart:
+        """The leaf with the orientation ``c`` (at role path ``owner``) declares for it, if any:
+        a whole's declaration overrides its parts' own (it is applied later, going up)."""
+        rel = leaf.role[len(owner) + 1 :] if owner else leaf.role
+        o = c.orientations.get(_INDEX.sub("", rel))
+        if o is None or not self.holds(owner, o.requires, fillers):
+            return leaf
+        tilt: float | None = o.tilt_rad
+        tilted = o.direction in HORIZONTAL and (
+            o.tilt_from is not None
+            or (tilt is not None and abs(math.degrees(tilt) - _RIGHT_ANGLE_DEG) > 1e-9)
+        )
+        self._directions[_INDEX.sub("", leaf.role)] = o.direction
+        return replace(
+            leaf,
+            direction=o.direction,
+            pitched=tilted,
+            tilt_deg=math.degrees(tilt) if tilt is not None else None,
+        )
+
+    def holds(self, owner: str, requires: Requires, fillers: Mapping[str, str]) -> bool:
         """True if every conditional role path is filled by one of the required concepts."""
         for path, allowed in requires:
             filler = fillers.get(join(owner, path))
             if filler is None or not any(self.is_a(filler, a) for a in allowed):
                 return False
         return True
+
+    def measurement(self, concept: str, kind: str) -> Any | None:
+        """The first measurement spec of `kind` ('position', 'edge') declared by `concept`."""
+        for s in self.concept(concept).constraints:
+            if s.measurement and s.kind == kind:
+                return s
+        return None
+
+    def contour_path(self, concept: str) -> str | None:
+        """The role path, relative to a planar concept, of the contours of its evidence: its
+        con-of realisation, then the part of the realising concept whose concept measures an
+        edge of itself (``measure edge(self)``); None when the knowledge has none."""
+        real = self.realisation(concept) if concept in self.concepts else None
+        if real is None:
+            return None
+        for s in self.concept(real.concept).slots:
+            if s.link == "part-of" and self.measurement(s.concept, "edge") is not None:
+                return f"{real.role}.{s.role}"
+        return None
 
     def realisation(self, concept: str) -> Slot | None:
         """The con-of slot of `concept` (its realisation one layer down), if any."""
@@ -227,7 +361,16 @@ def _concept_of(name: str, model: ConceptModel) -> Concept:
     ]
     slots += [Slot(c.role, c.concept, c.min, c.max, "con-of") for c in model.con_ofs.values()]
     attributes = {
-        a.name: Attribute(a.name, a.low, a.high, a.default, a.span)
+        a.name: Attribute(
+            a.name,
+            a.low,
+            a.high,
+            a.default,
+            a.span,
+            a.measure.kind if a.measure is not None else None,
+            a.measure.args if a.measure is not None else (),
+            a.measure.sigma if a.measure is not None else None,
+        )
         for a in model.attributes.values()
     }
     return Concept(
@@ -239,4 +382,28 @@ def _concept_of(name: str, model: ConceptModel) -> Concept:
         attributes=attributes,
         constraints=tuple(model.constraints),
         adjacencies=tuple((a.a, a.b, tuple(a.requires)) for a in model.adjacencies),
+        frame=model.frame.anchor if model.frame is not None else None,
+        orientations=dict(model.orientations),
+        placements=tuple(model.placements),
+        attachments=dict(model.attachments),
     )
+
+
+def _indexed(owner: str, path: str, like: str) -> str:
+    """``path`` (relative to ``owner``) as an absolute path, taking the filler indices of the
+    relative path ``like`` where they share roles (``wings.roof.front`` like ``wings[1].left``
+    is ``wings[1].roof.front``)."""
+    given = like.split(".")
+    out = []
+    for i, name in enumerate(path.split(".")):
+        if i < len(given) and _INDEX.sub("", given[i]) == name:
+            out.append(given[i])
+        else:
+            out.append(name)
+            given = []
+    return join(owner, ".".join(out))
+
+
+def _indexed_requires(requires: Requires, like: str) -> Requires:
+    """Conditions whose role paths take the filler indices of ``like``."""
+    return tuple((_indexed("", path, like), allowed) for path, allowed in requires)

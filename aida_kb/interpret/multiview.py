@@ -372,7 +372,7 @@ def reconstruct_views(
     kb: KnowledgeBase,
     evidence: Evidence,
     *,
-    goal: str = "House",
+    goal: str | None = None,
     source: str = "",
     scene: Scene | None = None,
     progress: Callable[[str], None] | None = None,

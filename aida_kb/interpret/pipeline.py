@@ -37,7 +37,7 @@ def reconstruct_scene(
     scene_dir: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
     *,
-    goal: str = "House",
+    goal: str | None = None,
     views: Sequence[str] | None = None,
     stage: Callable[[str, str], None] | None = None,
     max_disp: int | None = None,
@@ -56,7 +56,7 @@ def reconstruct_scene(
     max_disp : disparities 0..max_disp-1 searched (None: found from feature matches).
     warn : called with each warning of the vision front end (a disparity range too small).
     """
-    check_goal(kb, goal)
+    goal = check_goal(kb, goal)
     scene = read_scene(scene_dir, with_truth=False)
     check_outputs([], [*kb.files, *scene.files], directories=[out_dir])
     out = check_publishable(out_dir, OUTPUT_FILES)

@@ -69,7 +69,7 @@ class Interpretation(_Frozen):
 
     format: Literal["aida-kb/interpretation"] = "aida-kb/interpretation"
     version: Literal[1] = 1
-    goal: str = Field(description="the goal concept, e.g. 'House'")
+    goal: str = Field(description="the goal concept (a scene-layer concept of the knowledge base)")
     accepted: bool = Field(description="True if the goal hypothesis was verified")
     message: str = Field(description="a one-line summary for people")
     instances: list[Instance] = Field(default_factory=list)

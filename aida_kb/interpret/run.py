@@ -67,14 +67,26 @@ def model_of(state: State, evidence: Evidence) -> ReconstructedModel:
     return ReconstructedModel(parts=parts, cameras=_cameras(evidence))
 
 
-def check_goal(kb: KnowledgeBase, goal: str) -> None:
-    """Refuse (InterpretError) a goal that is not a concept of the knowledge base's top layer.
+def check_goal(kb: KnowledgeBase, goal: str | None) -> str:
+    """The goal concept; refuse (InterpretError) one that is not a concept of the knowledge
+    base's top layer.
 
-    The goal of an interpretation is a scene object (e.g. House): a concept of the first layer
-    of ``layers scene > world > image``. Cheap; commands call it before any long work.
+    The goal of an interpretation is a scene object: a concept of the first layer of
+    ``layers scene > world > image``. None stands for the knowledge base's only concrete
+    concept of that layer (an error when it has several: name one). Cheap; commands call it
+    before any long work.
     """
     top = kb.layers[0] if kb.layers else "scene"
-    scene = ", ".join(sorted(n for n, c in kb.concepts.items() if c.layer == top)) or "none"
+    names = sorted(n for n, c in kb.concepts.items() if c.layer == top)
+    scene = ", ".join(names) or "none"
+    if goal is None:
+        concrete = [n for n in names if not kb.concepts[n].abstract]
+        if len(concrete) != 1:
+            raise InterpretError(
+                f"the knowledge base has {len(concrete) or 'no'} concrete {top}-layer concepts "
+                f"({scene}): name the goal"
+            )
+        return concrete[0]
     concept = kb.concepts.get(goal)
     if concept is None:
         raise InterpretError(
@@ -85,23 +97,25 @@ def check_goal(kb: KnowledgeBase, goal: str) -> None:
             f"goal {goal!r} is a concept of the {concept.layer} layer; the goal must be a "
             f"{top}-layer concept ({scene})"
         )
+    return goal
 
 
 def interpret(
     kb: KnowledgeBase,
     evidence: Evidence,
     *,
-    goal: str = "House",
+    goal: str | None = None,
     source: str = "",
     progress: Callable[[str], None] | None = None,
 ) -> Interpretation:
-    """Interpret `evidence` against `kb` for the goal concept `goal`.
+    """Interpret `evidence` against `kb` for the goal concept `goal` (None: the knowledge
+    base's only scene concept, `check_goal`).
 
     Returns the interpretation: accepted with instances, model, residuals and trace, or not
     accepted (no instances, no model) with a message saying why. Raises InterpretError when the
     goal is not a concept of the knowledge base's top (scene) layer (`check_goal`).
     """
-    check_goal(kb, goal)
+    goal = check_goal(kb, goal)
     knowledge = Knowledge.from_kb(kb)
     view = view_of(evidence, source)
     interpreter = Interpreter(knowledge, view, goal)

@@ -234,7 +234,11 @@ def build_verification(
         if tuple(sorted(e.parts)) in declared_set:
             edge_map.setdefault((min(a, b), max(a, b)), []).append(data)
             continue
-        region = f"{_relative(root, e.contour_of)}.region.contours"
+        part = planes[index[e.contour_of]].concept or knowledge.concept_at(e.contour_of)
+        through = knowledge.contour_path(part)
+        if through is None:
+            continue  # the knowledge gives this part's evidence no contours to measure
+        region = f"{_relative(root, e.contour_of)}.{through}"
         k = counts.get(region, 0)
         counts[region] = k + 1
         contours[f"{region}[{k}]"] = (a, b, data)
@@ -268,29 +272,31 @@ def tilt_constraints(
     floor: str | None,
     index: Mapping[str, int],
 ) -> list[Constraint]:
-    """Soft constraints from the parts' ``tilt`` attribute: the angle to the floor.
+    """Soft constraints from the parts' slope attributes: the angle to the ground.
 
-    ``attribute tilt: angle in [85 deg, 95 deg] = 90 deg`` says a wall meets the ground at 90
-    degrees, give or take 5: each such part (role path, concept) gets angle(part, floor) ==
-    90 deg, rejected outside the range, whose half-width is taken as `TILT_SIGMAS` sigma
-    (1 degree here). No floor, no constraints.
+    An attribute that measures its part's slope (``attribute tilt: angle in [85 deg, 95 deg] =
+    90 deg is slope(self)``, docs/language.md §3.10) says a wall meets the ground at 90 degrees,
+    give or take 5: each such part (role path, concept) gets angle(part, floor) == 90 deg,
+    rejected outside the range; sigma is the measure's tolerance, else the range's half-width
+    taken as `TILT_SIGMAS` sigma (1 degree here). Attributes without a default give none. No
+    floor (the ground part), no constraints.
     """
     if floor is None or floor not in index:
         return []
     out: list[Constraint] = []
     for role, concept in parts:
-        attr = knowledge.concept(concept).attributes.get("tilt")
+        attr = knowledge.slope_attribute(concept)
         if attr is None or attr.value is None or attr.low is None or attr.high is None:
             continue
         half = (attr.high - attr.low) / 2.0
         if half <= 0 or role not in index:
             continue
-        label = f"{concept}.tilt"
+        label = f"{concept}.{attr.name}"
         constraint = Constraint(
             kind="angle",
             parts=(index[role], index[floor]),
             value=attr.value,
-            sigma=half / TILT_SIGMAS,
+            sigma=attr.sigma if attr.sigma is not None else half / TILT_SIGMAS,
             reject_above=half,
             unit="rad",
             label=label,

@@ -163,17 +163,17 @@ class OrientationModel(_Frozen):
     """``orient PART: DIRECTION [tilted by T]``: the direction a planar part faces in the
     frame of the nearest composite (this concept or a whole) that has one.
 
-    ``tilt`` (rad) is the angle between the part's plane and the ground: upward faces 0,
+    ``tilt_rad`` is the angle between the part's plane and the ground: upward faces 0,
     downward pi, a horizontal direction pi/2 unless tilted (a roof plane facing forward
-    tilted by its pitch: its normal turned from up towards forward by the pitch). ``tilt`` is
-    None when it is read from ``tilt_attribute`` (a role path of an angle attribute) that has
+    tilted by its pitch: its normal turned from up towards forward by the pitch). It is
+    None when it is read from ``tilt_from`` (a role path of an angle attribute) that has
     no default: the evidence then says.
     """
 
     part: str
     direction: Direction
-    tilt: float | None
-    tilt_attribute: str | None
+    tilt_rad: float | None
+    tilt_from: str | None
     declared_in: str
     span: Span
     requires: Requires = ()
@@ -200,13 +200,15 @@ class PlacementModel(_Frozen):
 
 
 class AttachmentModel(_Frozen):
-    """``attach PART: FACE in PLANES [as NAME]``: the sub-object filling PART has an open face
-    (facing FACE in its own frame) that lies in one of the planar parts PLANES of this concept:
-    an oriel standing out of a wall, a wing standing on the floor. ``name`` names that face
-    in the model (default: the direction)."""
+    """``attach PART: FACE in|against PLANES [as NAME]``: the sub-object filling PART has an
+    open face (facing FACE in its own frame) that lies in one of the planar parts PLANES of this
+    concept: ``in`` facing the same way as that plane (a wing's bottom in the floor),
+    ``against`` facing into it (an oriel's back against a wall). ``name`` names that face in
+    the model (default: the direction)."""
 
     part: str
     face: Direction
+    contact: Literal["in", "against"]
     planes: tuple[str, ...]
     name: str
     declared_in: str

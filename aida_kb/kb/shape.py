@@ -425,8 +425,8 @@ def build_shape(table: Table, cname: str, info: CInfo) -> dict[str, Any]:
                 orientations[res.dotted] = {
                     "part": res.dotted,
                     "direction": g.direction.text,
-                    "tilt": tilt,
-                    "tilt_attribute": attr,
+                    "tilt_rad": tilt,
+                    "tilt_from": attr,
                     "declared_in": owner,
                     "span": g.span,
                     "requires": res.requires + treq,
@@ -440,6 +440,7 @@ def build_shape(table: Table, cname: str, info: CInfo) -> dict[str, Any]:
                 attachments[res.dotted] = {
                     "part": res.dotted,
                     "face": g.face.text,
+                    "contact": g.contact.text,
                     "planes": tuple(p.dotted for p in planes if isinstance(p, PathRes)),
                     "name": g.name.text if g.name is not None else g.face.text,
                     "declared_in": owner,

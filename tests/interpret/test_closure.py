@@ -7,8 +7,11 @@ from collections import Counter
 import numpy as np
 import pytest
 
+from aida_kb.diagnostics.core import Span
 from aida_kb.errors import GeometryError
 from aida_kb.interpret.closure import close, closing_faces
+from aida_kb.interpret.hypotheses import Frame, PlanarPart
+from aida_kb.kb.model import AttachmentModel
 
 UP = np.array([0.0, -1.0, 0.0])  # OpenCV world: y down
 
@@ -60,25 +63,52 @@ def test_a_face_the_planes_do_not_produce_is_named() -> None:
         close(faces, [p for p in adjacency if "top" not in p or "south" in p])
 
 
+def _attach(face: str, contact: str, planes: tuple[str, ...], name: str) -> AttachmentModel:
+    return AttachmentModel(
+        part="x",
+        face=face,  # type: ignore[arg-type]
+        contact=contact,  # type: ignore[arg-type]
+        planes=planes,
+        name=name,
+        declared_in="Body",
+        span=Span.point("t.kb", 1, 1),
+    )
+
+
 def test_a_wing_closes_on_the_floor_and_an_oriel_on_the_wall() -> None:
     fixed = {
         "body.floor": (-UP, 0.0),
         "body.front": (np.array([0.0, 0.0, -1.0]), 0.0),
+        "body.back": (np.array([0.0, 0.0, 1.0]), 10.0),
         "body.wings[0].front": (np.array([0.0, 0.0, -1.0]), 3.0),
     }
+    concepts = {"body.floor": "Ground", "body.front": "Facade", "body.back": "Facade"}
+    frame = Frame.from_front(np.array([0.0, 0.0, -1.0]), UP)
     wing = [
-        ("body.wings[0].front", "front", False),
-        ("body.wings[0].back", "back", False),
-        ("body.wings[0].roof.front", "front", True),
+        PlanarPart("body.wings[0].front", "front", "W", None, False, "forward"),
+        PlanarPart("body.wings[0].back", "back", "W", None, False, "backward"),
+        PlanarPart("body.wings[0].roof.front", "front", "R", None, True, "forward"),
     ]
-    (bottom,) = closing_faces("body.wings[0]", wing, np.array([0.0, 0.0, -1.0]), fixed)
-    assert bottom.role == "body.wings[0].floor"
+    on_floor = _attach("downward", "in", ("floor",), "bottom")
+    (bottom,) = closing_faces("body.wings[0]", wing, frame, fixed, on_floor, concepts)
+    assert bottom.role == "body.wings[0].bottom"
+    assert bottom.concept == "Ground"
     assert bottom.neighbours == ("body.wings[0].front", "body.wings[0].back")
     np.testing.assert_allclose(bottom.normal, -UP)
-    oriel = [(f"body.oriels[0].{n}", n, False) for n in ("front", "left", "right", "bottom")]
-    (back,) = closing_faces("body.oriels[0]", oriel, np.array([0.0, 0.0, -1.0]), fixed)
-    # its back lies in the body's front wall (not in another wing's), facing into the body
-    assert back.role == "body.oriels[0].back"
+    oriel = [
+        PlanarPart(f"body.oriels[0].{n}", n, "W", None, False, d)
+        for n, d in (("front", "forward"), ("left", "leftward"), ("right", "rightward"))
+    ]
+    oriel.append(PlanarPart("body.oriels[0].bottom", "bottom", "G", None, False, "downward"))
+    out_of = _attach("backward", "against", ("back", "front"), "rear")
+    (back,) = closing_faces("body.oriels[0]", oriel, frame, fixed, out_of, concepts)
+    # its back lies in the body's front wall (not in the back wall), facing into the body
+    assert back.role == "body.oriels[0].rear"
+    assert back.source == "body.front"
     np.testing.assert_allclose(back.normal, [0.0, 0.0, 1.0])
     assert back.offset_m == 0.0
     assert "body.oriels[0].front" not in back.neighbours
+    assert "body.oriels[0].bottom" in back.neighbours
+    # nothing to close: a part already faces that way, or no attachment
+    assert closing_faces("body.oriels[0]", oriel, frame, fixed, on_floor, concepts) == []
+    assert closing_faces("body.wings[0]", wing, frame, fixed, None, concepts) == []

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from types import ModuleType
 
 import numpy as np
 import pytest
 
+from aida_kb.errors import InterpretError
 from aida_kb.interpret.edges import match_segments, plane_line
 from aida_kb.interpret.hypotheses import (
     Frame,
@@ -55,9 +57,13 @@ def test_roles_from_orientation_and_slope(synthetic: ModuleType) -> None:
     np.testing.assert_allclose(front.normal, _truth_normal(world, "body.front"), atol=1e-9)
     frame = Frame.from_front(front.normal, up)
     wall = (85.0, 95.0)
-    left = candidates(PlanarPart("body.left", "left", "Wall", wall, False), regions, frame)
-    right = candidates(PlanarPart("body.right", "right", "Wall", wall, False), regions, frame)
-    roof = PlanarPart("body.roof.front", "front", "RoofPlane", (0.0, 65.0), True)
+    left_wall = PlanarPart("body.left", "left", "Wall", wall, False, "leftward")
+    right_wall = PlanarPart("body.right", "right", "Wall", wall, False, "rightward")
+    left = candidates(left_wall, regions, frame)
+    right = candidates(right_wall, regions, frame)
+    roof = PlanarPart("body.roof.front", "front", "RoofPlane", (0.0, 65.0), True, "forward")
+    # a part the knowledge does not orient is no candidate for anything
+    assert candidates(PlanarPart("body.x", "x", "Wall", wall, False), regions, frame) == []
     roof_front = candidates(roof, regions, frame)
     assert [r.normal @ _truth_normal(world, "body.left") for r in left] == [pytest.approx(1.0)]
     assert right == []  # the right wall faces away from the camera
@@ -66,9 +72,11 @@ def test_roles_from_orientation_and_slope(synthetic: ModuleType) -> None:
     # a roof plane is never a wall candidate and vice versa
     assert front not in candidates(roof, regions, frame)
     # the predicted normal of the inserted back roof mirrors the front's pitch
-    back = PlanarPart("body.roof.back", "back", "RoofPlane", (0.0, 65.0), True)
+    back = PlanarPart("body.roof.back", "back", "RoofPlane", (0.0, 65.0), True, "backward")
     n_back = predicted_normal(back, frame, 35.0)
     assert float(n_back @ _truth_normal(world, "body.roof.back")) == pytest.approx(1.0, abs=1e-6)
+    with pytest.raises(InterpretError, match="no 'orient'"):
+        predicted_normal(replace(back, direction=None), frame, 35.0)
 
 
 def test_support_offset_places_the_hidden_back_wall(synthetic: ModuleType) -> None:

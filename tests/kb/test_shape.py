@@ -40,7 +40,7 @@ concept Body in world {
     orient floor: downward
     unseen back: mirror front about edge(roof.front, roof.back)
     unseen back: at depth from front
-    attach bays: backward in front, back
+    attach bays: backward against front, back
 }
 concept TurnedBody is-a Body { orient back: leftward }
 concept House in scene { con-of body: Body }
@@ -60,16 +60,16 @@ def test_frame_and_orientations_in_si() -> None:
     assert body.frame is not None
     assert body.frame.anchor == "front"
     assert body.orientations["front"].direction == "forward"
-    assert body.orientations["front"].tilt == pytest.approx(math.pi / 2)
-    assert body.orientations["floor"].tilt == pytest.approx(math.pi)
+    assert body.orientations["front"].tilt_rad == pytest.approx(math.pi / 2)
+    assert body.orientations["floor"].tilt_rad == pytest.approx(math.pi)
     gable = kb.concepts["Gable"]
     assert gable.frame is None  # the roof's planes face directions in the body's frame
     front = gable.orientations["front"]
-    assert front.tilt == pytest.approx(math.radians(35.0))
-    assert front.tilt_attribute == "front.pitch"
-    assert gable.orientations["back"].tilt == pytest.approx(math.radians(40.0))
-    assert gable.orientations["back"].tilt_attribute is None
-    assert kb.concepts["Flat"].orientations["top"].tilt == 0.0
+    assert front.tilt_rad == pytest.approx(math.radians(35.0))
+    assert front.tilt_from == "front.pitch"
+    assert gable.orientations["back"].tilt_rad == pytest.approx(math.radians(40.0))
+    assert gable.orientations["back"].tilt_from is None
+    assert kb.concepts["Flat"].orientations["top"].tilt_rad == 0.0
 
 
 def test_a_specialisation_reorients_an_inherited_part() -> None:
@@ -108,7 +108,12 @@ def test_placements_and_attachments() -> None:
     assert mirror.requires == (("roof", ("Gable",)),)  # only a gable has those planes
     assert (offset.kind, offset.value, offset.value_attribute) == ("offset", 8.0, "depth")
     bays = body.attachments["bays"]
-    assert (bays.face, bays.planes, bays.name) == ("backward", ("front", "back"), "backward")
+    assert (bays.face, bays.contact, bays.planes, bays.name) == (
+        "backward",
+        "against",
+        ("front", "back"),
+        "backward",
+    )
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
