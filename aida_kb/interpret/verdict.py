@@ -358,13 +358,13 @@ def check_orientations(
             continue
         for part, o in concept.orientations.items():
             n = by_role.get(_join(inst.role, part))
-            if n is None or o.tilt is None:
+            if n is None or o.tilt_rad is None:
                 continue
             slope = math.degrees(math.acos(float(np.clip(n @ up, -1.0, 1.0))))
-            if abs(slope - math.degrees(o.tilt)) > ORIENTATION_TOLERANCE_DEG:
+            if abs(slope - math.degrees(o.tilt_rad)) > ORIENTATION_TOLERANCE_DEG:
                 reasons.append(
                     f"{_join(inst.role, part)}: slope {slope:.1f} deg, but {concept.name} "
-                    f"orients it {o.direction} at {math.degrees(o.tilt):.0f} deg "
+                    f"orients it {o.direction} at {math.degrees(o.tilt_rad):.0f} deg "
                     f"(within {ORIENTATION_TOLERANCE_DEG:g})"
                 )
     return reasons
