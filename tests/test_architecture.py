@@ -22,8 +22,9 @@ LAYERS: list[set[str]] = [
     {"vision"},
     {"synth"},
     {"register"},
+    {"texture"},
     {"interpret"},
-    {"batch"},
+    {"batch", "report"},
     {"cli", "__main__"},
 ]
 

@@ -35,6 +35,7 @@ COMMANDS: tuple[str, ...] = (
     "batch",
     "register",
     "evaluate",
+    "export",
 )
 
 EXIT_OK = 0

@@ -470,7 +470,9 @@ def reconstruct_views(
             )
         )
     model = ReconstructedModel(
-        parts=parts, cameras=[_model_camera(i, c) for i, c in zip(ids, cams, strict=True)]
+        parts=parts,
+        cameras=[_model_camera(i, c) for i, c in zip(ids, cams, strict=True)],
+        up=model0.up,
     )
     update: dict[str, object] = {}
     if report is not None:  # the residuals of the model this interpretation holds

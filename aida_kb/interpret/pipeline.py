@@ -14,22 +14,42 @@ from aida_kb.interpret.run import check_goal
 from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.atomic import check_outputs, check_publishable, output_lock, publish_dir
 from aida_kb.io.evidence import Evidence, write_evidence
-from aida_kb.io.model import write_model, write_obj
+from aida_kb.io.export import Atlas, write_files
+from aida_kb.io.model import write_model
 from aida_kb.io.scene import Scene, read_scene
 
 if TYPE_CHECKING:
     from aida_kb.kb.model import KnowledgeBase
+    from aida_kb.vision.evidence import ViewProducts
 
-OUTPUT_FILES = ("evidence.json", "interpretation.json", "model.json", "model.obj")
+OUTPUT_FILES = (
+    "evidence.json",
+    "interpretation.json",
+    "model.json",
+    "model.obj",
+    "model.mtl",
+    "model_atlas.png",
+    "model.glb",
+    "model.city.json",
+    "model_points.ply",
+    "report.html",
+)
 
 
 @dataclass(frozen=True)
 class Reconstruction:
-    """What `reconstruct_scene` produced and where it wrote it."""
+    """What `reconstruct_scene` produced and where it wrote it (and what a report shows)."""
 
     evidence: Evidence
     interpretation: Interpretation
     files: tuple[Path, ...]
+    scene: Scene | None = None
+    views: tuple[ViewProducts, ...] = ()
+    atlas: Atlas | None = None
+
+
+Extra = Callable[[Path, Reconstruction], Sequence[str]]
+"""Writes more files (a report) into a folder from a reconstruction; their names."""
 
 
 def reconstruct_scene(
@@ -42,6 +62,7 @@ def reconstruct_scene(
     stage: Callable[[str, str], None] | None = None,
     max_disp: int | None = None,
     warn: Callable[[str], None] | None = None,
+    extra: Extra | None = None,
 ) -> Reconstruction:
     """Evidence of a scene's views, their interpretation, and the model; write the files.
 
@@ -50,7 +71,9 @@ def reconstruct_scene(
     (`aida_kb.io.atomic.publish_dir`): a failed or terminated run leaves the old set or the
     new one, never a mix and no temporary folder. `out_dir` must be new or hold only these
     files; a lock beside it refuses a second run into the same place. The scene's truth.json
-    is never read.
+    is never read. With a model, the exports of `aida_kb.texture.exports` (OBJ + MTL + atlas,
+    GLB, CityJSON, PLY of the stereo points) are written too; `extra` (the report, whose
+    file is one of `OUTPUT_FILES`) adds its own files.
     Every view is used: the first is interpreted, the others are registered against its
     model and the model is refined with all of them (`aida_kb.interpret.multiview`).
     max_disp : disparities 0..max_disp-1 searched (None: found from feature matches).
@@ -61,7 +84,9 @@ def reconstruct_scene(
     check_outputs([], [*kb.files, *scene.files], directories=[out_dir])
     out = check_publishable(out_dir, OUTPUT_FILES)
     with output_lock(out):
-        return _reconstruct(kb, scene, out, goal, views, stage, max_disp, warn, Path(scene_dir))
+        return _reconstruct(
+            kb, scene, out, goal, views, stage, max_disp, warn, Path(scene_dir), extra
+        )
 
 
 def _reconstruct(
@@ -74,7 +99,9 @@ def _reconstruct(
     max_disp: int | None,
     warn: Callable[[str], None] | None,
     scene_dir: Path,
+    extra: Extra | None,
 ) -> Reconstruction:
+    from aida_kb.texture.exports import model_exports
     from aida_kb.vision.evidence import VisionParams, scene_evidence
 
     params = VisionParams(num_disp=max_disp)
@@ -96,11 +123,24 @@ def _reconstruct(
     )
     interp = with_verdict(interp, judge(kb, interp, evidence))
     names = ["evidence.json", "interpretation.json"]
+    atlas = None
     with publish_dir(out) as work:
         write_evidence(work / "evidence.json", evidence)
         write_interpretation(work / "interpretation.json", interp)
         if interp.model is not None:
             write_model(work / "model.json", interp.model)
-            write_obj(work / "model.obj", interp.model)
-            names += ["model.json", "model.obj"]
-    return Reconstruction(evidence, interp, tuple(out / n for n in names))
+            if stage is not None:
+                stage("-", "texture and exports")
+            files, atlas = model_exports(interp.model, scene, products)
+            write_files(work, files)
+            names += ["model.json", *files]
+        if extra is not None:
+            if stage is not None:
+                stage("-", "report")
+            done = Reconstruction(
+                evidence, interp, tuple(out / n for n in names), scene, tuple(products), atlas
+            )
+            names += extra(work, done)
+    return Reconstruction(
+        evidence, interp, tuple(out / n for n in names), scene, tuple(products), atlas
+    )

@@ -64,7 +64,10 @@ def model_of(state: State, evidence: Evidence) -> ReconstructedModel:
                     polygon=[_v3(p) for p in level.polygons[role]],
                 )
             )
-    return ReconstructedModel(parts=parts, cameras=_cameras(evidence))
+    up = state.levels[0].frame.up if state.levels else None
+    return ReconstructedModel(
+        parts=parts, cameras=_cameras(evidence), up=None if up is None else _v3(up)
+    )
 
 
 def check_goal(kb: KnowledgeBase, goal: str | None) -> str:

@@ -164,9 +164,15 @@ class ReconstructedModel(_Frozen):
     frame: str = "world = left camera of view 00; OpenCV axes (x right, y down, z forward)"
     parts: list[ModelPart]
     cameras: list[ModelCamera] = Field(default_factory=list)
+    up: Vec3 | None = Field(
+        default=None,
+        description="the estimated vertical (unit, world frame, pointing up); None: unknown",
+    )
 
     @model_validator(mode="after")
     def _unique(self) -> ReconstructedModel:
+        if self.up is not None and abs(math.sqrt(sum(c * c for c in self.up)) - 1.0) > 1e-6:
+            raise ValueError("up must be a unit vector")
         for what, keys in (
             ("part roles", [p.role for p in self.parts]),
             ("camera views", [c.view for c in self.cameras]),

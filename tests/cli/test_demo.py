@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.resources
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -26,11 +27,9 @@ def test_packaged_kb_finds_the_source_checkout() -> None:
 
 
 @pytest.mark.slow
-def test_demo_reconstructs_the_house_within_the_targets(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    assert main(["demo", "--out", str(tmp_path)]) == 0
-    out = capsys.readouterr().out
+def test_demo_reconstructs_the_house_within_the_targets(demo_run: Any) -> None:
+    assert demo_run.code == 0
+    out, tmp_path = demo_run.out, demo_run.root
     lines = out.splitlines()
     # the net, from the scene layer down to the image layer
     house = next(i for i, line in enumerate(lines) if "House" in line and "(scene)" in line)
