@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/aida-kb demo
+	$(BIN)/aida-kb demo --out demo-output
 
 test: $(STAMP) lint typecheck pytest
 

@@ -13,7 +13,8 @@ what it does:
   3. reconstructs it: evidence (stereo, segmentation, line segments) -> hypothesis-
      verification interpretation -> closed polyhedral model;
   4. prints the instance tree, the main angles and the error against the ground truth
-     (read here only, never by the pipeline), and where it wrote the files.
+     (read here only, never by the pipeline), where it wrote the files (the textured model
+     as OBJ, glTF, CityJSON, the stereo points as PLY) and, last, the path of report.html.
   It exits 1 when the model misses the targets: angles within 0.5 degrees of the truth and
   vertices within 2% of the house's size. The full check (normals, specialisation, cameras)
   is `aida-kb evaluate`'s, printed as well.
@@ -21,7 +22,7 @@ what it does:
 examples:
   aida-kb demo
   aida-kb demo --out out/demo --no-net
-  make demo                      # creates .venv first
+  make demo                      # creates .venv first; writes into ./demo-output/
 """
 
 ANGLE_TARGET_DEG = 0.5  # the demo's own target: dihedral angles within half a degree
@@ -159,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.interpret.report import explanation, instance_tree
     from aida_kb.io.atomic import make_dirs
     from aida_kb.io.scene import read_scene
+    from aida_kb.report.html import REPORT_FILE, write_report
     from aida_kb.synth.scenes import preset, render_scene
 
     path = Path(args.kb) if args.kb else packaged_kb("buildings.kb")
@@ -181,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
             where = f"view {view}: " if view != "-" else ""
             status.update(f"3. reconstructing: {where}{name}")
 
-        result = reconstruct_scene(kb, scene_dir, out_dir, stage=stage)
+        result = reconstruct_scene(kb, scene_dir, out_dir, stage=stage, extra=write_report)
     interp = result.interpretation
     console.print(f"3. reconstructed: {interp.message}")
     for line in instance_tree(interp):
@@ -201,6 +203,7 @@ def run(args: argparse.Namespace) -> int:
     truth = read_scene(scene_dir).truth
     if truth is None:
         console.print("[red]the scene has no truth.json; nothing to compare[/red]")
+        console.print(f"report: {(out_dir / REPORT_FILE).resolve()}", soft_wrap=True)
         return EXIT_ERRORS
     evaluation = evaluate(interp, truth)
     comparison = evaluation.comparison
@@ -227,4 +230,5 @@ def run(args: argparse.Namespace) -> int:
     for line in format_evaluation(evaluation):
         console.print("   " + line, markup=False)
     console.print(f"files: scene {scene_dir}, model {out_dir}")
+    console.print(f"report: {(out_dir / REPORT_FILE).resolve()}", soft_wrap=True)
     return EXIT_OK if ok_angles and ok_vertices else EXIT_ERRORS

@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         from aida_kb.vision.evidence import scene_evidence
 
         scene = read_scene(args.scene, with_truth=False)
-        products = []
+        products: list[Any] = []
         if "ply" in formats:
             views = [c.view for c in model.cameras if c.view in {v.id for v in scene.views}]
             _, products = scene_evidence(scene, views=views)

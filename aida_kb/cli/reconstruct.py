@@ -10,7 +10,11 @@ writes into OUT:
   evidence.json        what the vision front end measured (aida-kb evidence)
   interpretation.json  instances, residual of every constraint, hypothesis trace
   model.json           each part's plane (n, d) and closed polygon; each view's camera
-  model.obj            the closed mesh (only when the goal object was found)
+  model.obj, .mtl      the closed mesh, y up, textured (model_atlas.png) -- these and the
+  model.glb            following only when the goal object was found: binary glTF, y up
+  model.city.json      CityJSON 2.0, z up, a Building with semantic surfaces
+  model_points.ply     the stereo points of every view
+  report.html          every stage on one page (open it in a browser; works offline)
 exit status: 0 verified, 3 doubtful (the reasons are printed first), 4 nothing found,
   1 an error, 2 unreadable input (aida_kb.interpret.verdict).
 
@@ -64,6 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.interpret.pipeline import reconstruct_scene
     from aida_kb.interpret.run import check_goal
     from aida_kb.io.atomic import make_dirs
+    from aida_kb.report.html import write_report
 
     views = parse_views(args.views)
     check_max_disp(args.max_disp)
@@ -89,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
             stage=stage,
             max_disp=args.max_disp,
             warn=lambda text: console.print(f"warning: {text}", markup=False, soft_wrap=True),
+            extra=write_report,
         )
     print_interpretation(result.interpretation, explain=args.explain, sources=sources)
     for path in result.files:

@@ -35,6 +35,7 @@ from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.export import UNSEEN_RGB, Atlas
 from aida_kb.io.model import ReconstructedModel
 from aida_kb.io.scene import Scene, read_image
+from aida_kb.register.evidence import camera_of
 from aida_kb.texture.raycast import Faces, IntArray, face_buffer, inside_polygon
 from aida_kb.texture.sample import sample_bilinear
 
@@ -86,10 +87,9 @@ def scene_cameras(model: ReconstructedModel, scene: Scene) -> list[TextureCamera
         if cam.view not in known:
             continue
         view = scene.view(cam.view)
-        R = np.array(cam.R, dtype=np.float64)
-        t = np.array(cam.t, dtype=np.float64)
-        w, h = cam.image_width, cam.image_height
-        left = PinholeCamera(np.array(cam.K, dtype=np.float64), R, t, w, h)
+        left = camera_of(cam)
+        R, t = left.R_cam_world, left.t_cam_world
+        w, h = left.width, left.height
         right = PinholeCamera(
             np.asarray(calib.K2, dtype=np.float64), calib.R @ R, calib.R @ t + calib.T, w, h
         )
