@@ -276,7 +276,7 @@ def build_atlas(model: ReconstructedModel, cameras: Sequence[TextureCamera]) -> 
             mask = (vis | ~inside).reshape(chart.h, chart.w).astype(np.uint8)
             edge = cv2.distanceTransform(mask, cv2.DIST_L2, 3).ravel()
             weights.append(np.where(vis, np.clip(edge / FEATHER_TEXELS, 0.0, 1.0), 0.0))
-        best = max(scores)
+        best = max(scores, default=0.0)  # no camera at all: every face unseen
         total = np.zeros(len(points))
         mixed = np.zeros((len(points), 3))
         for offered, weight, score in zip(colours, weights, scores, strict=True):
