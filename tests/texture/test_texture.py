@@ -177,3 +177,13 @@ def test_lshape_wing_faces_get_no_body_pixels(lshape: Path) -> None:
     assert checked >= 3
     hidden = [p.role for p in model.parts if labels[p.role] not in seen_any]
     assert any(r.startswith("body.wings") for r in hidden)  # the wing's inner end, its floor
+
+
+def test_a_model_no_camera_sees_is_unseen_and_neutral(lshape: Path) -> None:
+    from aida_kb.io.export import UNSEEN_RGB
+
+    model, _ = _truth_model(lshape)
+    atlas = build_atlas(model, [])
+    assert atlas.seen == (False,) * len(model.parts)
+    assert atlas.views == ((),) * len(model.parts)
+    np.testing.assert_array_equal(np.unique(atlas.image), [round(255 * UNSEEN_RGB[0])])
