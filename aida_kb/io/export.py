@@ -120,6 +120,39 @@ def export_frame(model: ReconstructedModel, axes: Axes = "y-up") -> ExportFrame:
 
 
 @dataclass(frozen=True)
+class Georeference:
+    """Where the z-up export frame lies on the map (CityJSON only; given by the user).
+
+    origin : (easting, northing, height) of the export frame's origin, metres, in `epsg`'s
+    coordinates. heading_deg : the compass bearing (clockwise from north) of the export
+    frame's +y axis, the horizontal direction view 00 looks in. epsg : the code of the
+    coordinate reference system, or None.
+    """
+
+    origin: tuple[float, float, float]
+    heading_deg: float = 0.0
+    epsg: int | None = None
+
+    def apply(self, frame: ExportFrame) -> ExportFrame:
+        """`frame` (z up) followed by the turn to the map and the shift to the origin."""
+        if frame.axes != "z-up":
+            raise FormatError("a georeference applies to the z-up (CityJSON) frame only")
+        values = (*self.origin, self.heading_deg)
+        if not all(math.isfinite(v) and abs(v) <= 1e9 for v in values):
+            raise FormatError(f"georeference {values}: not finite numbers")
+        h = math.radians(self.heading_deg)
+        # local +y -> (sin h, cos h) in (east, north); local +x -> (cos h, -sin h)
+        turn = np.array(
+            [[math.cos(h), math.sin(h), 0.0], [-math.sin(h), math.cos(h), 0.0], [0.0, 0.0, 1.0]]
+        )
+        return ExportFrame(
+            frame.axes,
+            turn @ frame.R_export_world,
+            turn @ frame.t_export_world + np.array(self.origin, dtype=np.float64),
+        )
+
+
+@dataclass(frozen=True)
 class Atlas:
     """A texture atlas for a model's parts (built by `aida_kb.texture`).
 
@@ -443,8 +476,10 @@ def cityjson_document(
     texture_file: str = "model_atlas.png",
     *,
     identifier: str = "building",
+    georeference: Georeference | None = None,
 ) -> dict[str, Any]:
-    """The model as a CityJSON 2.0 document (z-up frame, metres).
+    """The model as a CityJSON 2.0 document (z-up frame, metres; on the map with a
+    `georeference`, whose EPSG code becomes the metadata's referenceSystem).
 
     The solid containing the model's first part (the structure the interpreter verified
     first) is the ``Building``'s LoD2 ``Solid``; every other solid a ``BuildingPart``. Each
@@ -454,6 +489,8 @@ def cityjson_document(
     """
     _check_atlas(model, atlas)
     frame = export_frame(model, "z-up")
+    if georeference is not None:
+        frame = georeference.apply(frame)
     faces = _faces(model, frame, atlas)
     points = np.concatenate([f.points for f in faces])
     lowest = float(points[:, 2].min())
@@ -541,6 +578,14 @@ def cityjson_document(
         appearance["textures"] = [{"type": "PNG", "image": texture_file}]
         appearance["vertices-texture"] = uv_vertices
     extent = [*points.min(axis=0).tolist(), *points.max(axis=0).tolist()]
+    metadata: dict[str, Any] = {
+        "title": "aida-kb reconstructed model; " + frame.describe(),
+        "geographicalExtent": [float(x) for x in extent],
+    }
+    if georeference is not None and georeference.epsg is not None:
+        metadata["referenceSystem"] = (
+            f"https://www.opengis.net/def/crs/EPSG/0/{int(georeference.epsg)}"
+        )
     return {
         "type": "CityJSON",
         "version": "2.0",
@@ -548,10 +593,7 @@ def cityjson_document(
             "scale": [CITYJSON_SCALE_M] * 3,
             "translate": [float(x) for x in translate],
         },
-        "metadata": {
-            "title": "aida-kb reconstructed model; " + frame.describe(),
-            "geographicalExtent": [float(x) for x in extent],
-        },
+        "metadata": metadata,
         "CityObjects": objects,
         "vertices": vertices,
         "appearance": appearance,
@@ -560,10 +602,13 @@ def cityjson_document(
 
 
 def cityjson_bytes(
-    model: ReconstructedModel, atlas: Atlas | None = None, texture_file: str = "model_atlas.png"
+    model: ReconstructedModel,
+    atlas: Atlas | None = None,
+    texture_file: str = "model_atlas.png",
+    georeference: Georeference | None = None,
 ) -> bytes:
     """`cityjson_document` as UTF-8 JSON text."""
-    doc = cityjson_document(model, atlas, texture_file)
+    doc = cityjson_document(model, atlas, texture_file, georeference=georeference)
     return (json.dumps(doc, separators=(",", ":")) + "\n").encode()
 
 
@@ -575,18 +620,21 @@ def export_files(
     stem: str = "model",
     atlas: Atlas | None = None,
     points: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
+    georeference: Georeference | None = None,
 ) -> dict[str, bytes]:
     """The files of one export format: file name -> content (not written yet).
 
     fmt : one of EXPORT_FORMATS. points : (points (N, 3) world, colours (N, 3) uint8 RGB),
-    needed for ``ply``.
+    needed for ``ply``. georeference : places the CityJSON on the map.
     """
     if fmt == "obj":
         return obj_files(model, stem, atlas)
     if fmt == "glb":
         return {f"{stem}.glb": glb_bytes(model, atlas)}
     if fmt == "cityjson":
-        files = {f"{stem}.city.json": cityjson_bytes(model, atlas, f"{stem}_atlas.png")}
+        files = {
+            f"{stem}.city.json": cityjson_bytes(model, atlas, f"{stem}_atlas.png", georeference)
+        }
         if atlas is not None and any(atlas.seen):
             files[f"{stem}_atlas.png"] = atlas.png()
         return files

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from aida_kb.io.export import EXPORT_FORMATS, Atlas, export_files
+from aida_kb.io.export import EXPORT_FORMATS, Atlas, Georeference, export_files
 from aida_kb.io.model import ReconstructedModel
 from aida_kb.io.scene import Scene
 from aida_kb.texture.atlas import texture_model
@@ -19,6 +19,7 @@ def model_exports(
     *,
     formats: Sequence[str] = EXPORT_FORMATS,
     stem: str = "model",
+    georeference: Georeference | None = None,
 ) -> tuple[dict[str, bytes], Atlas]:
     """The files of `formats` (OBJ + MTL + atlas, GLB, CityJSON, PLY) and the atlas.
 
@@ -29,5 +30,9 @@ def model_exports(
     points = stereo_points(products, model, scene) if "ply" in formats else None
     files: dict[str, bytes] = {}
     for fmt in formats:
-        files.update(export_files(model, fmt, stem=stem, atlas=atlas, points=points))
+        files.update(
+            export_files(
+                model, fmt, stem=stem, atlas=atlas, points=points, georeference=georeference
+            )
+        )
     return files, atlas

@@ -17,6 +17,7 @@ from aida_kb.errors import FormatError
 from aida_kb.io.export import (
     EXPORT_FORMATS,
     Atlas,
+    Georeference,
     cityjson_document,
     export_files,
     export_frame,
@@ -193,3 +194,33 @@ def test_export_command_writes_each_format(
     assert main([*argv, "--format", "ply"]) != 0
     assert "need the scene" in capsys.readouterr().err
     assert set(export_files(_lshape(), "glb")) == {"model.glb"}
+
+
+def test_cityjson_georeference_turns_and_shifts_onto_the_map(
+    tmp_path: Path, check_cityjson: Any, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = _lshape()
+    local = cityjson_document(model)
+    geo = Georeference((1000.0, 2000.0, 5.0), heading_deg=90.0, epsg=28992)
+    doc = cityjson_document(model, georeference=geo)
+    check_cityjson(doc)
+    assert doc["metadata"]["referenceSystem"].endswith("/EPSG/0/28992")
+
+    def world(d: dict[str, Any]) -> np.ndarray:
+        return np.array(d["vertices"]) * 0.001 + np.array(d["transform"]["translate"])
+
+    a, b = world(local), world(doc)
+    # heading 90: the local +y (view 00's look) points east, local +x south
+    np.testing.assert_allclose(b[:, 0], 1000.0 + a[:, 1], atol=2e-3)
+    np.testing.assert_allclose(b[:, 1], 2000.0 - a[:, 0], atol=2e-3)
+    np.testing.assert_allclose(b[:, 2], 5.0 + a[:, 2], atol=2e-3)
+    write_model(tmp_path / "model.json", model)
+    argv = ["export", str(tmp_path / "model.json"), "--format", "cityjson", "-o", str(tmp_path)]
+    assert main([*argv, "--origin", "1000,2000,5", "--heading", "90", "--epsg", "28992"]) == 0
+    written = json.loads((tmp_path / "model.city.json").read_text())
+    np.testing.assert_allclose(world(written), b, atol=2e-3)
+    capsys.readouterr()
+    assert main([*argv, "--origin", "1000,x,5"]) != 0
+    assert "--origin '1000,x,5': expected E,N,H" in capsys.readouterr().err
+    assert main([*argv, "--epsg", "28992"]) != 0
+    assert "give --origin too" in capsys.readouterr().err
