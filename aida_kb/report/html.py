@@ -278,7 +278,7 @@ def _orbit_camera(
 def _rows(interp: Interpretation) -> str:
     out = []
     for r in interp.residuals:
-        where = getattr(r, "where", None)  # the constraint's .kb file:line:col, when recorded
+        where = r.where  # the constraint's .kb file:line:col ('' for one the code adds)
         cls = "residual rejected" if r.rejected else "residual"
         sigma = "" if r.sigma is None else f"{r.sigma:.4g}"
         out.append(
