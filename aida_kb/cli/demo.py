@@ -210,6 +210,7 @@ def run(args: argparse.Namespace) -> int:
     console.print("4. against the ground truth (truth.json, read only here; aida-kb evaluate):")
     if comparison is None:
         console.print(f"[red]{format_evaluation(evaluation)[0]}[/red]", markup=True)
+        console.print(f"report: {(out_dir / REPORT_FILE).resolve()}", soft_wrap=True)
         return EXIT_ERRORS
     found = {(a.a, a.b): a for a in comparison.angles}
     found.update({(a.b, a.a): a for a in comparison.angles})
