@@ -217,9 +217,9 @@ def main() -> None:
             basin = float(a)
 
         # 3. the rendered images' own evidence
-        turns = _rendered_turns(model, cams[0], scene_dir, ANGLES)
+        turns = _rendered_turns(model, cams[0], scene_dir, (0.0, *ANGLES))
         rendered = [abs(_wrap(t - a)) for t, a in zip(turns, ANGLES, strict=True)]
-        relative = _relative_errors(turns, ANGLES)
+        relative = _relative_errors(turns, (0.0, *ANGLES))
         # 4. Table 1 on renders never looked at while developing: the same box and angles
         # with other textures and noise, and a 7-view turn of the table (steps of 35-65 deg)
         held_out: list[float] = []
