@@ -13,17 +13,22 @@ base:
 - dask: `aida_kb.batch.run.run_batch` on a fresh local cluster of `--workers` single-threaded
   worker processes (default: one per core), cluster start-up included.
 
-Both run one thread per scene: Dask's nanny sets OMP/MKL/OpenBLAS threads to 1 in its workers
-and the sequential process gets the same environment, and `run_scene` sets OpenCV's threads
-(which the stereo's row bands follow) to 1, so the worker processes do not oversubscribe the
-cores. The sequential baseline is therefore single-threaded; `evidence_share` says how much of
-a scene's time is the stereo stage, the only one `aida-kb reconstruct` runs on several threads.
+Both run one thread per scene: the workers and the sequential process get the same
+environment (`aida_kb.batch.run.WORKER_ENVIRON`: OMP/MKL/OpenBLAS threads 1, glibc's malloc
+left as it is), and `run_scene` sets OpenCV's threads (which the stereo's row bands follow)
+to 1, so the worker processes do not oversubscribe the cores. The sequential baseline is
+therefore single-threaded; `evidence_share` says how much of a scene's time is the stereo
+stage, the only one `aida-kb reconstruct` runs on several threads.
 
 On a shared machine wall times measure the other processes too: the load averages before and
-after each phase are in the output, and the CPU time per scene (`cpu_s_per_scene`) does not
-depend on the load. Ends with ONE JSON line: scenes, seconds_sequential, seconds_dask,
-speedup, peak_rss_mb_per_worker, scenes_per_core_hour (scenes / (seconds_dask x cores used) x
-3600), and the figures that qualify them.
+after each phase are in the output, with the share of a core each process got (`cpu_share_*`:
+CPU time of the scenes over wall time, 1.0 on an idle machine); the CPU time per scene
+(`cpu_s_per_scene`) does not depend on the load. `dask_overhead_ms_per_task` is what Dask
+itself costs per scene: no-op tasks submitted the way `run_batch` submits scenes.
+
+Ends with ONE JSON line: scenes, seconds_sequential, seconds_dask, speedup,
+peak_rss_mb_per_worker, scenes_per_core_hour (scenes / (seconds_dask x workers) x 3600), and
+the figures that qualify them.
 """
 
 from __future__ import annotations
@@ -44,7 +49,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from aida_kb.batch.outcome import read_outcome  # noqa: E402
-from aida_kb.batch.run import BatchOptions, default_workers, run_batch  # noqa: E402
+from aida_kb.batch.run import (  # noqa: E402
+    SCENES_IN_FLIGHT_PER_THREAD,
+    WORKER_ENVIRON,
+    BatchOptions,
+    default_workers,
+    run_batch,
+)
 from aida_kb.batch.scenes import find_scenes, scene_refs  # noqa: E402
 from aida_kb.batch.work import run_scene, scene_dir  # noqa: E402
 from aida_kb.kb import compile_path  # noqa: E402
@@ -52,7 +63,6 @@ from aida_kb.synth.scenes import preset, render_scene  # noqa: E402
 
 KB = ROOT / "kb" / "buildings.kb"
 BENCH_SEED = 19  # the scene mix; no parameter of the pipeline was tuned on these scenes
-SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
 def scene_params(rng: random.Random) -> tuple[str, dict[str, str]]:
@@ -98,6 +108,45 @@ def sequential_child(scenes_root: str, out: str) -> None:
     print(json.dumps({"seconds": seconds, "peak_rss_mb": rss_mb}))
 
 
+def _noop(i: int) -> int:
+    return i
+
+
+def scheduler_overhead_ms(workers: int, tasks: int) -> float:
+    """Milliseconds per task of a task that does nothing, submitted as `run_batch` submits.
+
+    The same local cluster, the same window of tasks in flight: what Dask itself costs per
+    scene (client, scheduler, worker and the round trips between them).
+    """
+    import itertools
+    import logging
+
+    from distributed import Client, LocalCluster, as_completed
+
+    with (
+        LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster, set_as_default=False) as client,
+    ):
+        client.submit(_noop, -1).result()  # workers up and connected
+        window = workers * (1 + SCENES_IN_FLIGHT_PER_THREAD)
+        queue = iter(range(tasks))
+        start = time.perf_counter()
+        first = [client.submit(_noop, i, pure=False) for i in itertools.islice(queue, window)]
+        futures = as_completed(first, loop=client.loop)
+        for future in futures:
+            future.result()
+            future.release()
+            following = next(queue, None)
+            if following is not None:
+                futures.add(client.submit(_noop, following, pure=False))
+        return (time.perf_counter() - start) / tasks * 1000.0
+
+
 def _load() -> float:
     return round(os.getloadavg()[0], 2)
 
@@ -107,6 +156,7 @@ def main() -> None:
     parser.add_argument("--scenes", type=int, default=40)
     parser.add_argument("--workers", type=int, default=default_workers())
     parser.add_argument("--size", default="320x240", help="image size WxH")
+    parser.add_argument("--noop-tasks", type=int, default=2000, help="for the Dask overhead")
     parser.add_argument("--keep", default=None, help="keep the scenes and outputs here")
     parser.add_argument("--sequential-child", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -123,7 +173,7 @@ def main() -> None:
         load_before_seq = _load()
         child = subprocess.run(
             [sys.executable, __file__, "--sequential-child", str(scenes_root), str(work / "seq")],
-            env={**os.environ, **SINGLE_THREAD_ENV},
+            env={**os.environ, **{k: str(v) for k, v in WORKER_ENVIRON.items()}},
             capture_output=True,
             text=True,
             check=True,
@@ -140,13 +190,15 @@ def main() -> None:
         )
         seconds_dask = time.perf_counter() - start
         load_after_dask = _load()
+        overhead_ms = scheduler_overhead_ms(args.workers, args.noop_tasks)
 
         outcomes = [row.outcome for row in summary.rows]
         seq_outcomes = [read_outcome(scene_dir(work / "seq", r.key) / "outcome.json") for r in refs]
         peak_by_worker: dict[str, float] = {}
         for o in outcomes:
             peak_by_worker[o.worker] = max(peak_by_worker.get(o.worker, 0.0), o.peak_rss_mb or 0.0)
-        cpu = [o.cpu_seconds or 0.0 for o in outcomes]
+        cpu = sum(o.cpu_seconds or 0.0 for o in outcomes)
+        cpu_seq = sum(o.cpu_seconds or 0.0 for o in seq_outcomes)
         evidence = sum(o.seconds_evidence or 0.0 for o in seq_outcomes)
         total = sum(o.seconds or 0.0 for o in seq_outcomes)
         same = sum(a.status == b.status for a, b in zip(outcomes, seq_outcomes, strict=True))
@@ -166,7 +218,11 @@ def main() -> None:
                     "scenes_per_core_hour": round(
                         len(refs) / (seconds_dask * summary.workers) * 3600.0, 1
                     ),
-                    "cpu_s_per_scene": round(sum(cpu) / len(cpu), 2),
+                    "cpu_s_per_scene": round(cpu / len(refs), 2),
+                    "cpu_s_per_scene_sequential": round(cpu_seq / len(refs), 2),
+                    "cpu_share_sequential": round(cpu_seq / seq["seconds"], 2),
+                    "cpu_share_per_worker_dask": round(cpu / (seconds_dask * summary.workers), 2),
+                    "dask_overhead_ms_per_task": round(overhead_ms, 2),
                     "evidence_share": round(evidence / total, 3),
                     "accepted": summary.accepted,
                     "errors": summary.errors,
