@@ -20,11 +20,15 @@ to 1, so the worker processes do not oversubscribe the cores. The sequential bas
 therefore single-threaded; `evidence_share` says how much of a scene's time is the stereo
 stage, the only one `aida-kb reconstruct` runs on several threads.
 
-On a shared machine wall times measure the other processes too: the load averages before and
-after each phase are in the output, with the share of a core each process got (`cpu_share_*`:
-CPU time of the scenes over wall time, 1.0 on an idle machine); the CPU time per scene
-(`cpu_s_per_scene`) does not depend on the load. `dask_overhead_ms_per_task` is what Dask
-itself costs per scene: no-op tasks submitted the way `run_batch` submits scenes.
+On a shared machine wall times measure the other processes too. Linux shares the CPU fairly
+between sessions when autogroup scheduling is on (it is on this machine): the sequential
+process and each worker therefore run in a session of their own (`dask_setup`;
+`--same-session` leaves them in this one, where two workers together get one session's
+share). The load averages before and after each phase are in the output, with the share of a
+core each process got (`cpu_share_*`: CPU time of the scenes over wall time, 1.0 on an idle
+machine); the CPU time per scene (`cpu_s_per_scene`) does not depend on the load.
+`dask_overhead_ms_per_task` is what Dask itself costs per scene: no-op tasks submitted the way
+`run_batch` submits scenes.
 
 Ends with ONE JSON line: scenes, seconds_sequential, seconds_dask, speedup,
 peak_rss_mb_per_worker, scenes_per_core_hour (scenes / (seconds_dask x workers) x 3600), and
@@ -37,7 +41,6 @@ import argparse
 import json
 import os
 import random
-import resource
 import shutil
 import subprocess
 import sys
@@ -48,6 +51,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+import dask  # noqa: E402
+import distributed  # noqa: E402, F401  (its configuration defaults before dask.config.set)
+
 from aida_kb.batch.outcome import read_outcome  # noqa: E402
 from aida_kb.batch.run import (  # noqa: E402
     SCENES_IN_FLIGHT_PER_THREAD,
@@ -57,7 +63,7 @@ from aida_kb.batch.run import (  # noqa: E402
     run_batch,
 )
 from aida_kb.batch.scenes import find_scenes, scene_refs  # noqa: E402
-from aida_kb.batch.work import run_scene, scene_dir  # noqa: E402
+from aida_kb.batch.work import peak_rss_mb, run_scene, scene_dir  # noqa: E402
 from aida_kb.kb import compile_path  # noqa: E402
 from aida_kb.synth.scenes import preset, render_scene  # noqa: E402
 
@@ -104,8 +110,26 @@ def sequential_child(scenes_root: str, out: str) -> None:
     for ref in refs:
         run_scene(result.kb, ref, out)
     seconds = time.perf_counter() - start
-    rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    print(json.dumps({"seconds": seconds, "peak_rss_mb": rss_mb}))
+    print(json.dumps({"seconds": seconds, "peak_rss_mb": peak_rss_mb()}))
+
+
+def dask_setup(worker: object) -> None:
+    """Dask preload hook (this file is the workers' preload): the worker in its own session.
+
+    Linux's autogroup scheduling (kernel.sched_autogroup_enabled) shares the CPU fairly
+    between sessions, not processes: on a machine shared with other sessions, two workers in
+    the benchmark's session would together get the share of the one sequential process. In
+    their own sessions each gets a session's share, as the sequential process (started in a
+    session of its own) does. On a machine nobody else uses this changes nothing.
+    """
+    os.setsid()
+
+
+def _autogroup() -> str:
+    try:
+        return Path("/proc/sys/kernel/sched_autogroup_enabled").read_text().strip()
+    except OSError:
+        return "n/a"
 
 
 def _noop(i: int) -> int:
@@ -127,7 +151,7 @@ def scheduler_overhead_ms(workers: int, tasks: int) -> float:
         LocalCluster(
             n_workers=workers,
             threads_per_worker=1,
-            dashboard_address=None,
+            dashboard_address=":0",
             silence_logs=logging.ERROR,
         ) as cluster,
         Client(cluster, set_as_default=False) as client,
@@ -157,6 +181,12 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=default_workers())
     parser.add_argument("--size", default="320x240", help="image size WxH")
     parser.add_argument("--noop-tasks", type=int, default=2000, help="for the Dask overhead")
+    parser.add_argument(
+        "--same-session",
+        dest="own_sessions",
+        action="store_false",
+        help="leave the sequential process and the workers in this session (see dask_setup)",
+    )
     parser.add_argument("--keep", default=None, help="keep the scenes and outputs here")
     parser.add_argument("--sequential-child", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -167,8 +197,13 @@ def main() -> None:
     work = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="aida-kb-batch-bench-"))
     try:
         scenes_root = work / "scenes"
-        render(scenes_root, args.scenes, (width, height))
-        refs = scene_refs(find_scenes([scenes_root]))
+        refs = scene_refs(find_scenes([scenes_root])) if scenes_root.is_dir() else []
+        if len(refs) != args.scenes:  # --keep DIR holding these scenes: not rendered again
+            shutil.rmtree(scenes_root, ignore_errors=True)
+            render(scenes_root, args.scenes, (width, height))
+            refs = scene_refs(find_scenes([scenes_root]))
+        for phase in ("seq", "dask"):
+            shutil.rmtree(work / phase, ignore_errors=True)
 
         load_before_seq = _load()
         child = subprocess.run(
@@ -177,6 +212,7 @@ def main() -> None:
             capture_output=True,
             text=True,
             check=True,
+            start_new_session=args.own_sessions,
         )
         seq = json.loads(child.stdout.strip().splitlines()[-1])
         load_after_seq = _load()
@@ -184,11 +220,13 @@ def main() -> None:
         compiled = compile_path(KB)
         assert compiled.kb is not None
         load_before_dask = _load()
-        start = time.perf_counter()
-        summary = run_batch(
-            compiled.kb, str(KB), refs, work / "dask", BatchOptions(workers=args.workers)
-        )
-        seconds_dask = time.perf_counter() - start
+        preload = {"distributed.worker.preload": [__file__] if args.own_sessions else []}
+        with dask.config.set(preload):
+            start = time.perf_counter()
+            summary = run_batch(
+                compiled.kb, str(KB), refs, work / "dask", BatchOptions(workers=args.workers)
+            )
+            seconds_dask = time.perf_counter() - start
         load_after_dask = _load()
         overhead_ms = scheduler_overhead_ms(args.workers, args.noop_tasks)
 
@@ -227,6 +265,8 @@ def main() -> None:
                     "accepted": summary.accepted,
                     "errors": summary.errors,
                     "same_status_sequential_and_dask": same,
+                    "own_sessions": args.own_sessions,
+                    "sched_autogroup_enabled": _autogroup(),
                     "load_1min_before_after_sequential": [load_before_seq, load_after_seq],
                     "load_1min_before_after_dask": [load_before_dask, load_after_dask],
                 }

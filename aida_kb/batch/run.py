@@ -136,7 +136,7 @@ def _on_dask(
                     threads_per_worker=1,
                     processes=options.processes,
                     memory_limit=options.memory_limit,
-                    dashboard_address=None,
+                    dashboard_address=":0",  # random: the default 8787 may be taken
                     silence_logs=logging.ERROR,
                 )
             )

@@ -83,8 +83,21 @@ def describe_error(exc: BaseException) -> str:
     return f"internal error: {type(exc).__name__}: {exc}"
 
 
-def _peak_rss_mb() -> float:
-    """This process's peak resident memory, MiB (Linux reports KiB, macOS bytes)."""
+def peak_rss_mb() -> float:
+    """This process's peak resident memory since it started, MiB.
+
+    Linux: ``VmHWM`` of /proc/self/status (the high-water mark of this program's memory).
+    ``getrusage``'s ru_maxrss is not used there: it keeps the parent's peak across fork and
+    exec, so a worker started by a large process would report that process's memory.
+    Elsewhere ru_maxrss (KiB, macOS bytes).
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except (OSError, ValueError):
+        pass
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / (1024.0 * 1024.0) if sys.platform == "darwin" else peak / 1024.0
 
@@ -173,7 +186,7 @@ def run_scene(
                 )
             outcome = outcome.model_copy(
                 update={
-                    "peak_rss_mb": _peak_rss_mb(),
+                    "peak_rss_mb": peak_rss_mb(),
                     "cpu_seconds": time.process_time() - cpu_start,
                     "finished": datetime.now(UTC).isoformat(timespec="seconds"),
                     "files": [*outcome.files, OUTCOME_FILE],
