@@ -238,7 +238,7 @@ class _Walker:
             self.skipped.append(f"{label}: unassigned {', '.join(missing)}")
             return
         ids = tuple(int(p) for p in parts if p is not None)
-        if evidence == "region":
+        if evidence == "plane_fit":
             pos = self.positions.get(ids[0])
             if pos is None:
                 self.skipped.append(f"{label}: no region evidence for part {ids[0]}")

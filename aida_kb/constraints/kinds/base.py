@@ -35,7 +35,7 @@ IntArray = npt.NDArray[np.intp]
 BlockData = dict[str, npt.NDArray[Any]]
 """A block's packed measurement: named arrays with a first axis of M (one row per member)."""
 
-Evidence = Literal["region", "segment"] | None
+Evidence = Literal["plane_fit", "segment"] | None
 """What a knowledge-base measure of a kind is fed with (`Kind.evidence`)."""
 
 Evaluated = tuple[FloatArray, FloatArray, FloatArray | None]

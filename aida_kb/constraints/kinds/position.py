@@ -45,7 +45,7 @@ class Position(Kind):
     residual_size: ClassVar[int] = 4
     dof: ClassVar[int] = 3
     measurement: ClassVar[bool] = True
-    evidence: ClassVar[Evidence] = "region"
+    evidence: ClassVar[Evidence] = "plane_fit"
     summary: ClassVar[str] = "tilt and shift of a plane from its region's fit, rad+m or px (eq. 4)"
 
     def multiplicity(self, c: Constraint) -> float:
