@@ -31,6 +31,9 @@ class Verdict(FrozenModel):
 
     goal: str = Field(description="the goal concept, e.g. 'House'")
     accepted: bool = Field(description="True if the object was verified")
+    verdict: Literal["verified", "doubtful", "nothing"] | None = Field(
+        default=None, description="the interpretation's verdict (aida_kb.interpret.verdict)"
+    )
     message: str = Field(description="the interpretation's one-line summary")
 
 
@@ -125,7 +128,8 @@ def summary_csv(summary: Summary) -> str:
     for row in summary.rows:
         o = row.outcome
         verdicts = "; ".join(
-            f"{v.goal}: {'accepted' if v.accepted else 'not found'}" for v in o.verdicts
+            f"{v.goal}: {v.verdict or ('accepted' if v.accepted else 'not found')}"
+            for v in o.verdicts
         )
         writer.writerow(
             [

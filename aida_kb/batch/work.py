@@ -176,7 +176,12 @@ def run_scene(
                     status="accepted" if interp.accepted else "nothing",
                     objects=1 if interp.accepted else 0,
                     verdicts=[
-                        Verdict(goal=interp.goal, accepted=interp.accepted, message=interp.message)
+                        Verdict(
+                            goal=interp.goal,
+                            accepted=interp.accepted,
+                            verdict=interp.verdict,
+                            message=interp.message,
+                        )
                     ],
                     seconds=end - start,
                     seconds_evidence=None if split is None else split - start,

@@ -47,6 +47,7 @@ def _check_published(out: Path, outcome: SceneOutcome) -> None:
     interp = read_interpretation(folder / "interpretation.json")
     assert outcome.verdicts[0].accepted == interp.accepted == (outcome.status == "accepted")
     assert outcome.verdicts[0].message == interp.message
+    assert outcome.verdicts[0].verdict == interp.verdict
     assert outcome.objects == int(interp.accepted)
     assert outcome.seconds is not None
     assert outcome.seconds_evidence is not None
