@@ -112,9 +112,11 @@ def _on_dask(
     from distributed import Client, LocalCluster, as_completed
     from distributed.scheduler import KilledWorker
 
+    preload = [*dask.config.get("distributed.worker.preload", []), "aida_kb.batch.preload"]
     config = {
         "distributed.scheduler.allowed-failures": ALLOWED_WORKER_DEATHS,
         "distributed.nanny.pre-spawn-environ": WORKER_ENVIRON,
+        "distributed.worker.preload": preload,
     }
     with contextlib.ExitStack() as stack:
         stack.enter_context(dask.config.set(config))
