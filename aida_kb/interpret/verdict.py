@@ -5,7 +5,9 @@ alone lets a wrong model through when the evidence it fails to use is simply ign
 "inserted from knowledge" while a roof region fills a third of the image). An interpretation
 is **verified** only when it also
 
-(a) keeps every instantiated constraint under its threshold (the residual report);
+(a) keeps every instantiated constraint under its threshold (the residual report; the
+    evidence factors a multi-view adjustment adds by code — rule ``evidence`` — are judged by
+    (b) and (c) instead: an outlier among them is no contradiction of the knowledge);
 (b) explains the evidence: of the certainty weight of the regions that lie inside the model's
     projection (the ray through a region's centre meets a model face), most lies on a model
     face (the region's plane within `DEPTH_TOLERANCE` of the face and its normal within
@@ -425,9 +427,12 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
     if not interp.accepted or model is None:
         return Verdict(NOTHING, (), (), ())
     reasons: list[str] = []
-    # (a) every constraint under its threshold
+    # (a) every constraint of the knowledge (and every prior) under its threshold; the
+    # evidence's own factors of a multi-view adjustment (segments, regions: robust, made by
+    # code, rule "evidence") are judged by (b) and (c), not one by one — a stray region or
+    # segment is an outlier there, not a contradiction of the knowledge
     for r in interp.residuals:
-        if r.rejected:
+        if r.rejected and r.rule != "evidence":
             reasons.append(
                 f"constraint {r.label} ({r.kind}, {', '.join(r.parts)}) over its threshold: "
                 f"cost {r.normalised_cost:.3g} of {r.threshold:.3g}"

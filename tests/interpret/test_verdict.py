@@ -54,6 +54,27 @@ def test_the_right_house_is_verified(buildings_kb: KnowledgeBase, interpreted: G
     assert with_verdict(interp, verdict).verdict == VERIFIED
 
 
+def test_an_outlier_among_the_evidence_factors_is_not_a_contradiction(
+    buildings_kb: KnowledgeBase, interpreted: Get
+) -> None:
+    # a multi-view interpretation reports its joint adjustment's rows: a region matched to the
+    # wrong part there is an outlier (robust loss), judged by (b)/(c), not by (a); a constraint
+    # of the knowledge over its threshold still makes the result doubtful
+    interp = interpreted("house_correct.json")
+    row = interp.residuals[0]
+    outlier = row.model_copy(update={"rule": "evidence", "label": "position(x)@01"})
+    outlier = outlier.model_copy(update={"normalised_cost": 30.0, "threshold": 16.0})
+    outlier = outlier.model_copy(update={"rejected": True})
+    with_outlier = interp.model_copy(update={"residuals": [*interp.residuals, outlier]})
+    verdict = judge(buildings_kb, with_outlier, _evidence("house_correct.json"))
+    assert verdict.verdict == VERIFIED
+    knowledge = row.model_copy(update={"rule": "knowledge", "rejected": True})
+    broken = interp.model_copy(update={"residuals": [*interp.residuals, knowledge]})
+    verdict = judge(buildings_kb, broken, _evidence("house_correct.json"))
+    assert verdict.verdict == DOUBTFUL
+    assert any(f"constraint {row.label}" in r for r in verdict.reasons)
+
+
 def test_no_house_is_nothing(buildings_kb: KnowledgeBase, interpreted: Get) -> None:
     interp = interpreted("no_house.json")
     assert judge(buildings_kb, interp, _evidence("no_house.json")).verdict == NOTHING
