@@ -26,6 +26,7 @@ __all__ = [
     "MAX_KB_BYTES",
     "MAX_NESTING",
     "MAX_NUMBER_CHARS",
+    "MAX_VIEWS",
     "MAX_YAML_BYTES",
     "image_header_size",
     "image_size_problem",
@@ -154,6 +155,9 @@ def nesting_problem(text: str, *, indentation: bool = False, xml: bool = False) 
                 return f"{_line_col(data, m.start())}: nested more than {MAX_NESTING} deep"
     return None
 
+
+#: Views of one scene: each costs a whole evidence run (a building needs 2 to 20).
+MAX_VIEWS = 100
 
 #: An image file (PNG of 2**26 pixels in 16-bit colour stays below this).
 MAX_IMAGE_BYTES = 512 * 2**20

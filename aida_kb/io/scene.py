@@ -46,6 +46,7 @@ from aida_kb.limits import (
     MAX_CALIB_BYTES,
     MAX_IMAGE_BYTES,
     MAX_NESTING,
+    MAX_VIEWS,
     MAX_YAML_BYTES,
     image_header_size,
     image_size_problem,
@@ -84,7 +85,7 @@ class SceneIndex(FrozenModel):
     name: str = ""
     calib: str = CALIB_FILE
     truth: str | None = None
-    views: list[ViewEntry] = Field(min_length=1)
+    views: list[ViewEntry] = Field(min_length=1, max_length=MAX_VIEWS)
 
     @field_validator("views")
     @classmethod

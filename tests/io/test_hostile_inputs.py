@@ -238,3 +238,22 @@ def test_found_by_fuzzing_control_character_and_overlong_path(tmp_path: Path) ->
     with pytest.raises(FormatError) as exc:
         read_scene(scene)
     assert "field calib: not a usable path" in _one_line(exc, index)
+
+
+def test_more_than_100_views_are_refused(tmp_path: Path) -> None:
+    scene = _scene(tmp_path)
+    index = scene / "scene.yaml"
+    lines = index.read_text().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("views:"))
+    entry = lines[start + 1 :]
+    views = [
+        line.replace("'00'", f"'{n:03d}'") if "id:" in line else line
+        for n in range(101)
+        for line in entry
+        if line.startswith(" ") or line.startswith("-")
+    ]
+    index.write_text("\n".join([*lines[: start + 1], *views]) + "\n")
+    with pytest.raises(FormatError) as exc:
+        read_scene(scene)
+    assert "views" in _one_line(exc, index)
+    assert "at most 100" in str(exc.value)
