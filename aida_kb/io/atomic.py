@@ -1,6 +1,9 @@
 """Atomic file output: write to a temporary file beside the target, then rename.
 
 A crash or an error half-way never leaves a truncated or half-written output file behind.
+`check_outputs` is the one check every command runs before its work (no output over an
+input); `publish_dir` replaces a folder of outputs as a whole and `output_lock` keeps a second
+run out of it. Output files get the umask's permissions (`file_mode`), as ``open`` gives.
 """
 
 from __future__ import annotations
