@@ -18,7 +18,7 @@ import os
 import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -26,6 +26,7 @@ from aida_kb.batch.outcome import SceneOutcome, Summary, SummaryRow, write_summa
 from aida_kb.batch.scenes import SceneRef, check_output_root
 from aida_kb.batch.work import SCENES_DIR, clear_work, finished_outcome, run_scene
 from aida_kb.errors import FormatError
+from aida_kb.interpret.run import check_goal
 from aida_kb.io.atomic import make_dirs
 
 if TYPE_CHECKING:
@@ -60,7 +61,7 @@ Progress = Callable[[int, int, SceneOutcome], None]
 class BatchOptions:
     """How to run a batch; `goal` and `views` are those of ``aida-kb reconstruct``."""
 
-    goal: str = "House"
+    goal: str | None = None  # None: the knowledge base's only scene concept
     views: Sequence[str] | None = None
     scheduler: str | None = None
     workers: int | None = None  # local cluster: worker processes (default: one per core)
@@ -197,6 +198,7 @@ def run_batch(
     of `scenes`, also when the run is interrupted (the rest then ``pending``).
     """
     options = options or BatchOptions()
+    options = replace(options, goal=check_goal(kb, options.goal))  # None: the only scene concept
     root = make_dirs(out)
     check_output_root(root, scenes)
     with _exclusive(root):
@@ -224,7 +226,9 @@ def run_batch(
                 workers = _on_dask(kb, todo, root, options, finished)
                 clear_work(root)
         finally:
-            summary = _summary(kb_path, options.goal, scenes, outcomes, resumed, workers, start)
+            summary = _summary(
+                kb_path, options.goal or "", scenes, outcomes, resumed, workers, start
+            )
             write_summary(root, summary)
         return summary
 

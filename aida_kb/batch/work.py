@@ -130,7 +130,7 @@ def run_scene(
     ref: SceneRef,
     out: str,
     *,
-    goal: str = "House",
+    goal: str | None = None,
     views: Sequence[str] | None = None,
 ) -> SceneOutcome:
     """Reconstruct one scene into ``out/scenes/<key>`` and return its outcome.

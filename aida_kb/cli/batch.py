@@ -51,7 +51,11 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--kb", default=None, metavar="KB", help="knowledge base (default: the shipped buildings)"
     )
-    p.add_argument("--goal", default="House", help="goal concept (default: House)")
+    p.add_argument(
+        "--goal",
+        default=None,
+        help="goal concept (default: the knowledge base's only scene concept)",
+    )
     p.add_argument(
         "--views", default=None, metavar="IDS", help="comma-separated view ids (default: all)"
     )
@@ -114,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         raise FormatError(f"no scene (a folder with scene.yaml) under {', '.join(args.dirs)}")
     kb_path = args.kb or str(packaged_kb("buildings.kb"))
     kb, _ = load_kb(kb_path)
-    check_goal(kb, args.goal)
+    args.goal = check_goal(kb, args.goal)
     options = BatchOptions(
         goal=args.goal,
         views=views,

@@ -49,7 +49,7 @@ def run_random_scene(
     seed: int,
     workdir: str | Path,
     *,
-    goal: str = "House",
+    goal: str | None = None,
     max_views: int = 8,
     max_width: int = 800,
     supersample: int = 2,
