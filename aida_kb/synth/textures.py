@@ -216,22 +216,11 @@ def _remap(tex: F32, u_tex: FloatArray, v_tex: FloatArray) -> F32:
     """Bilinear, wrapping lookup of `tex` at texel coordinates; (N, 3)."""
     import cv2
 
+    from aida_kb.vision.rectify import sample_points
+
     size = tex.shape[0]
-    n = len(u_tex)
-    cols = 1024
-    rows = -(-n // cols)
-    mu = np.zeros(rows * cols, np.float32)
-    mv = np.zeros(rows * cols, np.float32)
-    mu[:n] = np.mod(u_tex, size)
-    mv[:n] = np.mod(v_tex, size)
-    res = cv2.remap(
-        tex,
-        mu.reshape(rows, cols),
-        mv.reshape(rows, cols),
-        cv2.INTER_LINEAR,
-        borderMode=cv2.BORDER_WRAP,
-    )
-    return np.asarray(res, np.float32).reshape(-1, 3)[:n]
+    res = sample_points(tex, np.mod(u_tex, size), np.mod(v_tex, size), border=cv2.BORDER_WRAP)
+    return np.asarray(res, np.float32).reshape(-1, 3)
 
 
 def _coarser(x: FloatArray, level: int) -> FloatArray:

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.errors import VisionError
+from aida_kb.vision.rectify import sample_points
 
 F64 = npt.NDArray[np.float64]
 TUKEY_C = 4.685  # biweight tuning constant (95 % efficiency for Gaussian noise)
@@ -200,22 +201,8 @@ def refine_plane_photometric(
 
 
 def _sample(img: npt.NDArray[np.float32], x: F64, y: F64, interpolation: int) -> F64:
-    """img at the points (x, y) (N,), interpolated; 0 outside. (cv2.remap limits a map's
-    side to 32767, so the points are laid out in rows of 1024.)"""
-    n = len(x)
-    cols = 1024
-    rows = max(1, -(-n // cols))
-    mx = np.zeros(rows * cols, np.float32)
-    my = np.zeros(rows * cols, np.float32)
-    mx[:n], my[:n] = x, y
-    out = cv2.remap(
-        img,
-        mx.reshape(rows, cols),
-        my.reshape(rows, cols),
-        interpolation,
-        borderMode=cv2.BORDER_CONSTANT,
-    )
-    return np.asarray(out, np.float64).reshape(-1)[:n]
+    """img at the points (x, y) (N,), interpolated; 0 outside (`rectify.sample_points`)."""
+    return sample_points(img, x, y, interpolation=interpolation)
 
 
 def plane_depth(rays: F64, n: F64, D: float) -> F64:

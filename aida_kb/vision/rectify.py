@@ -157,6 +157,44 @@ def remap(
     return np.asarray(out)
 
 
+SAMPLE_ROW = 4096
+"""`sample_points` lays its points out in rows of this many: cv2.remap's maps must stay below
+32767 pixels a side."""
+
+
+def sample_points(
+    image: npt.NDArray[np.generic],
+    x: npt.ArrayLike,
+    y: npt.ArrayLike,
+    *,
+    interpolation: int = cv2.INTER_LINEAR,
+    border: int = cv2.BORDER_CONSTANT,
+) -> npt.NDArray[np.float64]:
+    """``image`` (H, W) or (H, W, C) at N arbitrary points x, y (pixels, centres at integer
+    coordinates), with cv2.remap's ``interpolation`` and ``border`` mode (constant: 0).
+
+    Returns (N,) for a one-channel image, else (N, C), float64.
+    """
+    xs = np.asarray(x, dtype=np.float32).ravel()
+    ys = np.asarray(y, dtype=np.float32).ravel()
+    n = xs.size
+    arr = np.asarray(image)
+    channels = 1 if arr.ndim == 2 else int(arr.shape[2])
+    rows = max(1, -(-n // SAMPLE_ROW))
+    mx = np.zeros(rows * SAMPLE_ROW, np.float32)
+    my = np.zeros(rows * SAMPLE_ROW, np.float32)
+    mx[:n], my[:n] = xs, ys
+    out = cv2.remap(
+        arr,
+        mx.reshape(rows, SAMPLE_ROW),
+        my.reshape(rows, SAMPLE_ROW),
+        interpolation,
+        borderMode=border,
+    )
+    flat = np.asarray(out, dtype=np.float64).reshape(rows * SAMPLE_ROW, channels)[:n]
+    return flat[:, 0] if arr.ndim == 2 else flat
+
+
 def undistort_pixels(pixels: F64, K: F64, D: F64) -> F64:
     """Pixels (N, 2) of the original (distorted) image moved to where pinhole camera K sees them.
 
