@@ -56,8 +56,8 @@ from aida_kb.register import (
     turned,
 )
 from aida_kb.register.evidence import register_evidence_view, right_segments
-from aida_kb.register.synthetic import simulated_segments
 from aida_kb.synth.scenes import preset, render_scene
+from aida_kb.testing.segments import simulated_segments
 from aida_kb.vision.evidence import scene_evidence
 
 NOISE_PX = 0.5

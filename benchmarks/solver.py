@@ -1,6 +1,6 @@
 """Benchmark of the constraint solver (not a test). Prints ONE line of JSON at the end.
 
-1. The paper-sized problem (28 surface elements, 51 constraints; `aida_kb.solve.synthetic`),
+1. The paper-sized problem (28 surface elements, 51 constraints; `aida_kb.testing.houses`),
    started 3 degrees / 30 cm off: the default solver (trust-region least squares with the
    analytic Jacobian; ``tr_solver="auto"``, here "exact" on the dense Jacobian) against the
    paper's method (conjugate gradients with numerical gradients, scipy's defaults): wall time
@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 from aida_kb.geometry.polygon import intersect_planes  # noqa: E402
 from aida_kb.solve.problem import build_problem  # noqa: E402
 from aida_kb.solve.solver import solve  # noqa: E402
-from aida_kb.solve.synthetic import house_row, perturbed  # noqa: E402
+from aida_kb.testing.houses import house_row, perturbed  # noqa: E402
 
 
 def _problem(n_houses: int):  # type: ignore[no-untyped-def]

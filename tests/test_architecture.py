@@ -22,6 +22,7 @@ LAYERS: list[set[str]] = [
     {"vision"},
     {"synth"},
     {"register"},
+    {"testing"},
     {"texture"},
     {"interpret"},
     {"batch", "report"},
@@ -80,3 +81,11 @@ def test_every_package_has_a_layer() -> None:
             continue
         if child.is_dir() or child.suffix == ".py":
             _layer_of(child.name.removesuffix(".py"))
+
+
+@pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_product_module_imports_the_test_helpers(path: Path) -> None:
+    rel = path.relative_to(PACKAGE)
+    if rel.parts[0] == "testing":
+        return
+    assert "testing" not in _imported_tops(path), f"aida_kb/{rel} imports aida_kb.testing"

@@ -24,8 +24,8 @@ from aida_kb.register import (
     vertical_axis,
 )
 from aida_kb.register.pose import EdgeObservations, pose_factors
-from aida_kb.register.synthetic import simulated_segments
 from aida_kb.solve.problem import Evaluation, build_problem
+from aida_kb.testing.segments import simulated_segments
 
 K = np.array([[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]])
 

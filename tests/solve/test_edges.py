@@ -12,7 +12,7 @@ from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.solve.problem import build_problem
 from aida_kb.solve.solver import solve
-from aida_kb.solve.synthetic import SyntheticScene, house_row, perturbed
+from aida_kb.testing.houses import SyntheticScene, house_row, perturbed
 
 K = np.array([[1000.0, 0.0, 640.0], [0.0, 1000.0, 480.0], [0.0, 0.0, 1.0]])
 

@@ -16,7 +16,7 @@ from aida_kb.kb import compile_path
 from aida_kb.kb.model import KnowledgeBase
 from aida_kb.solve.from_kb import constraints_from_kb, problem_from_kb
 from aida_kb.solve.solver import solve
-from aida_kb.solve.synthetic import SyntheticScene, house_row, perturbed
+from aida_kb.testing.houses import SyntheticScene, house_row, perturbed
 
 KB = Path(__file__).resolve().parents[2] / "kb" / "buildings.kb"
 

@@ -14,7 +14,7 @@ from aida_kb.errors import SolveError
 from aida_kb.geometry.polygon import intersect_planes
 from aida_kb.solve.problem import Evaluation, build_problem
 from aida_kb.solve.solver import EXACT_MAX_UNKNOWNS, SolveResult, choose_tr_solver, solve
-from aida_kb.solve.synthetic import SyntheticScene, house_row, perturbed
+from aida_kb.testing.houses import SyntheticScene, house_row, perturbed
 
 
 @pytest.fixture(scope="module")
