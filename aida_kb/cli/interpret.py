@@ -21,6 +21,9 @@ what it does:
   the constraints' thresholds, the evidence and the knowledge's measured attributes.
   exit status: 0 verified, 3 doubtful (reasons in the summary line), 4 nothing found
   (a scene without the goal object; interpretation.json is still written), 1 an error.
+  With -o FILE.json, the result is also written as instances of the knowledge base,
+  FILE.kb (docs/formats.md); check it with
+  aida-kb lint FILE.kb --import-path KB_FOLDER.
 
 examples:
   aida-kb interpret kb/buildings.kb out/evidence.json
@@ -50,7 +53,11 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--explain", action="store_true", help="say why each rejected hypothesis fell")
     p.add_argument(
-        "-o", "--output", metavar="FILE", default=None, help="write interpretation.json here"
+        "-o",
+        "--output",
+        metavar="FILE",
+        default=None,
+        help="write interpretation.json here, and the result as instances (.kb) beside it",
     )
     p.set_defaults(run=run)
 
@@ -144,16 +151,18 @@ def print_interpretation(
 
 
 def run(args: argparse.Namespace) -> int:
-    """Interpret; print the tree; write interpretation.json when asked."""
+    """Interpret; print the tree; write interpretation.json and .kb when asked."""
+    from aida_kb.interpret.kbfile import write_interpretation_kb
     from aida_kb.interpret.result import write_interpretation
     from aida_kb.interpret.run import check_goal, interpret
     from aida_kb.interpret.verdict import judge, with_verdict
-    from aida_kb.io.atomic import check_output
+    from aida_kb.io.atomic import check_outputs
     from aida_kb.io.evidence import read_evidence
 
-    if args.output:
-        check_output(args.output, [args.kb, args.evidence])
+    outputs = [args.output, kb_output(args.output)] if args.output else []
+    check_outputs(outputs, [args.kb, args.evidence])
     kb, sources = load_kb(args.kb)
+    check_outputs(outputs, [*kb.files, args.evidence])  # nor over a file the kb imports
     args.goal = check_goal(kb, args.goal)
     evidence = read_evidence(args.evidence)
     interp = interpret(kb, evidence, goal=args.goal, source=args.evidence)
@@ -161,8 +170,14 @@ def run(args: argparse.Namespace) -> int:
     print_interpretation(interp, explain=args.explain, sources=sources)
     if args.output:
         write_interpretation(args.output, interp)
-        print(f"wrote {args.output}")
+        write_interpretation_kb(outputs[1], kb, interp, args.kb)
+        print(f"wrote {args.output} and {outputs[1]}")
     return verdict_status(interp)
+
+
+def kb_output(output: str) -> str:
+    """The interpretation's ``.kb`` file beside ``-o FILE``: FILE with the suffix ``.kb``."""
+    return str(Path(output).with_suffix(".kb"))
 
 
 EXIT_DOUBTFUL = 3  # an interpretation was found, but the verdict doubts it (reasons printed)

@@ -9,6 +9,8 @@ EXAMPLE = """\
 writes into OUT:
   evidence.json        what the vision front end measured (aida-kb evidence)
   interpretation.json  instances, residual of every constraint, hypothesis trace
+  interpretation.kb    the result as instances of the knowledge base, importing it
+                       (check: aida-kb lint OUT/interpretation.kb --import-path KB_FOLDER)
   model.json           each part's plane (n, d) and closed polygon; each view's camera
   model.obj, .mtl      the closed mesh, y up, textured (model_atlas.png) -- these and the
   model.glb            following only when the goal object was found: binary glTF, y up

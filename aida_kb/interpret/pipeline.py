@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from aida_kb.interpret.kbfile import write_interpretation_kb
 from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
@@ -25,6 +26,7 @@ if TYPE_CHECKING:
 OUTPUT_FILES = (
     "evidence.json",
     "interpretation.json",
+    "interpretation.kb",
     "model.json",
     "model.obj",
     "model.mtl",
@@ -66,7 +68,9 @@ def reconstruct_scene(
 ) -> Reconstruction:
     """Evidence of a scene's views, their interpretation, and the model; write the files.
 
-    The files (`OUTPUT_FILES`; model.json and model.obj only when the goal was found) are
+    The files (`OUTPUT_FILES`; model.json and model.obj only when the goal was found;
+    interpretation.kb the result as instances importing the knowledge base's root file
+    ``kb.files[0]``, `aida_kb.interpret.kbfile`) are
     written to a new folder beside `out_dir` which then replaces `out_dir` as a whole
     (`aida_kb.io.atomic.publish_dir`): a failed or terminated run leaves the old set or the
     new one, never a mix and no temporary folder. `out_dir` must be new or hold only these
@@ -122,11 +126,15 @@ def _reconstruct(
         progress=progress,
     )
     interp = with_verdict(interp, judge(kb, interp, evidence))
-    names = ["evidence.json", "interpretation.json"]
+    names = ["evidence.json", "interpretation.json", "interpretation.kb"]
     atlas = None
     with publish_dir(out) as work:
         write_evidence(work / "evidence.json", evidence)
         write_interpretation(work / "interpretation.json", interp)
+        # the import is relative to `out`, where the folder ends up (a sibling of `work`)
+        write_interpretation_kb(
+            work / "interpretation.kb", kb, interp, kb.files[0] if kb.files else "", folder=out
+        )
         if interp.model is not None:
             write_model(work / "model.json", interp.model)
             if stage is not None:

@@ -36,10 +36,10 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.interpret.result import INSERTED, Interpretation
+from aida_kb.interpret.result import INSERTED, Instance, Interpretation
 from aida_kb.io.evidence import Evidence, ViewEvidence
 from aida_kb.io.model import ReconstructedModel
-from aida_kb.kb.model import KnowledgeBase
+from aida_kb.kb.model import AttributeModel, KnowledgeBase
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -372,40 +372,54 @@ def check_orientations(
     return reasons
 
 
-def check_attributes(
+def measured_attributes(
     kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel
-) -> list[str]:
-    """Check (d): every measured attribute of every instance inside its range (reasons)."""
+) -> list[tuple[Instance, AttributeModel, float]]:
+    """Every measured attribute (`is slope(self)`, ...) of every instance, measured on the
+    model: (instance, attribute, value in SI: radians or metres), in the order of the
+    instances and of the concept's attributes. Attributes whose measure cannot be taken
+    (no up direction, a part missing from the model) are left out."""
     up = _up(kb, interp, model)
     if up is None:
         return []
-    reasons = []
+    out = []
     for inst in interp.instances:
         concept = kb.concepts.get(inst.concept)
         if concept is None:
             continue
         for attr in concept.attributes.values():
             m = attr.measure
-            if m is None or (attr.low is None and attr.high is None):
+            if m is None:
                 continue
             fwd = _forward(kb, interp, model, inst.role, up)
             value = _measure(m.kind, [_join(inst.role, a) for a in m.args], model, up, fwd)
-            if value is None:
-                continue
-            low = -math.inf if attr.low is None else attr.low
-            high = math.inf if attr.high is None else attr.high
-            slack = RANGE_SLACK_REL * max(
-                abs(low) if math.isfinite(low) else 0.0, abs(high) if math.isfinite(high) else 0.0
+            if value is not None:
+                out.append((inst, attr, value))
+    return out
+
+
+def check_attributes(
+    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel
+) -> list[str]:
+    """Check (d): every measured attribute of every instance inside its range (reasons)."""
+    reasons = []
+    for inst, attr, value in measured_attributes(kb, interp, model):
+        if attr.low is None and attr.high is None:
+            continue
+        low = -math.inf if attr.low is None else attr.low
+        high = math.inf if attr.high is None else attr.high
+        slack = RANGE_SLACK_REL * max(
+            abs(low) if math.isfinite(low) else 0.0, abs(high) if math.isfinite(high) else 0.0
+        )
+        if not low - slack <= value <= high + slack:
+            shown = math.degrees(value) if attr.unit == "rad" else value
+            unit = "deg" if attr.unit == "rad" else attr.unit
+            lo = math.degrees(low) if attr.unit == "rad" else low
+            hi = math.degrees(high) if attr.unit == "rad" else high
+            reasons.append(
+                f"{inst.role or inst.concept}: {attr.name} = {shown:.3g} {unit} outside "
+                f"[{lo:.3g}, {hi:.3g}] ({inst.concept})"
             )
-            if not low - slack <= value <= high + slack:
-                shown = math.degrees(value) if attr.unit == "rad" else value
-                unit = "deg" if attr.unit == "rad" else attr.unit
-                lo = math.degrees(low) if attr.unit == "rad" else low
-                hi = math.degrees(high) if attr.unit == "rad" else high
-                reasons.append(
-                    f"{inst.role or inst.concept}: {attr.name} = {shown:.3g} {unit} outside "
-                    f"[{lo:.3g}, {hi:.3g}] ({concept.name})"
-                )
     return reasons
 
 
