@@ -21,6 +21,7 @@ from aida_kb.errors import AidaError, FormatError
 COMMANDS: tuple[str, ...] = (
     "lint",
     "validate",
+    "fmt",
     "explain",
     "graph",
     "compile",

@@ -17,6 +17,7 @@ import gc
 import itertools
 import re
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path as FsPath
 from typing import Any, cast
@@ -551,12 +552,17 @@ _builder = _Builder()
 _lark: Lark | None = None
 
 
-def make_lark(transformer: Transformer[Token, Any] | None = None) -> Lark:
+def make_lark(
+    transformer: Transformer[Token, Any] | None = None,
+    lexer_callbacks: dict[str, Callable[[Token], Token]] | None = None,
+) -> Lark:
     """Lark's LALR parser with the contextual lexer for the grammar, as aida-kb configures it.
 
     Every token is kept and absent optional parts are ``None`` placeholders (the builder's
     callbacks rely on both). With ``transformer`` the parse builds its results inline. The
     lexer is Lark's own: `parse` drives it with `aida_kb.dsl.lexer.FastContextualLexer`.
+    ``lexer_callbacks`` (terminal name -> function of the token) see every token of those
+    terminals, the ignored comments too (the formatter collects them so).
 
     The tables are built from the packaged grammar in memory at every start (about 30 ms) and
     never cached: Lark's cache is a pickle under a predictable name in the shared temporary
@@ -570,6 +576,7 @@ def make_lark(transformer: Transformer[Token, Any] | None = None) -> Lark:
         keep_all_tokens=True,
         cache=False,
         transformer=transformer,
+        lexer_callbacks=lexer_callbacks or {},
     )
 
 

@@ -54,6 +54,7 @@ print(json.dumps({{"code": code, "heavy": heavy}}))
         ["validate", "kb/buildings.kb"],
         ["lint", "--format", "json", "kb/"],
         ["validate", "kb/examples/broken_syntax.kb"],
+        ["fmt", "--check", "kb/buildings.kb"],
     ],
 )
 def test_lint_and_validate_import_no_numpy_scipy_cv2(argv: list[str]) -> None:
