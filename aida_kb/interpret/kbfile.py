@@ -5,7 +5,8 @@
 
 - one ``instance NAME of CONCEPT`` per instance node above the image layer, CONCEPT the
   concept chosen along is-a; NAME is the role path made an identifier (`instance_name`:
-  ``body.oriels[0].front`` -> ``body_oriels_0_front``; the goal is its concept in lower case);
+  ``body.oriels[0].front`` -> ``body_oriels_0_front``; the goal is its concept in lower case;
+  a name already taken, by the knowledge base's own instances too, gets ``_2``, ``_3``);
 - each role bound to the instances that fill it (a list for a role with several fillers), a
   con-of role realised in the image layer bound to the evidence ids (``"VIEW/REGION"``) of
   its image-layer instance, which gets no declaration of its own;
@@ -132,14 +133,16 @@ def interpretation_kb(
         and i.parent is not None
     }
     names: dict[str, str] = {}
+    taken = set(kb.instances)  # instances the knowledge base declares itself (KB110)
     for inst in interp.instances:
         if inst.role in evidence:
             continue
         name = base = instance_name(inst.role, interp.goal)
         k = 2
-        while name in names.values():
+        while name in taken:
             name, k = f"{base}_{k}", k + 1
         names[inst.role] = name
+        taken.add(name)
     children: dict[str, list[Instance]] = {}
     for inst in interp.instances:
         if inst.parent is not None:

@@ -32,6 +32,29 @@ def test_interpret_prints_tree_and_writes_json(
     assert interp.accepted
     assert interp.model is not None
     assert len(interp.model.parts) == 7
+    # beside it, the result as instances: lint clean with the knowledge base's folder
+    written = tmp_path / "interpretation.kb"
+    assert f"wrote {out} and {written}" in text
+    assert "instance body_back of Wall {" in written.read_text(encoding="utf-8")
+    assert main(["lint", str(written), "--import-path", str(ROOT / "kb")]) == 0
+    assert "no problems in 1 file" in capsys.readouterr().out
+    # without the import path the import leaves the project: KB903, as documented
+    assert main(["lint", str(written)]) == 1
+    assert "KB903" in capsys.readouterr().out
+
+
+def test_interpret_refuses_a_kb_output_over_an_input_or_twice(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    kb = tmp_path / "houses.kb"
+    kb.write_text((ROOT / "kb" / "buildings.kb").read_text(encoding="utf-8"), encoding="utf-8")
+    evidence = str(FIXTURES / "house_correct.json")
+    # -o houses.json would put houses.kb over the knowledge base
+    assert main(["interpret", str(kb), evidence, "-o", str(tmp_path / "houses.json")]) == 2
+    assert "cannot write the output over the input file" in capsys.readouterr().err
+    assert main(["interpret", str(kb), evidence, "-o", str(tmp_path / "r.kb")]) == 2
+    assert "named twice as an output" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["houses.kb"]
 
 
 def test_explain_names_the_rejecting_constraint_and_its_cost(
