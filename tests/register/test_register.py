@@ -258,3 +258,27 @@ def test_the_search_turns_about_the_point_the_reference_looks_at() -> None:
     # on the optical axis, level with the centroid along it
     np.testing.assert_allclose(np.cross(p - ref.centre, ref.optical_axis), 0.0, atol=1e-12)
     assert float((model.centroid - p) @ ref.optical_axis) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_regions_that_disagree_with_the_model_reveal_a_wrong_pose() -> None:
+    from aida_kb.register.register import (
+        RegionMeasurements,
+        RegistrationOptions,
+        region_disagreement_deg,
+    )
+
+    model = _box()
+    truth = turned(_reference(), np.array([0.0, -1.0, 0.0]), model.centroid, 0.4)
+    # the regions of the faces the true camera sees, measured in its frame
+    front = model.front_facing(truth.centre)
+    parts = np.flatnonzero(front)
+    centres = np.array([np.mean(model.polygons[i], axis=0) for i in parts])
+    R = truth.R_cam_world
+    regions = RegionMeasurements(
+        model.normals[parts] @ R.T, centres @ R.T + truth.t_cam_world, np.full(parts.size, 1e-3)
+    )
+    opts = RegistrationOptions()
+    assert region_disagreement_deg(model, truth, regions, opts) == pytest.approx(0.0, abs=1e-6)
+    off = turned(truth, np.array([0.0, -1.0, 0.0]), model.centroid, math.radians(10.0))
+    assert region_disagreement_deg(model, off, regions, opts) == pytest.approx(10.0, abs=0.5)
+    assert region_disagreement_deg(model, truth, None, opts) is None
