@@ -257,7 +257,6 @@ class _Printer:
     def comment(self, tok: Token) -> None:
         text = str(tok).rstrip() if tok.type == "LINE_COMMENT" else str(tok)
         line: int = tok.line  # type: ignore[assignment]
-        after_code = bool(self.last_token) and not self.own_line_comment
         if self.line.strip() and line == self.last_end_line:
             # a comment after code stays on its line
             self.line += (_TRAILING if tok.type == "LINE_COMMENT" else " ") + text
@@ -269,7 +268,7 @@ class _Printer:
                 depth = self.unit_depth + _CONTINUATION
             else:
                 depth = 1 if self.body_open else 0
-                if self.gap_before(line) or (not self.body_open and after_code):
+                if self.gap_before(line):
                     self.blank()
             self.start_line(depth, text)
             self.flush()

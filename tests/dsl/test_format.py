@@ -124,7 +124,7 @@ def test_comments_keep_their_places() -> None:
         "        (r, s))\n"
         "    part p, /* inline */ q, r, s: X\n"
         "    // before the brace\n"
-        "}\n\n// tail\n"
+        "}\n// tail\n"
     )
 
 
