@@ -19,7 +19,8 @@
   doubts and the summary line, in the header comment; an interpretation that found nothing
   is the import and that comment alone.
 
-The import is relative to the written file's folder and usually leaves it, so the file is
+The text is in the canonical layout of `aida-kb fmt` (`aida_kb.dsl.format`). The import is
+relative to the written file's folder and usually leaves it, so the file is
 checked with the knowledge base's folder as an import path (docs/language.md 2.2):
 ``aida-kb lint out/interpretation.kb --import-path kb``; the header names that command.
 """
@@ -186,6 +187,8 @@ def interpretation_kb(
                 body.append(f"{attr.name} = {text}")
             else:
                 notes.append(f"// measured {attr.name} = {text}: outside its range (see verdict)")
+        if lines[-1] == "}":
+            lines.append("")  # a blank line between declarations, as `aida-kb fmt` lays out
         lines.append(f"instance {names[inst.role]} of {inst.concept} {{")
         lines += ["    " + b for b in [*body, *notes]]
         lines.append("}")

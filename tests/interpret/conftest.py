@@ -72,6 +72,7 @@ def _check_interpretation_kb(path: Path, kb: Any, interp: Any) -> None:
     """`path` (an interpretation.kb) lints clean with the knowledge base's folder as import
     path, and its instances are `interp`'s: concepts, role bindings, evidence ids, inserted
     parts, the verdict, and the measured values (bound, or a comment when out of range)."""
+    from aida_kb.dsl.format import format_source
     from aida_kb.interpret.kbfile import INSERTED_DOC, VERDICT_DOC, instance_name
     from aida_kb.interpret.result import INSERTED
     from aida_kb.interpret.verdict import measured_attributes
@@ -82,6 +83,7 @@ def _check_interpretation_kb(path: Path, kb: Any, interp: Any) -> None:
     assert result.kb is not None
     declared = result.kb.instances
     text = path.read_text(encoding="utf-8")
+    assert not format_source(text, str(path)).changed  # as `aida-kb fmt` lays it out
     verdict = interp.verdict or ("not judged" if interp.accepted else "nothing")
     assert f"// verdict: {verdict}\n" in text
     assert all(f"// doubt: {d}" in text for d in interp.doubts)
