@@ -15,17 +15,16 @@ import numpy as np
 
 from aida_kb.constraints import kernels
 from aida_kb.constraints.factor import Constraint
-from aida_kb.constraints.kinds.base import BlockData, Evaluated, FloatArray, IntArray, Kind
+from aida_kb.constraints.kinds.base import BlockData, Kind, NormalsKind
 from aida_kb.constraints.kinds.parallel import PARALLEL
 from aida_kb.errors import SolveError
-from aida_kb.geometry.camera import PinholeCamera
 
 PARALLEL_EPS = 1e-6
 """An angle target this close (rad) to 0 or pi is evaluated as a parallel constraint: the
 meeting angle's derivative vanishes there, the rotation vector's does not."""
 
 
-class Angle(Kind):
+class Angle(NormalsKind):
     """The angle at which two planes meet (paper eq. 1)."""
 
     name: ClassVar[str] = "angle"
@@ -33,6 +32,7 @@ class Angle(Kind):
     residual_size: ClassVar[int] = 1
     dof: ClassVar[int] = 1
     summary: ClassVar[str] = "angle(a, b) - value, rad (eq. 1)"
+    data_keys: ClassVar[tuple[str, ...]] = ("value",)
 
     def block_kind(self, c: Constraint) -> Kind:
         """Parallel for a target at 0 or pi (see `PARALLEL_EPS`), else the angle kind."""
@@ -52,17 +52,5 @@ class Angle(Kind):
         """``value`` (M,) rad."""
         return {"value": np.array([c.value for c in cs], dtype=np.float64)}
 
-    def evaluate(
-        self,
-        normals: FloatArray,
-        offsets: FloatArray,
-        cameras: Sequence[PinholeCamera],
-        idx: IntArray,
-        data: BlockData,
-    ) -> Evaluated:
-        """r (M, 1) rad, J (M, 1, 2, 4)."""
-        r, J = kernels.angle_kernel(normals, idx, data["value"])
-        return r, J, None
 
-
-ANGLE = Angle()
+ANGLE = Angle(kernels.angle_kernel)

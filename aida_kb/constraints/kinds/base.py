@@ -20,7 +20,7 @@ has a finite-difference Jacobian test and documentation.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -88,6 +88,33 @@ class Kind:
         """Residuals and Jacobians of a block: ``normals`` (P, 3) unit and ``offsets`` (P,)
         metres are all planes (world frame), ``idx`` (M, arity) the block's part indices."""
         raise NotImplementedError
+
+
+NormalsKernel = Callable[..., tuple[FloatArray, FloatArray]]
+"""A kernel of `aida_kb.constraints.kernels` over the normals alone: ``(normals, idx, *data)``
+-> ``(r (M, k), J (M, k, a, 4))``."""
+
+
+class NormalsKind(Kind):
+    """A kind whose residual depends on its planes' normals alone: ``evaluate`` calls its
+    kernel with the block's ``data`` arrays named by ``data_keys``, in that order."""
+
+    data_keys: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, kernel: NormalsKernel) -> None:
+        self._kernel = kernel
+
+    def evaluate(
+        self,
+        normals: FloatArray,
+        offsets: FloatArray,
+        cameras: Sequence[PinholeCamera],
+        idx: IntArray,
+        data: BlockData,
+    ) -> Evaluated:
+        """r (M, k) rad and J (M, k, arity, 4) from the kernel; no camera."""
+        r, J = self._kernel(normals, idx, *(data[k] for k in self.data_keys))
+        return r, J, None
 
 
 def finite_positive(where: str, what: str, x: float | None, *, optional: bool = True) -> None:

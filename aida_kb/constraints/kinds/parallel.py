@@ -15,12 +15,11 @@ import numpy as np
 
 from aida_kb.constraints import kernels
 from aida_kb.constraints.factor import Constraint
-from aida_kb.constraints.kinds.base import BlockData, Evaluated, FloatArray, IntArray, Kind
+from aida_kb.constraints.kinds.base import BlockData, NormalsKind
 from aida_kb.errors import SolveError
-from aida_kb.geometry.camera import PinholeCamera
 
 
-class Parallel(Kind):
+class Parallel(NormalsKind):
     """Two parallel planes (paper eq. 2)."""
 
     name: ClassVar[str] = "parallel"
@@ -28,6 +27,7 @@ class Parallel(Kind):
     residual_size: ClassVar[int] = 3
     dof: ClassVar[int] = 2
     summary: ClassVar[str] = "rotation vector from n_a to ±n_b, rad (eq. 2)"
+    data_keys: ClassVar[tuple[str, ...]] = ("sign",)
 
     def validate(self, c: Constraint, where: str, n_cameras: int) -> None:
         """The sign is -1, 0 or 1."""
@@ -39,17 +39,5 @@ class Parallel(Kind):
         signs = [c.sign if c.value is None else (1 if c.value > math.pi / 2 else -1) for c in cs]
         return {"sign": np.array(signs, dtype=np.float64)}
 
-    def evaluate(
-        self,
-        normals: FloatArray,
-        offsets: FloatArray,
-        cameras: Sequence[PinholeCamera],
-        idx: IntArray,
-        data: BlockData,
-    ) -> Evaluated:
-        """r (M, 3) rad, J (M, 3, 2, 4)."""
-        r, J = kernels.parallel_kernel(normals, idx, data["sign"])
-        return r, J, None
 
-
-PARALLEL = Parallel()
+PARALLEL = Parallel(kernels.parallel_kernel)

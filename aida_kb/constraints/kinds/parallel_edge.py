@@ -5,15 +5,13 @@ An edge's direction is ``n_a × n_b``; its sign is irrelevant (lines).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import ClassVar
 
 from aida_kb.constraints import kernels
-from aida_kb.constraints.kinds.base import BlockData, Evaluated, FloatArray, IntArray, Kind
-from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.constraints.kinds.base import NormalsKind
 
 
-class ParallelEdge(Kind):
+class ParallelEdge(NormalsKind):
     """The edge of two planes parallel to the edge of two others."""
 
     name: ClassVar[str] = "parallel_edge"
@@ -22,17 +20,5 @@ class ParallelEdge(Kind):
     dof: ClassVar[int] = 2
     summary: ClassVar[str] = "rotation vector between edge(a, b) and edge(c, d), rad (§4.3)"
 
-    def evaluate(
-        self,
-        normals: FloatArray,
-        offsets: FloatArray,
-        cameras: Sequence[PinholeCamera],
-        idx: IntArray,
-        data: BlockData,
-    ) -> Evaluated:
-        """r (M, 3) rad, J (M, 3, 4, 4)."""
-        r, J = kernels.parallel_edge_kernel(normals, idx)
-        return r, J, None
 
-
-PARALLEL_EDGE = ParallelEdge()
+PARALLEL_EDGE = ParallelEdge(kernels.parallel_edge_kernel)

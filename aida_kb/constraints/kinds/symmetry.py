@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import ClassVar
 
 from aida_kb.constraints import kernels
-from aida_kb.constraints.kinds.base import BlockData, Evaluated, FloatArray, IntArray, Kind
-from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.constraints.kinds.base import NormalsKind
 
 
-class Symmetry(Kind):
+class Symmetry(NormalsKind):
     """Two pairs of planes meeting at the same angle (paper eq. 3)."""
 
     name: ClassVar[str] = "symmetry"
@@ -19,17 +17,5 @@ class Symmetry(Kind):
     dof: ClassVar[int] = 1
     summary: ClassVar[str] = "angle(a, b) - angle(c, d), rad (eq. 3)"
 
-    def evaluate(
-        self,
-        normals: FloatArray,
-        offsets: FloatArray,
-        cameras: Sequence[PinholeCamera],
-        idx: IntArray,
-        data: BlockData,
-    ) -> Evaluated:
-        """r (M, 1) rad, J (M, 1, 4, 4)."""
-        r, J = kernels.symmetry_kernel(normals, idx)
-        return r, J, None
 
-
-SYMMETRY = Symmetry()
+SYMMETRY = Symmetry(kernels.symmetry_kernel)
