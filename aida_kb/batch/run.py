@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from aida_kb.batch.cityseq import CITYSEQ_FILE, write_city_sequence
 from aida_kb.batch.outcome import SceneOutcome, Summary, SummaryRow, write_summary
 from aida_kb.batch.scenes import SceneRef, check_output_root
 from aida_kb.batch.work import SCENES_DIR, clear_work, finished_outcome, run_scene
@@ -33,6 +34,8 @@ if TYPE_CHECKING:
     from aida_kb.kb.model import KnowledgeBase
 
 LOCK_FILE = ".batch.lock"
+
+log = logging.getLogger(__name__)
 
 # Scenes queued per worker thread beyond the one it runs: enough that a worker never waits
 # for the client between two scenes, few enough that 100,000 scenes are not 100,000 tasks
@@ -195,7 +198,8 @@ def run_batch(
 
     Finished scenes of an earlier run are kept (``outcome.json``), failed ones too unless
     `options.retry_failed`. The summary (``summary.json``, ``summary.csv``) lists every scene
-    of `scenes`, also when the run is interrupted (the rest then ``pending``).
+    of `scenes`, also when the run is interrupted (the rest then ``pending``); ``city.jsonl``
+    holds every accepted object so far as a CityJSONSeq (`aida_kb.batch.cityseq`).
     """
     options = options or BatchOptions()
     options = replace(options, goal=check_goal(kb, options.goal))  # None: the only scene concept
@@ -230,6 +234,9 @@ def run_batch(
                 kb_path, options.goal or "", scenes, outcomes, resumed, workers, start
             )
             write_summary(root, summary)
+            _, left_out = write_city_sequence(root, summary.rows)
+            for problem in left_out:
+                log.warning("%s: %s left out", problem, CITYSEQ_FILE)
         return summary
 
 

@@ -11,6 +11,7 @@ writes into OUT:
                        KEY is the scene's path below the folder common to all scenes
   summary.csv          one row per scene: status, objects, verdicts, times, error, model
   summary.json         the same with every outcome in full (docs/formats.md)
+  city.jsonl           every accepted building as a CityJSONSeq (one feature per scene)
 
 A scene is a folder with scene.yaml. Each scene's folder appears whole when the scene ends,
 so a run that is stopped loses only the scenes in flight: run the same command again to
@@ -94,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
         TimeRemainingColumn,
     )
 
+    from aida_kb.batch.cityseq import CITYSEQ_FILE
     from aida_kb.batch.outcome import SUMMARY_CSV, SceneOutcome
     from aida_kb.batch.run import BatchOptions, run_batch
     from aida_kb.batch.scenes import find_scenes, read_scene_list, scene_refs
@@ -156,5 +158,5 @@ def run(args: argparse.Namespace) -> int:
         f"({summary.resumed} finished by an earlier run); "
         f"{summary.workers} workers, {summary.seconds:.1f} s"
     )
-    print(f"wrote {Path(args.output) / SUMMARY_CSV}")
+    print(f"wrote {Path(args.output) / SUMMARY_CSV} and {Path(args.output) / CITYSEQ_FILE}")
     return 1 if summary.errors else 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import fcntl
+import json
 import os
 import shutil
 import signal
@@ -12,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from aida_kb.batch.outcome import SceneOutcome, read_outcome, read_summary
@@ -106,6 +108,36 @@ def test_a_corrupt_scene_is_recorded_and_the_others_complete(
     )
     assert table["bad-index"]["error"] == rows["bad-index"].error
     assert not (out / ".work").exists()
+    _check_city_sequence(out, [rows[n] for n in rows if rows[n].status == "accepted"])
+
+
+def _check_city_sequence(out: Path, accepted: list[SceneOutcome]) -> None:
+    """city.jsonl: a header, then per accepted scene its model.city.json, in metres exactly."""
+    lines = [json.loads(line) for line in (out / "city.jsonl").read_text().splitlines()]
+    header, features = lines[0], lines[1:]
+    assert header["type"] == "CityJSON"
+    assert (header["CityObjects"], header["vertices"]) == ({}, [])
+    scale = np.asarray(header["transform"]["scale"])
+    translate = np.asarray(header["transform"]["translate"])
+    assert [f["id"] for f in features] == [f"{o.scene}/building" for o in accepted]
+    assert accepted, "no scene accepted: the sequence would not be checked"
+    for outcome, feature in zip(accepted, features, strict=True):
+        assert feature["type"] == "CityJSONFeature"
+        scene = json.loads((out / "scenes" / outcome.scene / "model.city.json").read_text())
+        expected = np.asarray(scene["vertices"]) * scene["transform"]["scale"]
+        expected += scene["transform"]["translate"]
+        got = np.asarray(feature["vertices"]) * scale + translate
+        np.testing.assert_allclose(got, expected, atol=1e-9)
+        building = feature["CityObjects"][feature["id"]]
+        assert building["type"] == "Building"
+        assert building["attributes"]["aida-kb:scene"] == outcome.scene
+        assert building["attributes"]["aida-kb:verdict"] == outcome.verdicts[0].verdict
+        for name, obj in feature["CityObjects"].items():
+            assert name.startswith(f"{outcome.scene}/")
+            for ref in obj.get("children", []) + obj.get("parents", []):
+                assert ref in feature["CityObjects"]
+            rings = [r for shell in obj["geometry"][0]["boundaries"] for f in shell for r in f]
+            assert max(max(r) for r in rings) < len(feature["vertices"])
 
 
 @pytest.mark.slow
