@@ -14,6 +14,7 @@ geometry members `Frame`, `Orient`, `Unseen`, `Attach`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import Literal, TypeAlias
 
 from aida_kb.diagnostics.core import Span
@@ -213,6 +214,13 @@ class Attribute:
     measure: AttributeMeasure | None = None
 
 
+class AdjacencyKind(StrEnum):
+    """How ``adjacent`` lists its parts: a closed ``ring`` or explicit ``pairs``."""
+
+    RING = "ring"
+    PAIRS = "pairs"
+
+
 @dataclass(frozen=True, slots=True)
 class Adjacency:
     """``adjacent ring(a, b, c, d)`` or ``adjacent pairs((a, b), (c, d))``.
@@ -220,14 +228,14 @@ class Adjacency:
     ``groups`` holds the ring's parts as one group, or each pair as a group of two.
     """
 
-    kind: Literal["ring", "pairs"]
+    kind: AdjacencyKind
     groups: tuple[tuple[Path, ...], ...]
     span: Span
 
     @property
     def edges(self) -> tuple[tuple[Path, Path], ...]:
         """The adjacent pairs: consecutive parts of the ring (closing it), or the pairs."""
-        if self.kind == "pairs":
+        if self.kind is AdjacencyKind.PAIRS:
             return tuple((g[0], g[1]) for g in self.groups)
         ring = self.groups[0]
         if len(ring) < 2:
@@ -274,12 +282,20 @@ class Orient:
     span: Span
 
 
+class PlacementKind(StrEnum):
+    """How an unseen part is placed: ``mirror`` about an edge, ``at`` an ``offset``, ``reach``."""
+
+    MIRROR = "mirror"
+    OFFSET = "offset"
+    REACH = "reach"
+
+
 @dataclass(frozen=True, slots=True)
 class Placement:
     """How an unseen part is placed: ``mirror P about edge(a, b)``, ``at V from P``,
     ``reach edge(a, b)``. ``ref`` is P (mirror, at), ``value`` V (at), ``line`` the edge."""
 
-    kind: Literal["mirror", "offset", "reach"]
+    kind: PlacementKind
     ref: Path | None
     value: Expr | None
     line: Call | None

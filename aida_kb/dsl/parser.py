@@ -363,13 +363,13 @@ class _Builder(Transformer[Token, Any]):
         return ast.Unseen(paths, ch[-1], self.span(ch))
 
     def mirror(self, ch: list[Any]) -> ast.Placement:
-        return ast.Placement("mirror", ch[1], None, ch[3], self.span(ch))
+        return ast.Placement(ast.PlacementKind.MIRROR, ch[1], None, ch[3], self.span(ch))
 
     def offset(self, ch: list[Any]) -> ast.Placement:
-        return ast.Placement("offset", ch[3], ch[1], None, self.span(ch))
+        return ast.Placement(ast.PlacementKind.OFFSET, ch[3], ch[1], None, self.span(ch))
 
     def reach(self, ch: list[Any]) -> ast.Placement:
-        return ast.Placement("reach", None, None, ch[1], self.span(ch))
+        return ast.Placement(ast.PlacementKind.REACH, None, None, ch[1], self.span(ch))
 
     def attach(self, ch: list[Any]) -> ast.Attach:
         paths = [c for c in ch if isinstance(c, ast.Path)]
@@ -385,11 +385,11 @@ class _Builder(Transformer[Token, Any]):
 
     def adjacent_ring(self, ch: list[Any]) -> ast.Adjacency:
         paths = tuple(c for c in ch if isinstance(c, ast.Path))
-        return ast.Adjacency("ring", (paths,), self.span(ch))
+        return ast.Adjacency(ast.AdjacencyKind.RING, (paths,), self.span(ch))
 
     def adjacent_pairs(self, ch: list[Any]) -> ast.Adjacency:
         pairs = tuple(c for c in ch if isinstance(c, tuple))
-        return ast.Adjacency("pairs", pairs, self.span(ch))
+        return ast.Adjacency(ast.AdjacencyKind.PAIRS, pairs, self.span(ch))
 
     def pair(self, ch: list[Any]) -> tuple[ast.Path, ast.Path]:
         return (ch[1], ch[3])

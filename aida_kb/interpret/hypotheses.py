@@ -26,6 +26,7 @@ import numpy.typing as npt
 
 from aida_kb.errors import InterpretError
 from aida_kb.interpret.observe import CameraView, RegionView, slope_deg
+from aida_kb.kb.model import PlacementKind
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -206,15 +207,25 @@ def placed_offsets(
     for p, paths in placements:
         ref = paths.get(p.ref) if p.ref is not None else None
         line = tuple(paths[x] for x in p.line) if p.line is not None else None
-        if p.kind == "mirror" and ref is not None and line is not None and ref in centroids:
+        if (
+            p.kind is PlacementKind.MIRROR
+            and ref is not None
+            and line is not None
+            and ref in centroids
+        ):
             found = _mirrored(ref, line, frame, planes, centroids, points_of, directions)
             if found is not None:
                 out.append(float(normal @ found))
-        elif p.kind == "offset" and ref is not None and ref in planes and p.value is not None:
+        elif (
+            p.kind is PlacementKind.OFFSET
+            and ref is not None
+            and ref in planes
+            and p.value is not None
+        ):
             n_ref, d_ref = planes[ref]
             on_ref = centroids.get(ref, n_ref * d_ref)
             out.append(float(normal @ (on_ref - p.value * n_ref)))
-        elif p.kind == "reach" and line is not None:
+        elif p.kind is PlacementKind.REACH and line is not None:
             point = _reached(line, frame, planes, tilted_points)
             if point is not None:
                 out.append(float(normal @ point))

@@ -39,7 +39,7 @@ import numpy.typing as npt
 from aida_kb.interpret.result import INSERTED, Instance, Interpretation
 from aida_kb.io.evidence import Evidence, ViewEvidence
 from aida_kb.io.model import ReconstructedModel
-from aida_kb.kb.model import AttributeModel, KnowledgeBase
+from aida_kb.kb.model import AttributeModel, KnowledgeBase, MeasureKind
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -311,7 +311,7 @@ def _forward(
 
 
 def _measure(
-    kind: str,
+    kind: MeasureKind,
     args: list[str],
     model: ReconstructedModel,
     up: FloatArray,
@@ -321,23 +321,23 @@ def _measure(
     sets = [_parts_under(model, a) for a in args]
     if any(not s for s in sets):
         return None
-    if kind in ("height", "width", "depth"):
-        if kind == "height":
+    if kind in (MeasureKind.HEIGHT, MeasureKind.WIDTH, MeasureKind.DEPTH):
+        if kind is MeasureKind.HEIGHT:
             axis = up
         elif forward is None:
             return None
         else:
-            axis = np.cross(up, forward) if kind == "width" else forward
+            axis = np.cross(up, forward) if kind is MeasureKind.WIDTH else forward
         pts = np.vstack([poly for _, _, poly in sets[0]]) @ axis
         return float(pts.max() - pts.min())
     if any(len(s) != 1 for s in sets):
         return None  # slope, angle and distance take one plane each
-    if kind == "slope":
+    if kind is MeasureKind.SLOPE:
         return math.acos(float(np.clip(sets[0][0][0] @ up, -1.0, 1.0)))
     (n1, d1, _), (n2, _, poly2) = sets[0][0], sets[1][0]
-    if kind == "angle":
+    if kind is MeasureKind.ANGLE:
         return math.pi - math.acos(float(np.clip(n1 @ n2, -1.0, 1.0)))
-    if kind == "distance":
+    if kind is MeasureKind.DISTANCE:
         return abs(float(poly2.mean(axis=0) @ n1) - d1)
     return None
 

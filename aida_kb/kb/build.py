@@ -36,7 +36,7 @@ from aida_kb.kb.model import (
     ValueUnit,
 )
 from aida_kb.kb.relations import UNIT_KIND, Analyzer, Prim, quantity_si
-from aida_kb.kb.resolve import VALUE_TYPES, CInfo, PathRes, Table
+from aida_kb.kb.resolve import VALUE_TYPES, CInfo, PathRes, SlotKind, Table
 from aida_kb.kb.shape import attribute_measure, build_shape
 
 __all__ = ["build"]
@@ -129,7 +129,7 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
     con_ofs: dict[str, ConOfModel] = {}
     attributes: dict[str, AttributeModel] = {}
     for key, s in info.slots.items():
-        if s.kind == "part":
+        if s.kind is SlotKind.PART:
             parts[key] = _make(
                 PartModel,
                 role=key,
@@ -140,7 +140,7 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
                 declared_in=s.owner,
                 span=s.node.span,
             )
-        elif s.kind == "con-of":
+        elif s.kind is SlotKind.CON_OF:
             con_ofs[key] = _make(
                 ConOfModel,
                 role=key,

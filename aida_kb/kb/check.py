@@ -16,7 +16,16 @@ from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic
 from aida_kb.dsl import ast
 from aida_kb.kb.relations import UNIT_KIND, Analyzer, quantity_si
-from aida_kb.kb.resolve import VALUE_TYPES, CInfo, PathRes, Slot, Table, diag, did_you_mean
+from aida_kb.kb.resolve import (
+    VALUE_TYPES,
+    CInfo,
+    PathRes,
+    Slot,
+    SlotKind,
+    Table,
+    diag,
+    did_you_mean,
+)
 from aida_kb.kb.shape import check_shape
 
 __all__ = ["run_checks"]
@@ -194,7 +203,7 @@ def check_adjacency(table: Table, info: CInfo) -> Iterator[Diagnostic]:
                 if isinstance(res, Diagnostic):
                     yield res
                 elif isinstance(res, PathRes) and (
-                    res.slot is None or res.slot.kind == "attribute"
+                    res.slot is None or res.slot.kind is SlotKind.ATTRIBUTE
                 ):
                     yield diag(
                         codes.ARGUMENT_TYPE,
@@ -202,7 +211,7 @@ def check_adjacency(table: Table, info: CInfo) -> Iterator[Diagnostic]:
                         path.span,
                     )
                 elif (
-                    m.kind == "ring"
+                    m.kind is ast.AdjacencyKind.RING
                     and isinstance(res, PathRes)
                     and res.slot is not None
                     and res.slot.max != 1
@@ -229,7 +238,7 @@ def _degenerate_groups(m: ast.Adjacency) -> Iterator[Diagnostic]:
                 repeated = True
                 what = (
                     "paired with itself: a plane is not adjacent to itself"
-                    if m.kind == "pairs"
+                    if m.kind is ast.AdjacencyKind.PAIRS
                     else "repeated in the ring: a ring passes each plane once"
                 )
                 yield diag(
@@ -237,11 +246,11 @@ def _degenerate_groups(m: ast.Adjacency) -> Iterator[Diagnostic]:
                     f"'{path.dotted}' is {what}",
                     path.span,
                     "remove the repetition"
-                    if m.kind == "ring"
+                    if m.kind is ast.AdjacencyKind.RING
                     else f"remove the pair ({path.dotted}, {path.dotted})",
                 )
             seen.add(path.dotted)
-        if m.kind == "ring" and not repeated and len(group) < 3:
+        if m.kind is ast.AdjacencyKind.RING and not repeated and len(group) < 3:
             names = ", ".join(p.dotted for p in group)
             if len(group) == 1:
                 problem, hint = "declares no edge", "name at least three parts in a ring"
@@ -310,7 +319,7 @@ def _part_slots(table: Table, cname: str) -> list[Slot]:
     return [
         s
         for s in table.concepts[cname].slots.values()
-        if s.kind == "part" and s.concept in table.concepts
+        if s.kind is SlotKind.PART and s.concept in table.concepts
     ]
 
 
@@ -410,7 +419,7 @@ def check_instance(table: Table, inst: ast.Instance) -> Iterator[Diagnostic]:
             continue
         yield from _check_binding(table, slot, b)
     for key, slot in info.slots.items():
-        if slot.kind != "attribute" and slot.min >= 1 and key not in bound:
+        if slot.kind is not SlotKind.ATTRIBUTE and slot.min >= 1 and key not in bound:
             yield diag(
                 codes.MISSING_ROLE,
                 f"instance {inst.name.text} leaves the obligatory role '{key}' "
@@ -423,7 +432,7 @@ def check_instance(table: Table, inst: ast.Instance) -> Iterator[Diagnostic]:
 
 def _check_binding(table: Table, slot: Slot, b: ast.Binding) -> Iterator[Diagnostic]:
     value = b.value
-    if slot.kind == "attribute":
+    if slot.kind is SlotKind.ATTRIBUTE:
         node = slot.node
         assert isinstance(node, ast.Attribute)
         if node.type.text not in VALUE_TYPES:
@@ -531,7 +540,7 @@ def check_verifiable(table: Table) -> Iterator[Diagnostic]:
     users: dict[str, list[str]] = {}
     for c, info in table.concepts.items():
         for s in info.slots.values():
-            if s.concept is not None and s.kind != "attribute":
+            if s.concept is not None and s.kind is not SlotKind.ATTRIBUTE:
                 users.setdefault(s.concept, []).append(c)
     ok: set[str] = set()
     todo = [

@@ -12,6 +12,8 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict
 
 from aida_kb.diagnostics.core import Span
+from aida_kb.dsl.ast import PlacementKind
+from aida_kb.kb.measures import MeasureKind
 
 __all__ = [
     "AdjacencyModel",
@@ -25,10 +27,12 @@ __all__ = [
     "FrameModel",
     "InstanceModel",
     "KnowledgeBase",
+    "MeasureKind",
     "MeasureModel",
     "OrientationModel",
     "ParamModel",
     "PartModel",
+    "PlacementKind",
     "PlacementModel",
     "TemplateModel",
 ]
@@ -44,10 +48,7 @@ ValueType = Literal["angle", "length", "number"]
 ValueUnit = Literal["rad", "m", ""]
 #: The directions of a composite's frame (docs/language.md §3.9).
 Direction = Literal["forward", "backward", "leftward", "rightward", "upward", "downward"]
-#: Geometric measures an attribute can stand for: slope of a plane against the ground, the
-#: angle at which two planes meet, extents in the frame, distance between two planes.
-MeasureKind = Literal["slope", "angle", "height", "width", "depth", "distance"]
-PlacementKind = Literal["mirror", "offset", "reach"]
+
 
 #: Conditions on a constraint or adjacency through an abstract role: (role path prefix, the
 #: concepts its filler must be (a specialisation of) one of). Empty: unconditional.

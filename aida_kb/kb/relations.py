@@ -12,22 +12,54 @@ per value, conditional on the filler's concept (`Prim.requires`).
 from __future__ import annotations
 
 import math
+from enum import StrEnum
 
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
 from aida_kb.dsl import ast
-from aida_kb.kb.resolve import VALUE_TYPES, PathRes, Requires, Table, diag, did_you_mean
+from aida_kb.kb.resolve import (
+    VALUE_TYPES,
+    PathRes,
+    Requires,
+    SlotKind,
+    Table,
+    diag,
+    did_you_mean,
+)
 
-__all__ = ["PRIMITIVES", "SCALE", "UNIT_KIND", "Analyzer", "Prim", "quantity_si"]
+__all__ = [
+    "PRIMITIVES",
+    "SCALE",
+    "UNIT_KIND",
+    "Analyzer",
+    "Dimension",
+    "Prim",
+    "quantity_si",
+]
 
-#: Unit -> its kind; kind "image" is pixels (measurement tolerances only).
-UNIT_KIND: dict[str, str] = {
-    "deg": "angle",
-    "rad": "angle",
-    "m": "length",
-    "cm": "length",
-    "mm": "length",
-    "px": "image",
+
+class Dimension(StrEnum):
+    """What a value measures: an angle, a length, an image distance (px) or a plain number."""
+
+    ANGLE = "angle"
+    LENGTH = "length"
+    IMAGE = "image"
+    NUMBER = "number"
+
+    @property
+    def words(self) -> str:
+        """The dimension in a message: "an angle", "a length", ..."""
+        return _KIND_WORDS[self]
+
+
+#: Unit -> its dimension; IMAGE is pixels (measurement tolerances only).
+UNIT_KIND: dict[str, Dimension] = {
+    "deg": Dimension.ANGLE,
+    "rad": Dimension.ANGLE,
+    "m": Dimension.LENGTH,
+    "cm": Dimension.LENGTH,
+    "mm": Dimension.LENGTH,
+    "px": Dimension.IMAGE,
 }
 #: Unit -> factor to its SI unit (rad, m; px stays px).
 SCALE: dict[str, float] = {
@@ -38,14 +70,19 @@ SCALE: dict[str, float] = {
     "mm": 0.001,
     "px": 1.0,
 }
-_SI = {"angle": "rad", "length": "m", "image": "px", "number": ""}
+_SI = {Dimension.ANGLE: "rad", Dimension.LENGTH: "m", Dimension.IMAGE: "px", Dimension.NUMBER: ""}
 _KIND_WORDS = {
-    "angle": "an angle",
-    "length": "a length",
-    "image": "an image distance (px)",
-    "number": "a number",
+    Dimension.ANGLE: "an angle",
+    Dimension.LENGTH: "a length",
+    Dimension.IMAGE: "an image distance (px)",
+    Dimension.NUMBER: "a number",
 }
-_EXAMPLE = {"angle": "90 deg", "length": "2 m", "image": "1 px", "number": "2"}
+_EXAMPLE = {
+    Dimension.ANGLE: "90 deg",
+    Dimension.LENGTH: "2 m",
+    Dimension.IMAGE: "1 px",
+    Dimension.NUMBER: "2",
+}
 PRIMITIVES = ("angle", "parallel", "edge", "position")
 _MEASUREMENTS = ("position", "edge")
 #: The smallest tolerance (SI: rad, m, px). Below it the weight 1/sigma² leaves float64's
@@ -74,7 +111,7 @@ class Val:
 
     __slots__ = ("alts", "kind")
 
-    def __init__(self, alts: tuple[tuple[float, Requires], ...], kind: str) -> None:
+    def __init__(self, alts: tuple[tuple[float, Requires], ...], kind: Dimension) -> None:
         self.alts = alts
         self.kind = kind
 
@@ -124,7 +161,7 @@ class Prim:
 
 
 #: A rejection threshold: (value, whether it is a multiple of sigma, its kind, where written).
-_Threshold = tuple[float, bool, str, Span]
+_Threshold = tuple[float, bool, Dimension, Span]
 
 
 class _Quals:
@@ -210,7 +247,7 @@ class Analyzer:
         for p in template.params:
             ptype = p.type.text
             if ptype in VALUE_TYPES:
-                env[p.name.text] = Val(((0.0, ()),), ptype)
+                env[p.name.text] = Val(((0.0, ()),), Dimension(ptype))
             else:
                 known = ptype if ptype in self.table.concepts else None
                 env[p.name.text] = Ref(p.name.text, known, ())
@@ -257,7 +294,7 @@ class Analyzer:
                 if a is None or b is None:
                     return None, [], None
                 return "symmetry", a + b, None
-            val = self.value(rhs, "angle", env)
+            val = self.value(rhs, Dimension.ANGLE, env)
             if a is None or val is None:
                 return None, [], None
             return "angle", a, val
@@ -374,7 +411,7 @@ class Analyzer:
         if isinstance(res, Diagnostic):
             self.report(res)
             return None
-        if res.slot is not None and res.slot.kind == "attribute":
+        if res.slot is not None and res.slot.kind is SlotKind.ATTRIBUTE:
             self.report(
                 diag(
                     codes.ARGUMENT_TYPE,
@@ -390,7 +427,7 @@ class Analyzer:
             f"{base.dotted}.{res.dotted}", res.concept, _merge_requires(base.requires, shifted)
         )
 
-    def value(self, expr: ast.Expr, kind: str, env: dict[str, Arg]) -> Val | None:
+    def value(self, expr: ast.Expr, kind: Dimension, env: dict[str, Arg]) -> Val | None:
         """A value of ``kind`` (angle, length, number, image), in SI."""
         if isinstance(expr, ast.Quantity):
             k = UNIT_KIND.get(expr.unit)
@@ -409,7 +446,7 @@ class Analyzer:
                 return None
             return Val(((quantity_si(expr), ()),), kind)
         if isinstance(expr, ast.Number):
-            if kind != "number":
+            if kind is not Dimension.NUMBER:
                 self.report(
                     diag(
                         codes.UNIT_MISMATCH,
@@ -452,7 +489,7 @@ class Analyzer:
         )
         return None
 
-    def attribute_value(self, expr: ast.Path, kind: str) -> Val | None:
+    def attribute_value(self, expr: ast.Path, kind: Dimension) -> Val | None:
         """A value read from an attribute (``meeting``, ``wings.meeting``)."""
         if self.owner is None:
             assert self.template is not None
@@ -472,7 +509,7 @@ class Analyzer:
             self.report(res)
             return None
         slot = res.slot
-        if slot is None or slot.kind != "attribute":
+        if slot is None or slot.kind is not SlotKind.ATTRIBUTE:
             self.report(
                 diag(
                     codes.ARGUMENT_TYPE,
@@ -502,7 +539,7 @@ class Analyzer:
         return self._attribute_alternatives(expr, holder, prefix or "self", kind, res.requires)
 
     def _attribute_alternatives(
-        self, expr: ast.Path, holder: str, prefix: str, kind: str, requires: Requires
+        self, expr: ast.Path, holder: str, prefix: str, kind: Dimension, requires: Requires
     ) -> Val | None:
         table = self.table
         attr = expr.parts[-1].text
@@ -545,7 +582,7 @@ class Analyzer:
         self,
         rel: ast.Relation,
         env: dict[str, Arg],
-        tol_kind: str,
+        tol_kind: Dimension,
         outer: _Outer = (),
         *,
         combined: bool = True,
@@ -559,7 +596,7 @@ class Analyzer:
         if rel.tolerance is not None:
             tol = self.tolerance(rel.tolerance, tol_kind, env)
         if rel.weight is not None:
-            w = self.value(rel.weight, "number", env)
+            w = self.value(rel.weight, Dimension.NUMBER, env)
             if w is not None:
                 weight = w.alts[0][0]
                 if weight <= 0:
@@ -599,9 +636,13 @@ class Analyzer:
             reject = None
         return _Quals(tol, weight, reject)
 
-    def tolerance(self, expr: ast.Expr, kind: str, env: dict[str, Arg]) -> Val | None:
-        if kind == "image" and isinstance(expr, ast.Quantity) and expr.unit in ("m", "cm", "mm"):
-            kind = "length"  # position(p) +- 2 cm: a distance along the normal
+    def tolerance(self, expr: ast.Expr, kind: Dimension, env: dict[str, Arg]) -> Val | None:
+        if (
+            kind is Dimension.IMAGE
+            and isinstance(expr, ast.Quantity)
+            and expr.unit in ("m", "cm", "mm")
+        ):
+            kind = Dimension.LENGTH  # position(p) +- 2 cm: a distance along the normal
         v = self.value(expr, kind, env)
         if (
             v is not None
@@ -623,14 +664,18 @@ class Analyzer:
             return None
         return v
 
-    def threshold(self, expr: ast.Expr, kind: str, env: dict[str, Arg]) -> _Threshold | None:
+    def threshold(self, expr: ast.Expr, kind: Dimension, env: dict[str, Arg]) -> _Threshold | None:
         if isinstance(expr, ast.Number):
             if expr.value <= 0:
                 self.report(diag(codes.BAD_QUALIFIER, "a threshold must be positive", expr.span))
                 return None
             return (expr.value, True, kind, expr.span)
-        if kind == "image" and isinstance(expr, ast.Quantity) and expr.unit in ("m", "cm", "mm"):
-            kind = "length"
+        if (
+            kind is Dimension.IMAGE
+            and isinstance(expr, ast.Quantity)
+            and expr.unit in ("m", "cm", "mm")
+        ):
+            kind = Dimension.LENGTH
         v = self.value(expr, kind, env)
         if v is None:
             return None
@@ -668,7 +713,7 @@ class Analyzer:
                 arg = call.args[i]
                 v: Arg | None
                 if ptype in VALUE_TYPES:
-                    v = self.value(arg, ptype, env)
+                    v = self.value(arg, Dimension(ptype), env)
                 else:
                     r = self.ref(arg, env)
                     v = r if r is None or self.fits(r, ptype, arg.span, p, template) else None
@@ -839,19 +884,22 @@ def _is_call(expr: ast.Expr, name: str) -> bool:
     return isinstance(expr, ast.Call) and expr.func.text == name
 
 
-def _tolerance_kind(kind: str) -> str:
-    return "image" if kind in _MEASUREMENTS else "angle"
+def _tolerance_kind(kind: str) -> Dimension:
+    return Dimension.IMAGE if kind in _MEASUREMENTS else Dimension.ANGLE
 
 
-def _constant(expr: ast.Expr | None, kind: str) -> float | None:
+def _constant(expr: ast.Expr | None, kind: Dimension) -> float | None:
     """A constant of ``kind`` in SI, or None (no value, or not a constant of that kind)."""
     if isinstance(expr, ast.Quantity) and UNIT_KIND.get(expr.unit) == kind:
         return quantity_si(expr)
-    if isinstance(expr, ast.Number) and kind == "number":
+    if isinstance(expr, ast.Number) and kind is Dimension.NUMBER:
         return expr.value
     return None
 
 
 def _default(expr: ast.Expr, ptype: str) -> Val | None:
-    v = _constant(expr, ptype)
-    return None if v is None else Val(((v, ()),), ptype)
+    if ptype not in VALUE_TYPES:
+        return None  # a role parameter (its type a concept) has no value default
+    kind = Dimension(ptype)
+    v = _constant(expr, kind)
+    return None if v is None else Val(((v, ()),), kind)

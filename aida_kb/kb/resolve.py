@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Iterable, Iterator
+from enum import StrEnum
 from typing import Any
 
 from aida_kb.diagnostics import codes
@@ -26,6 +27,7 @@ __all__ = [
     "Requires",
     "Rule",
     "Slot",
+    "SlotKind",
     "Table",
     "diag",
     "did_you_mean",
@@ -37,6 +39,21 @@ VALUE_TYPES: dict[str, str] = {"angle": "rad", "length": "m", "number": ""}
 
 #: A conditional path's requirements: (role path prefix, the concepts its filler must be one of).
 Requires = tuple[tuple[str, tuple[str, ...]], ...]
+
+
+class SlotKind(StrEnum):
+    """What a concept's member is: a part role, a con-of role or an attribute."""
+
+    PART = "part"
+    CON_OF = "con-of"
+    ATTRIBUTE = "attribute"
+
+    @property
+    def words(self) -> str:
+        """The kind in a message: "a part", "a con-of role", "an attribute"."""
+        return {"part": "a part", "con-of": "a con-of role", "attribute": "an attribute"}[
+            self.value
+        ]
 
 
 def diag(
@@ -63,7 +80,7 @@ class Slot:
 
     def __init__(
         self,
-        kind: str,
+        kind: SlotKind,
         name: ast.Name,
         node: ast.Part | ast.ConOf | ast.Attribute,
         owner: str,
@@ -236,7 +253,7 @@ class Table:
                 info = self.concepts.get(owner)
                 own = info.slots.get(key[1]) if info is not None else None
                 if own is not None:
-                    target = None if own.kind == "attribute" else own.concept
+                    target = None if own.kind is SlotKind.ATTRIBUTE else own.concept
                     hit = PathRes(key[1], own, target, ())
             if hit is not None:
                 self._simple[key] = hit
@@ -260,7 +277,7 @@ class Table:
         for i, name in enumerate(parts):
             if cur is None or cur not in self.concepts:
                 return None
-            if slot is not None and slot.kind == "attribute":
+            if slot is not None and slot.kind is SlotKind.ATTRIBUTE:
                 return diag(
                     codes.UNKNOWN_ROLE,
                     f"'{parts[i - 1].text}' is an attribute: it has no member '{name.text}'",
@@ -276,7 +293,7 @@ class Table:
             slot = found
             cur = found.concept
         dotted = ".".join(p.text for p in parts)
-        target = None if slot is None or slot.kind == "attribute" else slot.concept
+        target = None if slot is None or slot.kind is SlotKind.ATTRIBUTE else slot.concept
         return PathRes(dotted, slot, target, tuple(requires))
 
     def _in_specialisations(self, concept: str, member: str) -> tuple[Slot | None, tuple[str, ...]]:
@@ -459,13 +476,13 @@ def _cycle_diag(table: Table, cyc: list[str]) -> Diagnostic:
 
 def _slot_of(member: ast.Part | ast.ConOf | ast.Attribute, name: ast.Name, owner: str) -> Slot:
     if isinstance(member, ast.Attribute):
-        return Slot("attribute", name, member, owner, None, 1, 1, False)
+        return Slot(SlotKind.ATTRIBUTE, name, member, owner, None, 1, 1, False)
     card = member.cardinality
     low, high = (card.min, card.max) if card is not None else (1, 1)
     optional = isinstance(member, ast.Part) and member.optional
     if optional:
         low = 0
-    kind = "part" if isinstance(member, ast.Part) else "con-of"
+    kind = SlotKind.PART if isinstance(member, ast.Part) else SlotKind.CON_OF
     return Slot(kind, name, member, owner, member.concept.text, low, high, optional)
 
 
@@ -589,11 +606,8 @@ def _bases(table: Table, info: CInfo, key: str) -> list[Slot]:
 
 def _override_problem(table: Table, base: Slot, new: Slot) -> str | None:
     if base.kind != new.kind:
-        return (
-            f"'{new.name.text}' is {_kind_words(new.kind)} here but "
-            f"{_kind_words(base.kind)} in {base.owner}"
-        )
-    if new.kind == "attribute":
+        return f"'{new.name.text}' is {new.kind.words} here but {base.kind.words} in {base.owner}"
+    if new.kind is SlotKind.ATTRIBUTE:
         a, b = base.node, new.node
         assert isinstance(a, ast.Attribute)
         assert isinstance(b, ast.Attribute)
@@ -615,10 +629,6 @@ def _override_problem(table: Table, base: Slot, new: Slot) -> str | None:
             f"specialisation of {base.concept} (the concept in {base.owner})"
         )
     return None
-
-
-def _kind_words(kind: str) -> str:
-    return {"part": "a part", "con-of": "a con-of role", "attribute": "an attribute"}[kind]
 
 
 def _clash_diags(cname: str, info: CInfo, clashes: dict[str, list[Slot]]) -> Iterator[Diagnostic]:

@@ -16,19 +16,20 @@ from typing import Any
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic
 from aida_kb.dsl import ast
-from aida_kb.kb.relations import UNIT_KIND, Analyzer, quantity_si
-from aida_kb.kb.resolve import CInfo, PathRes, Requires, Table, diag, did_you_mean
+from aida_kb.kb.measures import MeasureKind
+from aida_kb.kb.relations import UNIT_KIND, Analyzer, Dimension, quantity_si
+from aida_kb.kb.resolve import CInfo, PathRes, Requires, SlotKind, Table, diag, did_you_mean
 
 __all__ = ["HORIZONTAL", "MEASURES", "attribute_measure", "build_shape", "check_shape"]
 
 #: measure name -> (number of role arguments, the attribute type it gives)
-MEASURES: dict[str, tuple[int, str]] = {
-    "slope": (1, "angle"),
-    "angle": (2, "angle"),
-    "height": (1, "length"),
-    "width": (1, "length"),
-    "depth": (1, "length"),
-    "distance": (2, "length"),
+MEASURES: dict[str, tuple[int, Dimension]] = {
+    "slope": (1, Dimension.ANGLE),
+    "angle": (2, Dimension.ANGLE),
+    "height": (1, Dimension.LENGTH),
+    "width": (1, Dimension.LENGTH),
+    "depth": (1, Dimension.LENGTH),
+    "distance": (2, Dimension.LENGTH),
 }
 #: the directions that face a side (a tilt applies to them only)
 HORIZONTAL = ("forward", "backward", "leftward", "rightward")
@@ -41,7 +42,7 @@ def is_planar(table: Table, concept: str | None) -> bool:
     if concept is None or concept not in table.concepts:
         return False
     return not any(
-        s.kind == "part"
+        s.kind is SlotKind.PART
         for c in (concept, *table.descendants(concept))
         for s in table.concepts[c].slots.values()
     )
@@ -58,8 +59,8 @@ def _part(
         return None, res
     if res.slot is None and not allow_self:
         return None, diag(codes.ARGUMENT_TYPE, "'self' is no part here", path.span)
-    if res.slot is not None and res.slot.kind != "part":
-        what = "an attribute" if res.slot.kind == "attribute" else "a con-of role"
+    if res.slot is not None and res.slot.kind is not SlotKind.PART:
+        what = "an attribute" if res.slot.kind is SlotKind.ATTRIBUTE else "a con-of role"
         return None, diag(
             codes.ARGUMENT_TYPE, f"'{path.dotted}' is {what}; a part is due here", path.span
         )
@@ -90,7 +91,7 @@ def _angle_source(
         kind = UNIT_KIND.get(expr.unit)
         if kind is None:
             return None, None, (), None
-        if kind != "angle":
+        if kind is not Dimension.ANGLE:
             return (
                 None,
                 None,
@@ -105,7 +106,7 @@ def _angle_source(
         if isinstance(res, Diagnostic):
             return None, None, (), res
         slot = res.slot
-        if slot is None or slot.kind != "attribute":
+        if slot is None or slot.kind is not SlotKind.ATTRIBUTE:
             return (
                 None,
                 None,
@@ -295,8 +296,7 @@ def _check_measure(table: Table, cname: str, m: ast.Attribute) -> Iterator[Diagn
     if m.type.text != kind:
         yield diag(
             codes.BAD_ATTRIBUTE_MEASURE,
-            f"{name}(...) is {'an angle' if kind == 'angle' else 'a length'}, but attribute "
-            f"'{m.name.text}' is of type {m.type.text}",
+            f"{name}(...) is {kind.words}, but attribute '{m.name.text}' is of type {m.type.text}",
             call.func.span,
             f"declare 'attribute {m.name.text}: {kind}'",
         )
@@ -323,8 +323,7 @@ def _check_measure(table: Table, cname: str, m: ast.Attribute) -> Iterator[Diagn
         if not isinstance(tol, ast.Quantity) or UNIT_KIND.get(tol.unit) != kind:
             yield diag(
                 codes.UNIT_MISMATCH,
-                f"the tolerance of '{m.name.text}' must be "
-                + ("an angle" if kind == "angle" else "a length"),
+                f"the tolerance of '{m.name.text}' must be " + kind.words,
                 tol.span,
             )
         elif tol.value <= 0:
@@ -346,7 +345,7 @@ def _check_unseen(table: Table, cname: str, g: ast.Unseen) -> Iterator[Diagnosti
         yield from diags
     if p.value is not None:
         az = Analyzer(table, cname)
-        v = az.value(p.value, "length", {})
+        v = az.value(p.value, Dimension.LENGTH, {})
         yield from az.diagnostics
         if v is not None and any(x <= 0 for x, _ in v.alts):
             yield diag(codes.BAD_PLACEMENT, "a distance must be positive", p.value.span)
@@ -386,7 +385,7 @@ def attribute_measure(node: ast.Attribute) -> dict[str, Any] | None:
     if m is None:
         return None
     return {
-        "kind": m.call.func.text,
+        "kind": MeasureKind(m.call.func.text),
         "args": tuple(a.dotted for a in m.call.args if isinstance(a, ast.Path)),
         "sigma": _si(m.tolerance),
         "span": m.span,

@@ -240,22 +240,40 @@ _OCCLUDER_MATERIALS = {  # materials of synth.textures: bark and poles concrete-
 }
 
 
+def _tree(
+    k: int, at: FloatArray, scale: float, yaw: float, rng: np.random.Generator
+) -> list[bld.Solid]:
+    trunk_h = _u(rng, 1.5, 3.0) * scale
+    crown = _u(rng, 2.0, 4.5) * scale
+    return [
+        _box_solid(
+            f"tree{k}", at, np.array([0.3, trunk_h, 0.3]) * np.array([scale, 1, scale]), yaw
+        ),
+        _box_solid(f"leaf{k}", at + np.array([0.0, trunk_h, 0.0]), np.array([crown] * 3), yaw),
+    ]
+
+
+def _pole(
+    k: int, at: FloatArray, scale: float, yaw: float, rng: np.random.Generator
+) -> list[bld.Solid]:
+    return [_box_solid(f"pole{k}", at, np.array([0.2, 6.0, 0.2]) * scale, yaw)]
+
+
+def _car(
+    k: int, at: FloatArray, scale: float, yaw: float, rng: np.random.Generator
+) -> list[bld.Solid]:
+    return [_box_solid(f"car_{k}", at, np.array([4.3, 1.5, 1.8]) * scale, yaw)]
+
+
+#: The occluders, by name: each builds its solids (k, at, scale, yaw, rng).
+_OCCLUDERS = {"tree": _tree, "pole": _pole, "car": _car}
+
+
 def _occluder(rng: np.random.Generator, k: int, at: FloatArray, scale: float) -> list[bld.Solid]:
     """One tree (trunk + crown), pole or car standing at `at` (site frame, ground level)."""
-    kind = str(rng.choice(["tree", "pole", "car"]))
+    build = _OCCLUDERS[str(rng.choice(list(_OCCLUDERS)))]
     yaw = _u(rng, 0.0, math.pi)
-    if kind == "tree":
-        trunk_h = _u(rng, 1.5, 3.0) * scale
-        crown = _u(rng, 2.0, 4.5) * scale
-        return [
-            _box_solid(
-                f"tree{k}", at, np.array([0.3, trunk_h, 0.3]) * np.array([scale, 1, scale]), yaw
-            ),
-            _box_solid(f"leaf{k}", at + np.array([0.0, trunk_h, 0.0]), np.array([crown] * 3), yaw),
-        ]
-    if kind == "pole":
-        return [_box_solid(f"pole{k}", at, np.array([0.2, 6.0, 0.2]) * scale, yaw)]
-    return [_box_solid(f"car_{k}", at, np.array([4.3, 1.5, 1.8]) * scale, yaw)]
+    return build(k, at, scale, yaw, rng)
 
 
 def _coverage(
