@@ -23,7 +23,7 @@ through rig-derived cameras: `JOINT_RIGHT_IMAGES`).
 
 The model's edges are those within a solid (a house body, each wing): a segment on the edge
 between a wing and the body (e.g. the wing's foot on the body's inserted floor) is never a
-measurement here, as in the interpreter (`Interpreter._adjust`'s ``guessed``).
+measurement here, as in the interpreter (`adjust.adjust`'s ``guessed``).
 
 Only views whose poses are unknown (``frame = "camera"`` in the evidence) are registered; the
 poses in a scene's truth.json are never used.

@@ -1,0 +1,197 @@
+"""One alternative's adjustment: initial planes, segments matched to its edges, two solves.
+
+The alternative's planes start from its regions and the knowledge (`unseen.initial_planes`);
+the reference view's segments are matched to the edges of those planes, the problem is built
+(`verify.build_verification`) and solved, and the segments are re-matched to the adjusted
+planes within a tighter distance and solved again (outliers of the first matching drop out).
+The problem of the last solve is returned with its outcome (`Adjusted.verification`): the
+accepted interpretation is solved once more as a whole from it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.constraints import kind_of
+from aida_kb.interpret.context import Context
+from aida_kb.interpret.edges import EdgeMatch, match_segments
+from aida_kb.interpret.hypotheses import Frame
+from aida_kb.interpret.knowledge import Structure, join
+from aida_kb.interpret.unseen import Planes, closing_of, ground_of, initial_planes
+from aida_kb.interpret.verify import (
+    EdgeEvidence,
+    Outcome,
+    Verification,
+    build_verification,
+    position_data,
+    tilt_constraints,
+    verify,
+)
+
+FloatArray = npt.NDArray[np.float64]
+
+# segments are matched to the initial model within the first distance, then re-matched to
+# the adjusted model within the next (outliers of the first matching drop out)
+MATCH_DISTANCES_PX = (25.0, 8.0)
+# a segment shorter than this does not count as evidence an alternative leaves unexplained
+# (short segments are texture and noise as often as edges)
+MIN_BORDER_SEGMENT_PX = 8.0
+
+
+@dataclass(frozen=True)
+class Adjusted:
+    """The result of adjusting one alternative.
+
+    Attributes
+    ----------
+    outcome : the last solve's outcome (planes, residual report, reduced cost)
+    verification : the problem of the last solve
+    inserted : role paths of the parts no region shows
+    loose : fraction of the length of the segments bordering bound regions that no edge of
+        the structure explains, in [0, 1]
+    visible : inserted parts of a smaller structure that would face the camera (judged by
+        their size once closed, `plausibility.unseen`)
+    """
+
+    outcome: Outcome
+    verification: Verification
+    inserted: tuple[str, ...]
+    loose: float
+    visible: tuple[str, ...]
+
+
+def adjust(
+    ctx: Context,
+    structure: Structure,
+    frame: Frame,
+    binding: dict[str, str],
+    fixed: Planes,
+    choices: dict[str, str],
+    guessed: frozenset[str] = frozenset(),
+) -> Adjusted:
+    """Initialise, match segments, adjust twice (re-matching in between).
+
+    ``guessed``: fixed parts of verified levels that were inserted from knowledge, not
+    seen. A segment on the edge between such a part and one of this structure explains
+    that segment but is not taken as a measurement: its position would measure the guess
+    (a wing's foot on the body's inserted floor, seen at a grazing angle, moved the wing's
+    seen front wall 1.7 m away from its own stereo evidence).
+
+    Raises `unseen.UnseenError` when an inserted part of the main body would face the camera,
+    AidaError when the problem cannot be built or solved.
+    """
+    evidence = ctx.evidence
+    initial = initial_planes(ctx, structure, frame, binding, fixed, choices)
+    planes = initial.planes
+    index = {p.role: i for i, p in enumerate(planes)}
+    tilts = tilt_constraints(
+        ctx.knowledge,
+        [(leaf.role, leaf.concept) for leaf in structure.leaves],
+        ground_of(ctx, set(index)),
+        index,
+    )
+    positions = {
+        role: position_data(evidence.regions[rid], evidence.cameras[evidence.regions[rid].view])
+        for rid, role in binding.items()
+    }
+    fillers = {**choices, **dict(structure.choices)}
+    adjacency: dict[str, set[str]] = {}
+    # a smaller part also meets the verified part it stands on or out of (an oriel's
+    # sides meet the body's front wall): segments along those edges are its evidence too
+    closing = closing_of(ctx, structure, frame, fixed)
+    pairs = [*structure.adjacency, *((n, c.source) for c in closing for n in c.neighbours)]
+    for a, b in pairs:
+        adjacency.setdefault(a, set()).add(b)
+        adjacency.setdefault(b, set()).add(a)
+    adj = {k: frozenset(v) for k, v in adjacency.items()}
+    declared = declared_edges(ctx, structure)
+    current = {p.role: (p.normal, p.offset_m) for p in planes}
+    last: tuple[Outcome, Verification] | None = None
+    matches: list[EdgeMatch] = []
+    for distance_px in MATCH_DISTANCES_PX:
+        rematched = _matches(ctx, binding, current, adj, distance_px)
+        if last is not None and _same_matches(rematched, matches):
+            break
+        matches = rematched
+        verification = build_verification(
+            ctx.knowledge,
+            ctx.body.role,
+            ctx.body.concept,
+            planes,
+            fillers,
+            positions,
+            _edge_evidence(ctx, [m for m in matches if not guessed.intersection(m.parts)], binding),
+            declared,
+            ctx.pinholes,
+            tilts,
+        )
+        outcome = verify(verification)
+        last = (outcome, verification)
+        current = dict(outcome.planes)
+        planes = [
+            replace(p, normal=current[p.role][0], offset_m=current[p.role][1]) for p in planes
+        ]
+    assert last is not None
+    matched = {m.segment.id for m in matches}
+    bordering = [
+        s
+        for s in ctx.segments
+        if s.length_px >= MIN_BORDER_SEGMENT_PX and any(r in binding for r in s.regions)
+    ]
+    total = sum(s.length_px for s in bordering)
+    loose = sum(s.length_px for s in bordering if s.id not in matched)
+    return Adjusted(
+        last[0],
+        last[1],
+        initial.inserted,
+        loose / total if total > 0 else 0.0,
+        initial.visible,
+    )
+
+
+def _matches(
+    ctx: Context,
+    binding: dict[str, str],
+    planes: Planes,
+    adjacency: dict[str, frozenset[str]],
+    max_distance_px: float,
+) -> list[EdgeMatch]:
+    """The reference view's segments bordering bound regions, matched to the planes' edges."""
+    segs = [s for s in ctx.segments if any(r in binding for r in s.regions)]
+    return match_segments(segs, binding, planes, adjacency, ctx.evidence.cameras, max_distance_px)
+
+
+def _edge_evidence(
+    ctx: Context, matches: list[EdgeMatch], binding: dict[str, str]
+) -> list[EdgeEvidence]:
+    """The matched segments as evidence (each with its camera and the part it borders)."""
+    out: list[EdgeEvidence] = []
+    for m in matches:
+        bound = {binding[r] for r in m.segment.regions if r in binding}
+        owner = next(p for p in m.parts if p in bound)
+        out.append(EdgeEvidence(m.parts, owner, ctx.views.index(m.segment.view), m.segment.ends_px))
+    return out
+
+
+def declared_edges(ctx: Context, structure: Structure) -> set[tuple[str, str]]:
+    """Edges a concept measures itself (``measure edge(edge(a, b))``), as sorted pairs."""
+    fillers = {n.role: n.concept for n in structure.nodes}
+    out: set[tuple[str, str]] = set()
+    for node in structure.nodes:
+        for spec in ctx.knowledge.concept(node.concept).constraints:
+            segment = kind_of(spec.kind).evidence == "segment"
+            if not (spec.measurement and segment and len(spec.args) == 2):
+                continue
+            if not ctx.knowledge.holds(node.role, spec.requires, fillers):
+                continue
+            a, b = (join(node.role, x) for x in spec.args)
+            out.add((a, b) if a <= b else (b, a))
+    return out
+
+
+def _same_matches(a: list[EdgeMatch], b: list[EdgeMatch]) -> bool:
+    """True if two edge matchings pair the same segments with the same edges."""
+    return [(m.segment.id, m.parts) for m in a] == [(m.segment.id, m.parts) for m in b]

@@ -1,0 +1,132 @@
+"""One alternative of a structure verified: its region assignments adjusted in turn, the
+plausible one of least misfit kept as a verified level, or the reason none is, in the trace.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import AidaError, GeometryError
+from aida_kb.interpret.adjust import adjust
+from aida_kb.interpret.assign import anchor_of, assignments
+from aida_kb.interpret.blame import Reason, blame, first_named, over
+from aida_kb.interpret.closure import ClosingFace
+from aida_kb.interpret.context import Context
+from aida_kb.interpret.hypotheses import Frame
+from aida_kb.interpret.knowledge import Structure
+from aida_kb.interpret.observe import RegionView
+from aida_kb.interpret.plausibility import MAX_MEAN_COST, closed, misfit, outside, unseen
+from aida_kb.interpret.trace import Trace
+from aida_kb.interpret.unseen import Planes, UnseenError
+from aida_kb.interpret.verify import Outcome, Verification
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Level:
+    """A verified level of the interpretation: one structure with its bindings and planes."""
+
+    hid: int
+    structure: Structure
+    binding: dict[str, str]  # region id -> role path
+    inserted: tuple[str, ...]
+    outcome: Outcome
+    frame: Frame
+    polygons: dict[str, FloatArray]  # role path -> closed face polygon (N, 3), world, metres
+    closing: tuple[ClosingFace, ...]  # faces of its solid from the levels it belongs to
+    verification: Verification  # the problem it was verified by (its last adjustment)
+    misfit: float  # adjustment cost plus the penalty for unexplained segments of bound regions
+
+
+def verify_alternative(
+    ctx: Context,
+    trace: Trace,
+    structure: Structure,
+    frame: Frame,
+    parent: int,
+    fixed: Planes,
+    choices: dict[str, str],
+    *,
+    forced: dict[str, RegionView],
+    exclude: set[str] | frozenset[str] = frozenset(),
+    guessed: frozenset[str] = frozenset(),
+) -> Level | None:
+    """Verify a structure in `frame` with its anchor bound to `forced`; its level, or None.
+
+    ``fixed``: the planes of verified levels (non-empty for a smaller part, paper §5);
+    ``choices``: their is-a choices; ``exclude``: regions they bound; ``guessed``: their
+    inserted parts (`adjust.adjust`). The hypothesis is recorded in `trace` under `parent`.
+    """
+    root = structure.nodes[0]
+    what = "; ".join(
+        x for x in (structure.describe(), *(f"{k}={r.id}" for k, r in forced.items())) if x
+    )
+    hid = trace.create(root.concept, root.role, parent, f"[{what}]")
+    smaller = bool(fixed)  # a part of a verified level (paper §5: smaller parts later)
+    options = assignments(ctx, structure, frame, forced, exclude, smaller=smaller)
+    if isinstance(options, str):
+        trace.reject(hid, f"[{what}] {options}")
+        return None
+    best: Level | None = None
+    # why each assignment fell; the trace names the first that a constraint felled (the
+    # assignments come heaviest evidence first), else the first. A contradiction's culprit
+    # is searched for (`blame`, many solves) only when its reason is the one reported.
+    reasons: list[Reason | Callable[[], Reason]] = []
+    offered = {rid for binding in options for rid in binding}
+    for binding in options:
+        try:
+            adjusted = adjust(ctx, structure, frame, binding, fixed, choices, guessed)
+        except UnseenError as exc:
+            reasons.append((str(exc), None))
+            continue
+        except AidaError as exc:
+            reasons.append((f"adjustment failed: {exc}", None))
+            continue
+        outcome = adjusted.outcome
+        worst = outcome.worst_rejected()
+        if outcome.cost > MAX_MEAN_COST:
+            # the constraints together do not fit: name the one to blame, which need not
+            # be the first over its threshold (the compromise spreads a contradiction)
+            reasons.append(partial(blame, outcome, adjusted.verification, worst))
+            continue
+        if worst is not None:
+            reasons.append((over(worst), worst))
+            continue
+        try:
+            polygons, closing = closed(ctx, structure, outcome, fixed, frame)
+        except GeometryError as exc:
+            reasons.append((f"its planes do not close a solid: {exc}", None))
+            continue
+        why = outside(ctx, binding, polygons) or unseen(
+            ctx, adjusted.visible, polygons, anchor_of(forced)
+        )
+        if why:
+            reasons.append((why, None))
+            continue
+        # evidence an alternative could have bound but leaves out counts against it
+        level = Level(
+            hid,
+            structure,
+            binding,
+            adjusted.inserted,
+            outcome,
+            frame,
+            polygons,
+            closing,
+            adjusted.verification,
+            misfit(ctx, outcome.cost, adjusted.loose, offered - set(binding)),
+        )
+        if best is None or level.misfit < best.misfit:
+            best = level
+    if best is None:
+        reason = first_named(reasons)
+        trace.reject(hid, f"[{what}] {reason[0]}", reason[1])
+        return None
+    trace.verify(hid, f"[{what}] cost {best.misfit:.3g}")
+    return best

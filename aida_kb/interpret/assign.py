@@ -1,0 +1,132 @@
+"""Assignment of evidence regions to the planar parts of a structure.
+
+A structure is anchored on its frame part (``frame from PART``): the anchor's region is chosen
+first among the vertical regions (`ranked_fronts`), it fixes the instance frame, and every
+other part gets the regions whose orientation and slope fit its prediction in that frame
+(`hypotheses.candidates`). The alternatives are the consistent combinations (no region bound
+twice), in the order of the candidates (heaviest evidence first), at most `MAX_ASSIGNMENTS`.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, MIN_WALL_WEIGHT_FRACTION, Context
+from aida_kb.interpret.hypotheses import (
+    DOWNWARD,
+    UPWARD,
+    Frame,
+    PlanarPart,
+    candidates,
+    front_region,
+)
+from aida_kb.interpret.knowledge import Structure
+from aida_kb.interpret.observe import EvidenceView, RegionView, slope_deg
+
+FloatArray = npt.NDArray[np.float64]
+
+MAX_ASSIGNMENTS = 6  # alternatives of region assignment tried per structure and frame
+# a region within this many degrees of vertical may be a frame's anchor (the anchor faces a
+# horizontal direction; fitted normals scatter by a few degrees)
+VERTICAL_WINDOW_DEG = 15.0
+
+Binding = dict[str, str]  # region id -> role path
+
+
+def vertical(regions: Sequence[RegionView], up: FloatArray) -> list[RegionView]:
+    """The regions within `VERTICAL_WINDOW_DEG` of vertical; `up` : (3,) unit, world frame."""
+    return [r for r in regions if abs(slope_deg(r.normal, up) - 90.0) <= VERTICAL_WINDOW_DEG]
+
+
+def forced_by(structure: Structure, region: RegionView) -> dict[str, RegionView]:
+    """The region taken as the evidence of a structure's frame anchor, by its relative role."""
+    assert structure.anchor is not None
+    return {structure.anchor: region}
+
+
+def anchor_of(forced: dict[str, RegionView]) -> RegionView | None:
+    """The anchor's region of a forced assignment (None: none)."""
+    return next(iter(forced.values()), None)
+
+
+def ranked_fronts(walls: list[RegionView], evidence: EvidenceView) -> list[RegionView]:
+    """Up to two anchor candidates: the best by `front_region`, then the next best."""
+    first = front_region(walls, evidence.camera)
+    if first is None:
+        return []
+    rest = [w for w in walls if w.id != first.id and _facing(w, evidence) > 0.0]
+    second = front_region(rest, evidence.camera)
+    return [first] if second is None else [first, second]
+
+
+def _facing(region: RegionView, evidence: EvidenceView) -> float:
+    """The cosine between a region's normal and the direction to the reference camera."""
+    to_cam = evidence.camera.centre_m - region.centroid_m
+    return float(region.normal @ to_cam) / float(np.linalg.norm(to_cam))
+
+
+def level_with(
+    ctx: Context, leaf: PlanarPart, regions: list[RegionView], forced: dict[str, RegionView]
+) -> list[RegionView]:
+    """The regions that can be a level part's evidence given its anchor: a part facing
+    upward (a flat roof, an oriel's top) lies above the anchor's centre, one facing downward
+    below it (the ground is neither)."""
+    front = anchor_of(forced)
+    if front is None or leaf.direction not in (UPWARD, DOWNWARD):
+        return regions
+    sign = 1.0 if leaf.direction == UPWARD else -1.0
+    return [r for r in regions if sign * float((r.centroid_m - front.centroid_m) @ ctx.up) > 0]
+
+
+def assignments(
+    ctx: Context,
+    structure: Structure,
+    frame: Frame,
+    forced: dict[str, RegionView],
+    exclude: set[str] | frozenset[str],
+    *,
+    smaller: bool = False,
+) -> list[Binding] | str:
+    """Alternative bindings region id -> role path, or the reason there are none.
+
+    For the smaller parts of a verified level (``smaller``) lighter regions count
+    (`MIN_PART_WEIGHT_FRACTION`), a part meeting the front must be seen beside it
+    (`EvidenceView.beside`), and each part may also be left unbound
+    (inserted; `plausibility.unseen` checks that the camera could miss it).
+    """
+    options: list[list[RegionView | None]] = []
+    minimum = MIN_PART_WEIGHT_FRACTION if smaller else MIN_WALL_WEIGHT_FRACTION
+    available = [r for r in ctx.regions if r.id not in exclude and ctx.significant(r, minimum)]
+    front = anchor_of(forced)
+    anchor = structure.anchor_path
+    meets_front = {b if a == anchor else a for a, b in structure.adjacency if anchor in (a, b)}
+    for leaf in structure.leaves:
+        if leaf.role == anchor and front is not None:
+            options.append([front])
+            continue
+        usable = level_with(ctx, leaf, available, forced)
+        if smaller and front is not None and leaf.role in meets_front:
+            usable = [r for r in usable if ctx.evidence.beside(front.id, r.id)]
+        found: list[RegionView | None] = list(candidates(leaf, usable, frame))
+        if not found:
+            if leaf.role == anchor:
+                return f"no evidence for {leaf.role} ({leaf.concept})"
+            found = [None]
+        elif smaller:
+            found.append(None)
+        options.append(found)
+    out: list[Binding] = []
+    for combo in itertools.product(*options):
+        ids = [r.id for r in combo if r is not None]
+        if len(set(ids)) != len(ids):
+            continue
+        out.append({r.id: leaf.role for r, leaf in zip(combo, structure.leaves, strict=True) if r})
+        if len(out) >= MAX_ASSIGNMENTS:
+            break
+    if not out:
+        return "no consistent assignment of regions to parts"
+    return out

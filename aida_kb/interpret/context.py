@@ -1,0 +1,105 @@
+"""What every step of one interpretation run shares: the knowledge, the reference view's
+evidence, the estimated vertical and the world-layer body that realises the goal.
+
+Built once per run (`Context.build`) and passed to the modules of the interpreter (search
+control `interpreter`, region assignment `assign`, placement of unseen parts `unseen`,
+adjustment `adjust`, plausibility `plausibility`, blame `blame`, trace `trace`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import InterpretError
+from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.interpret.knowledge import Knowledge, Node
+from aida_kb.interpret.observe import EvidenceView, RegionView, SegmentView, estimate_up
+
+FloatArray = npt.NDArray[np.float64]
+
+MIN_WALL_WEIGHT_FRACTION = 0.02  # a region lighter than this fraction of the total is clutter
+# ... unless it is evidence for a smaller part (an oriel's side) beside a verified body
+MIN_PART_WEIGHT_FRACTION = 0.01
+
+
+@dataclass(frozen=True)
+class BodySlot:
+    """The world-layer body realising the goal: its role ('' when the goal is the body itself),
+    its concept, and the goal's own node (None when the goal is the body)."""
+
+    role: str
+    concept: str
+    goal_node: Node | None
+
+
+def body_slot(knowledge: Knowledge, goal: str) -> BodySlot:
+    """The world-layer body realising `goal` (along con-of), or the goal itself.
+
+    Raises InterpretError when the goal is abstract or has no parts to interpret.
+    """
+    concept = knowledge.concept(goal)
+    if concept.abstract:
+        raise InterpretError(f"goal {goal!r} is abstract; name a concrete concept")
+    real = knowledge.realisation(goal)
+    if real is None or knowledge.is_planar(real.concept):
+        if knowledge.is_planar(goal):
+            raise InterpretError(f"goal {goal!r} has no parts to interpret")
+        return BodySlot("", goal, None)
+    return BodySlot(real.role, real.concept, Node("", goal, goal, None, "goal"))
+
+
+@dataclass(frozen=True)
+class Context:
+    """One interpretation run's shared, read-only inputs.
+
+    Attributes
+    ----------
+    knowledge : the compiled knowledge base as the interpreter sees it
+    evidence : all views' evidence
+    goal : the goal concept
+    body : the world-layer body realising the goal
+    regions : the reference view's regions
+    total_weight : their summed weight (1.0 when there are none)
+    up : (3,) unit vector, world frame: the estimated vertical
+    segments : the reference view's line segments
+    views : the views' names, sorted (a segment's camera index is its view's place here)
+    pinholes : the views' cameras, in the order of `views`
+    """
+
+    knowledge: Knowledge
+    evidence: EvidenceView
+    goal: str
+    body: BodySlot
+    regions: tuple[RegionView, ...]
+    total_weight: float
+    up: FloatArray
+    segments: tuple[SegmentView, ...]
+    views: tuple[str, ...]
+    pinholes: tuple[PinholeCamera, ...]
+
+    @classmethod
+    def build(cls, knowledge: Knowledge, evidence: EvidenceView, goal: str) -> Context:
+        """The context of interpreting `evidence` for `goal` (raises InterpretError for a goal
+        that cannot be interpreted, `body_slot`)."""
+        camera = evidence.camera
+        views = tuple(sorted(evidence.cameras))
+        regions = tuple(r for r in evidence.regions.values() if r.view == evidence.reference_view)
+        return cls(
+            knowledge=knowledge,
+            evidence=evidence,
+            goal=goal,
+            body=body_slot(knowledge, goal),
+            regions=regions,
+            total_weight=sum(r.weight for r in regions) or 1.0,
+            up=estimate_up(list(regions), camera, segments_px=evidence.lines_px.get(camera.view)),
+            segments=tuple(s for s in evidence.segments if s.view == camera.view),
+            views=views,
+            pinholes=tuple(evidence.cameras[v].pinhole for v in views),
+        )
+
+    def significant(self, region: RegionView, fraction: float = MIN_WALL_WEIGHT_FRACTION) -> bool:
+        """True if `region` carries at least `fraction` of the reference view's evidence."""
+        return region.weight >= fraction * self.total_weight

@@ -1,0 +1,103 @@
+"""Plausibility of an adjusted alternative, and the costs the search ranks alternatives by.
+
+An adjusted alternative is plausible when its constraints fit together (reduced cost at most
+`MAX_MEAN_COST`, none over its threshold: `alternative`), its planes close a solid with a face
+for every part (`closed`), every bound region lies on its part's closed face (`outside`), and
+no inserted part is so large in the reference image that the camera could not have missed it
+(`unseen`). Its cost (`misfit`) adds penalties for evidence it leaves unexplained.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.interpret.closure import ClosingFace, close, inside_face
+from aida_kb.interpret.context import Context
+from aida_kb.interpret.hypotheses import Frame
+from aida_kb.interpret.knowledge import Structure
+from aida_kb.interpret.observe import RegionView
+from aida_kb.interpret.unseen import Planes, closing_of
+from aida_kb.interpret.verify import Outcome
+
+FloatArray = npt.NDArray[np.float64]
+
+MAX_MEAN_COST = 1.0  # an adjustment whose constraints miss by more than sigma on average fails
+UNEXPLAINED_PENALTY = 4.0  # cost of leaving all evidence weight unexplained
+SEGMENT_PENALTY = 4.0  # cost of leaving every segment of the bound regions unexplained
+# a smaller part's face the camera should see may lack evidence (a grazing side of an oriel,
+# its region too small for a plane fit) if its image is below this fraction of its front's
+MAX_UNSEEN_SIDE_FRACTION = 0.35
+# a region's centroid may lie this fraction of its face's size outside the face
+FACE_MARGIN = 0.1
+
+
+def unexplained(ctx: Context, used: set[str]) -> float:
+    """The penalty for the significant regions of the reference view not in `used`."""
+    left = sum(r.weight for r in ctx.regions if r.id not in used and ctx.significant(r))
+    return UNEXPLAINED_PENALTY * left / ctx.total_weight
+
+
+def misfit(ctx: Context, cost: float, loose: float, left_out: set[str]) -> float:
+    """An adjusted alternative's cost: its reduced cost, plus penalties for the fraction of
+    segments it leaves unexplained (`loose`) and the regions it could have bound but did not
+    (`left_out`, region ids)."""
+    weight = sum(ctx.evidence.regions[r].weight for r in left_out)
+    return cost + SEGMENT_PENALTY * loose + UNEXPLAINED_PENALTY * weight / ctx.total_weight
+
+
+def closed(
+    ctx: Context, structure: Structure, outcome: Outcome, fixed: Planes, frame: Frame
+) -> tuple[dict[str, FloatArray], tuple[ClosingFace, ...]]:
+    """The closed solid of a structure's planes (`closure`): polygons and closing faces.
+
+    Raises GeometryError (naming the parts) if the planes do not close a solid with a
+    face for every part.
+    """
+    closing = closing_of(ctx, structure, frame, fixed)
+    faces = [(leaf.role, *outcome.planes[leaf.role]) for leaf in structure.leaves]
+    faces += [(c.role, c.normal, c.offset_m) for c in closing]
+    adjacency = list(structure.adjacency)
+    adjacency += [(c.role, other) for c in closing for other in c.neighbours]
+    return close(faces, adjacency), tuple(closing)
+
+
+def outside(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArray]) -> str:
+    """Why a bound region does not lie on its part's closed face ('' if all do).
+
+    A region is the visible part of a face: its centroid, projected onto the face's
+    plane, must fall inside the face (with a margin of `FACE_MARGIN` of the face's size).
+    """
+    for rid, role in sorted(binding.items()):
+        face = polygons.get(role)
+        if face is None or len(face) < 3:
+            continue
+        centroid = ctx.evidence.regions[rid].centroid_m
+        if not inside_face(face, centroid, margin=FACE_MARGIN):
+            return f"region {rid} lies outside the face of {role} in the closed model"
+    return ""
+
+
+def unseen(
+    ctx: Context,
+    visible: tuple[str, ...],
+    polygons: dict[str, FloatArray],
+    front: RegionView | None,
+) -> str:
+    """Why an inserted part the camera should see cannot have been missed ('' if none).
+
+    Its closed face (`polygons`, (N, 3) metres, world), projected into the reference camera,
+    must be smaller than `MAX_UNSEEN_SIDE_FRACTION` of the anchor's region `front`.
+    """
+    camera = ctx.evidence.camera
+    for role in visible:
+        pixels = camera.pinhole.project(polygons[role])
+        x, y = pixels[:, 0], pixels[:, 1]
+        area = 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+        limit = MAX_UNSEEN_SIDE_FRACTION * (front.area_px if front is not None else 0.0)
+        if area > limit:
+            return (
+                f"{role} would face camera {camera.view} ({area:.0f} px, more than "
+                f"{limit:.0f}) but no region fits it"
+            )
+    return ""

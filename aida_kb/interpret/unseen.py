@@ -1,0 +1,176 @@
+"""Placement of the parts no region shows, from the knowledge (docs/language.md §3.11).
+
+A planar part without evidence is *inserted*: its normal is its predicted orientation in the
+instance frame (tilted by the seen tilted planes' mean slope, else by the tilt the knowledge
+declares), its offset the support of the points seen on the same structure, moved out by the
+knowledge's ``unseen`` placements (`hypotheses.placed_offsets`). A smaller structure is closed
+in its whole by the faces `closure.closing_faces` derives from its attachment.
+
+The main body may not insert a part the reference camera should see (`UnseenError`); a smaller
+structure's such parts are returned as *visible*, for `plausibility.unseen` to judge by size.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import AidaError
+from aida_kb.interpret.closure import ClosingFace, closing_faces
+from aida_kb.interpret.context import Context
+from aida_kb.interpret.hypotheses import (
+    DEFAULT_PITCH_DEG,
+    DOWNWARD,
+    Frame,
+    PlanarPart,
+    faces_camera,
+    placed_offsets,
+    predicted_normal,
+    support_offset,
+)
+from aida_kb.interpret.knowledge import Structure
+from aida_kb.interpret.observe import RegionView, slope_deg
+from aida_kb.interpret.verify import PlaneInit
+
+FloatArray = npt.NDArray[np.float64]
+Planes = dict[str, tuple[FloatArray, float]]  # role path -> (unit normal (3,), offset m), world
+
+# an inserted part with no seen point to support it starts this far (metres) from the camera
+# along its normal: behind the camera's view of the scene, moved by the placements
+UNSUPPORTED_OFFSET_M = 10.0
+
+
+class UnseenError(AidaError):
+    """An inserted part would be visible: the alternative predicts evidence that is missing."""
+
+
+@dataclass(frozen=True)
+class Initial:
+    """The initial planes of one alternative.
+
+    Attributes
+    ----------
+    planes : the structure's planes (seen ones from their regions, inserted ones from the
+        knowledge), then the fixed planes of verified levels
+    inserted : role paths of the parts no region shows
+    visible : of those, the parts of a smaller structure that would face the camera
+    """
+
+    planes: list[PlaneInit]
+    inserted: tuple[str, ...]
+    visible: tuple[str, ...]
+
+
+def initial_planes(
+    ctx: Context,
+    structure: Structure,
+    frame: Frame,
+    binding: dict[str, str],
+    fixed: Planes,
+    choices: dict[str, str],
+) -> Initial:
+    """The planes an alternative's adjustment starts from (see the module docstring).
+
+    Raises UnseenError when a part of the main body (no ``fixed`` planes) would be inserted
+    facing the reference camera.
+    """
+    evidence = ctx.evidence
+    seen = {role: evidence.regions[rid] for rid, role in binding.items()}
+    pts = [evidence.points_on(rid) for rid in binding]
+    points = np.concatenate(pts) if pts else np.zeros((0, 3))
+    pitches = [
+        slope_deg(seen[leaf.role].normal, ctx.up)
+        for leaf in structure.leaves
+        if leaf.pitched and leaf.role in seen
+    ]
+    # an inserted tilted plane starts at the seen tilted planes' mean slope, else at the
+    # tilt the knowledge declares (a constant, or its attribute's default)
+    pitch = float(np.mean(pitches)) if pitches else None
+    planes: list[PlaneInit] = []
+    inserted: list[str] = []
+    visible: list[str] = []
+    for leaf in structure.leaves:
+        region = seen.get(leaf.role)
+        if region is not None:
+            planes.append(PlaneInit(leaf.role, leaf.concept, region.normal, region.offset_m))
+            continue
+        inserted.append(leaf.role)
+        tilt = leaf.tilt_deg if leaf.tilt_deg is not None else DEFAULT_PITCH_DEG
+        n = predicted_normal(leaf, frame, pitch if pitch is not None else tilt)
+        if len(points):
+            d = support_offset(n, points)
+        else:
+            d = float(n @ evidence.camera.centre_m) - UNSUPPORTED_OFFSET_M
+        for placed in placed_by_knowledge(ctx, structure, leaf, n, frame, seen, fixed, choices):
+            d = max(d, placed)
+        centre = points.mean(axis=0) if len(points) else evidence.camera.centre_m
+        on_plane = centre + (d - float(n @ centre)) * n
+        if faces_camera(n, on_plane, evidence.camera):
+            if fixed:
+                visible.append(leaf.role)
+                planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
+                continue
+            raise UnseenError(
+                f"{leaf.role} ({leaf.concept}) would face camera {evidence.camera.view} "
+                "but no region fits it"
+            )
+        planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
+    for role, (n, d) in sorted(fixed.items()):
+        planes.append(PlaneInit(role, "", n, d, fixed=True))
+    return Initial(planes, tuple(inserted), tuple(visible))
+
+
+def placed_by_knowledge(
+    ctx: Context,
+    structure: Structure,
+    leaf: PlanarPart,
+    normal: FloatArray,
+    frame: Frame,
+    seen: dict[str, RegionView],
+    fixed: Planes,
+    choices: dict[str, str],
+) -> list[float]:
+    """The offsets the knowledge's ``unseen`` placements give an inserted part
+    (`hypotheses.placed_offsets`), from its structure's seen regions and the fixed planes."""
+    fillers = {**choices, **dict(structure.choices)}
+    found = [(p, paths) for p, _, paths in ctx.knowledge.placements(leaf.role, fillers)]
+    if not found:
+        return []
+    planes = {**fixed, **{r: (g.normal, g.offset_m) for r, g in seen.items()}}
+    tilted = [
+        ctx.evidence.points_on(seen[x.role].id)
+        for x in structure.leaves
+        if x.pitched and x.direction == "forward" and x.role in seen
+    ]
+    return placed_offsets(
+        found,
+        normal,
+        frame,
+        planes,
+        {r: g.centroid_m for r, g in seen.items()},
+        lambda role: ctx.evidence.points_on(seen[role].id),
+        ctx.knowledge.direction,
+        np.concatenate(tilted) if tilted else np.zeros((0, 3)),
+    )
+
+
+def ground_of(ctx: Context, known: set[str]) -> str | None:
+    """The ground the parts' slopes refer to: the outermost known part facing downward."""
+    grounds = [r for r in known if ctx.knowledge.direction(r) == DOWNWARD]
+    return min(grounds, key=lambda r: (r.count("."), r)) if grounds else None
+
+
+def closing_of(
+    ctx: Context, structure: Structure, frame: Frame, fixed: Planes
+) -> list[ClosingFace]:
+    """The faces that close a smaller structure in its whole (`closure.closing_faces`)."""
+    return closing_faces(
+        structure.root,
+        structure.leaves,
+        frame,
+        fixed,
+        ctx.knowledge.attachment(structure.root),
+        {r: ctx.knowledge.concept_at(r) for r in fixed},
+    )
