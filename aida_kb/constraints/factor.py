@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from aida_kb.diagnostics.core import Span
+from aida_kb.kb.paths import ROOT, RolePath
 
 Rule = Literal["knowledge", "evidence", "attribute", "prior", "code"]
 """Why a constraint exists: a constraint or measure of the knowledge base ("knowledge"), a
@@ -54,14 +55,14 @@ class Origin:
     label : its knowledge-base label (``wall_angle``), or a name given by the code.
     rule : why it exists (`Rule`).
     concept : the concept that declared it ('' when no concept did).
-    owner : role path of the instance that brought it in ('' for the goal or none).
+    owner : role path of the instance that brought it in (`ROOT` for the goal or none).
     span : the ``.kb`` line it was declared on (None for constraints made by code).
     """
 
     label: str
     rule: Rule = "code"
     concept: str = ""
-    owner: str = ""
+    owner: RolePath = ROOT
     span: Span | None = None
 
     @property

@@ -51,6 +51,7 @@ from aida_kb.interpret.run import interpret
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import Cahv, ModelCamera, ModelPart, ReconstructedModel
 from aida_kb.io.scene import Scene
+from aida_kb.kb.paths import RolePath
 from aida_kb.register import (
     RegistrationOptions,
     RigidModel,
@@ -276,30 +277,35 @@ def kb_constraints(
     indices are positions in `names`. Objects whose constraints cannot be built are skipped.
     """
     out: list[Constraint] = []
-    index = {n: i for i, n in enumerate(names)}
-    for top in interp.instances:
-        if not top.role or "." in top.role:
+    index = {path: i for i, n in enumerate(names) if (path := _role_path(n)) is not None}
+    roles = [(path, inst.concept) for inst in interp.instances if (path := _role_path(inst.role))]
+    for top, concept in roles:
+        if len(top) != 1:
             continue
-        prefix = top.role + "."
-        assignment = {n[len(prefix) :]: i for n, i in index.items() if n.startswith(prefix)}
-        fillers = {
-            inst.role[len(prefix) :]: inst.concept
-            for inst in interp.instances
-            if inst.role.startswith(prefix)
+        assignment = {
+            p.relative_to(top): i for p, i in index.items() if p.is_under(top) and p != top
         }
+        fillers = {p.relative_to(top): c for p, c in roles if p.is_under(top) and p != top}
         if not assignment:
             continue
         try:
-            found = constraints_from_kb(kb, top.concept, assignment, fillers=fillers)
+            found = constraints_from_kb(kb, concept, assignment, fillers=fillers)
         except SolveError:
             continue
         for c in found.constraints:
             if c.measurement:
                 continue
             o = c.source
-            owner = f"{top.role}.{o.owner}" if o.owner else top.role
-            out.append(replace(c, origin=replace(o, owner=owner)))
+            out.append(replace(c, origin=replace(o, owner=top.join(o.owner))))
     return out
+
+
+def _role_path(text: str) -> RolePath | None:
+    """The role path a part or instance name spells, None for a name that is none."""
+    try:
+        return RolePath.parse(text)
+    except ValueError:
+        return None
 
 
 def meeting_angles(model: RigidModel) -> dict[tuple[int, int], float]:

@@ -36,8 +36,9 @@ import numpy.typing as npt
 from aida_kb.constraints import Constraint, EdgeData, Origin, PositionData, kind_of
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
-from aida_kb.interpret.knowledge import Knowledge, join
+from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import CameraView, RegionView
+from aida_kb.kb.paths import ROOT, RolePath
 from aida_kb.solve import ConstraintResidual, build_problem, constraints_from_kb, solve
 
 FloatArray = npt.NDArray[np.float64]
@@ -64,7 +65,7 @@ class PlaneInit:
     fixed: bool = False
 
 
-BlameGroup = tuple[str, str, tuple[int, ...]]
+BlameGroup = tuple[str, RolePath, tuple[int, ...]]
 """The constraints that stand or fall together when one is left out to find the culprit of a
 contradiction: (label, owner, parts) — a knowledge constraint with every instance of its label
 and owner (parts ``()``), a measurement per part it measures."""
@@ -78,7 +79,7 @@ def blame_group(c: Constraint) -> BlameGroup | None:
         return None
     o = c.source
     if kind.measurement:
-        return (o.label, "", tuple(int(p) for p in c.parts))
+        return (o.label, ROOT, tuple(int(p) for p in c.parts))
     return (o.label, o.owner, ())
 
 
@@ -162,19 +163,12 @@ def _v3(a: FloatArray) -> tuple[float, float, float]:
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
-def _relative(root: str, path: str) -> str:
-    """``path`` relative to the role path ``root`` ('' for the root itself)."""
-    if not root:
-        return path
-    if path == root:
-        return ""
-    if not path.startswith(root + "."):
-        raise SolveError(f"{path} is not a part of {root}")
-    return path[len(root) + 1 :]
-
-
-def _absolute(root: str, rel: str) -> str:
-    return join(root, rel) if rel else root
+def _relative(root: RolePath, path: RolePath) -> RolePath:
+    """``path`` relative to the role path ``root`` (`ROOT` for the root itself)."""
+    try:
+        return path.relative_to(root)
+    except ValueError as exc:
+        raise SolveError(str(exc)) from None
 
 
 @dataclass(frozen=True)
@@ -220,34 +214,37 @@ def build_verification(
 
     Constraints among fixed parts only are left out: they were verified with their level.
     """
-    index = {p.role: i for i, p in enumerate(planes)}
+    top = RolePath.parse(root)
+    index = {RolePath.parse(p.role): i for i, p in enumerate(planes)}
     if len(index) != len(planes):
         raise SolveError("verification: a part appears twice")
-    rel = {_relative(root, role): i for role, i in index.items()}
+    rel = {_relative(top, path): i for path, i in index.items()}
     declared_set = {tuple(sorted(pair)) for pair in declared}
     edge_map: dict[tuple[int, int], list[EdgeData]] = {}
-    contours: dict[str, tuple[int, int, EdgeData]] = {}
-    counts: dict[str, int] = {}
+    contours: dict[RolePath, tuple[int, int, EdgeData]] = {}
+    counts: dict[RolePath, int] = {}
     for e in edges:
         data = EdgeData(e.camera, (float(e.ends_px[0, 0]), float(e.ends_px[0, 1])), _p2(e.ends_px))
-        a, b = index[e.parts[0]], index[e.parts[1]]
+        a, b = index[RolePath.parse(e.parts[0])], index[RolePath.parse(e.parts[1])]
         if tuple(sorted(e.parts)) in declared_set:
             edge_map.setdefault((min(a, b), max(a, b)), []).append(data)
             continue
-        part = planes[index[e.contour_of]].concept or knowledge.concept_at(e.contour_of)
+        part = planes[index[RolePath.parse(e.contour_of)]].concept or knowledge.concept_at(
+            e.contour_of
+        )
         through = knowledge.contour_path(part)
         if through is None:
             continue  # the knowledge gives this part's evidence no contours to measure
-        region = f"{_relative(root, e.contour_of)}.{through}"
+        region = _relative(top, RolePath.parse(e.contour_of)).join(RolePath.parse(through))
         k = counts.get(region, 0)
         counts[region] = k + 1
-        contours[f"{region}[{k}]"] = (a, b, data)
+        contours[region.indexed(k)] = (a, b, data)
     found = constraints_from_kb(
         knowledge.kb,
         root_concept,
         rel,
-        fillers={_relative(root, r): c for r, c in fillers.items() if r != root},
-        positions={index[r]: p for r, p in positions.items()},
+        fillers={_relative(top, RolePath.parse(r)): c for r, c in fillers.items() if r != root},
+        positions={index[RolePath.parse(r)]: p for r, p in positions.items()},
         edges=edge_map,
         contours=contours,
     )
@@ -257,7 +254,7 @@ def build_verification(
         if set(c.parts) <= fixed:
             continue
         o = c.source
-        out.append(replace(c, label=o.label, origin=replace(o, owner=_absolute(root, o.owner))))
+        out.append(replace(c, label=o.label, origin=replace(o, owner=top.join(o.owner))))
     out += [c for c in extra if not set(c.parts) <= fixed]
     return Verification(tuple(planes), tuple(out), tuple(cameras), found.skipped)
 
@@ -300,7 +297,7 @@ def tilt_constraints(
             reject_above=half,
             unit="rad",
             label=label,
-            origin=Origin(label, "attribute", concept, role, attr.span),
+            origin=Origin(label, "attribute", concept, RolePath.parse(role), attr.span),
         )
         out.append(constraint)
     return out

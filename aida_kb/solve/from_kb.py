@@ -23,9 +23,9 @@ parts and con-of roles recursively and turns every `ConstraintSpec` it meets int
 from __future__ import annotations
 
 import itertools
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -34,9 +34,12 @@ from aida_kb.constraints import Constraint, EdgeData, Origin, PositionData, kind
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.kb.model import ConceptModel, ConstraintSpec, KnowledgeBase
+from aida_kb.kb.paths import ROOT, RolePath
 from aida_kb.solve.problem import Problem, build_problem
 
-_INDEX = re.compile(r"^(?P<role>[A-Za-z_][A-Za-z0-9_]*)(\[(?P<i>\d+)\])?$")
+_V = TypeVar("_V")
+#: A mapping keyed by role paths, or by their dotted spellings (parsed once, at the edge).
+PathMap = Mapping[RolePath, _V] | Mapping[str, _V]
 
 
 @dataclass(frozen=True)
@@ -59,11 +62,11 @@ class _Walker:
     def __init__(
         self,
         kb: KnowledgeBase,
-        assignment: Mapping[str, int],
-        fillers: Mapping[str, str],
+        assignment: Mapping[RolePath, int],
+        fillers: Mapping[RolePath, str],
         positions: Mapping[int, PositionData],
         edges: Mapping[tuple[int, int], Sequence[EdgeData]],
-        contours: Mapping[str, tuple[int, int, EdgeData]],
+        contours: Mapping[RolePath, tuple[int, int, EdgeData]],
     ) -> None:
         self.kb = kb
         self.assignment = assignment
@@ -79,19 +82,29 @@ class _Walker:
 
     # ---- paths -----------------------------------------------------------------------------
 
-    def concept_at(self, path: str, declared: str) -> ConceptModel:
+    def concept_at(self, path: RolePath, declared: str) -> ConceptModel:
         name = self.fillers.get(path, declared)
         if name not in self.kb.concepts:
             raise SolveError(f"{path or 'the root'}: unknown concept {name!r}")
         return self.kb.concepts[name]
 
-    def present(self, path: str) -> bool:
-        return any(k == path or k.startswith(path + ".") for k in self.keys)
+    def present(self, path: RolePath) -> bool:
+        return any(k.is_under(path) for k in self.keys)
 
-    def indices(self, path: str) -> list[int]:
+    def indices(self, path: RolePath) -> list[int]:
         """The filler indices i for which ``path[i]`` is named by a key."""
-        pat = re.compile(re.escape(path) + r"\[(\d+)\](\.|$)")
-        return sorted({int(m.group(1)) for k in self.keys if (m := pat.match(k))})
+        n = len(path)
+        head, role = path.steps[:-1], path.last.role
+        return sorted(
+            {
+                int(step.index)
+                for k in self.keys
+                if len(k) >= n
+                and k.steps[: n - 1] == head
+                and (step := k.steps[n - 1]).role == role
+                and step.index is not None
+            }
+        )
 
     def role(self, concept: ConceptModel, name: str) -> tuple[str, bool, bool] | None:
         """(declared concept, several fillers?, con-of?) of role ``name`` of ``concept``."""
@@ -103,36 +116,25 @@ class _Walker:
             return c.concept, c.max is None or c.max > 1, True
         return None
 
-    def resolve(self, path: str) -> int | None:
+    def resolve(self, path: RolePath) -> int | None:
         """The part index of ``path``, or of its nearest ancestor through con-of roles."""
         while True:
             if path in self.assignment:
                 return int(self.assignment[path])
-            if "." not in path:
+            if len(path) < 2:
+                return None  # a top-level role: no owner to fall back to
+            concept = self._concept_of_path(path.parent)
+            if concept is None or path.last.role not in concept.con_ofs:
                 return None
-            parent, last = path.rsplit(".", 1)
-            if not self._is_con_of(parent, last):
-                return None
-            path = parent
+            path = path.parent
 
-    def _is_con_of(self, parent: str, last: str) -> bool:
-        concept = self._concept_of_path(parent)
-        m = _INDEX.match(last)
-        return concept is not None and m is not None and m.group("role") in concept.con_ofs
-
-    def _concept_of_path(self, path: str) -> ConceptModel | None:
+    def _concept_of_path(self, path: RolePath) -> ConceptModel | None:
         concept = self.kb.concepts[self.root]
-        prefix = ""
-        for seg in path.split(".") if path else []:
-            m = _INDEX.match(seg)
-            if m is None:
-                return None
-            r = self.role(concept, m.group("role"))
+        for k, step in enumerate(path.steps):
+            r = self.role(concept, step.role)
             if r is None:
                 return None
-            prefix = f"{prefix}{seg}"
-            concept = self.concept_at(prefix, r[0])
-            prefix += "."
+            concept = self.concept_at(RolePath(path.steps[: k + 1]), r[0])
         return concept
 
     # ---- the walk --------------------------------------------------------------------------
@@ -141,59 +143,57 @@ class _Walker:
         if root not in self.kb.concepts:
             raise SolveError(f"unknown concept {root!r}")
         self.root = root
-        self.visit("", self.kb.concepts[root])
+        self.visit(ROOT, self.kb.concepts[root])
 
-    def visit(self, path: str, concept: ConceptModel) -> None:
+    def visit(self, path: RolePath, concept: ConceptModel) -> None:
         for spec in concept.constraints:
             self.expand(path, concept, spec)
         roles = [(n, p.concept, p.max) for n, p in concept.parts.items()]
         roles += [(n, c.concept, c.max) for n, c in concept.con_ofs.items()]
         for name, declared, most in roles:
-            sub = f"{path}{name}"
+            sub = path.child(name)
             if most is None or most > 1:
                 for i in self.indices(sub):
-                    self.visit(f"{sub}[{i}].", self.concept_at(f"{sub}[{i}]", declared))
+                    filler = path.child(name, i)
+                    self.visit(filler, self.concept_at(filler, declared))
                 continue
             # a con-of role (a region) is visited wherever its owner is
-            owner_present = bool(path) and name in concept.con_ofs and self.present(path[:-1])
+            owner_present = bool(path) and name in concept.con_ofs and self.present(path)
             if self.present(sub) or owner_present:
-                self.visit(f"{sub}.", self.concept_at(sub, declared))
+                self.visit(sub, self.concept_at(sub, declared))
 
-    def concretise(self, path: str, concept: ConceptModel, rel: str) -> list[dict[str, int]]:
+    def concretise(
+        self, path: RolePath, concept: ConceptModel, rel: RolePath
+    ) -> list[dict[RolePath, int]]:
         """The bindings (multi-role prefix -> filler index) that make ``rel`` concrete."""
-        if rel == "self":
-            return [{}]
-        multi: list[str] = []
+        multi: list[RolePath] = []
         current = concept
-        prefix = ""
-        for seg in rel.split("."):
-            m = _INDEX.match(seg)
-            if m is None:
-                return []
-            r = self.role(current, m.group("role"))
+        prefix = ROOT
+        for step in rel.steps:
+            r = self.role(current, step.role)
             if r is None:
                 return []
-            prefix = f"{prefix}{seg}"
-            if r[1] and m.group("i") is None:
+            prefix = prefix.child(step.role, step.index)
+            if r[1] and step.index is None:
                 multi.append(prefix)
-                prefix += "[0]"
-            current = self.concept_at(f"{path}{prefix}", r[0])
-            prefix += "."
+                prefix = prefix.indexed(0)
+            current = self.concept_at(path.join(prefix), r[0])
         if not multi:
             return [{}]
-        choices = [self.indices(f"{path}{p}") for p in multi]
+        choices = [self.indices(path.join(p)) for p in multi]
         return [dict(zip(multi, combo, strict=True)) for combo in itertools.product(*choices)]
 
     @staticmethod
-    def substitute(rel: str, binding: Mapping[str, int]) -> str:
-        for prefix, i in sorted(binding.items(), key=lambda kv: -len(kv[0])):
-            if rel == prefix or rel.startswith(prefix + "."):
-                rel = f"{prefix}[{i}]{rel[len(prefix) :]}"
+    def substitute(rel: RolePath, binding: Mapping[RolePath, int]) -> RolePath:
+        for prefix, i in sorted(binding.items(), key=lambda kv: -len(str(kv[0]))):
+            if rel.is_under(prefix):
+                rel = prefix.indexed(i).join(rel.relative_to(prefix))
         return rel
 
-    def expand(self, path: str, concept: ConceptModel, spec: ConstraintSpec) -> None:
-        rels = list(spec.args) + [rp for rp, _ in spec.requires]
-        bindings: list[dict[str, int]] = [{}]
+    def expand(self, path: RolePath, concept: ConceptModel, spec: ConstraintSpec) -> None:
+        rels = [RolePath.parse(a) for a in spec.args]
+        rels += [RolePath.parse(rp) for rp, _ in spec.requires]
+        bindings: list[dict[RolePath, int]] = [{}]
         for rel in rels:
             options = self.concretise(path, concept, rel)
             bindings = [
@@ -202,18 +202,18 @@ class _Walker:
                 for o in options
                 if all(b.get(k, v) == v for k, v in o.items())
             ]
-        where = f"{path[:-1] or '.'}:{spec.label}"
         if not bindings:
+            where = f"{path or '.'}:{spec.label}"
             self.skipped.append(f"{where}: no filler of {', '.join(spec.args)}")
         for binding in bindings:
             self.emit(path, spec, binding)
 
-    def emit(self, path: str, spec: ConstraintSpec, binding: Mapping[str, int]) -> None:
-        args = [self.substitute(a, binding) for a in spec.args]
-        shown = [path[:-1] if a == "self" else f"{path}{a}" for a in args]
-        label = f"{path[:-1] or '.'}:{spec.label}({', '.join(shown)})"
+    def emit(self, path: RolePath, spec: ConstraintSpec, binding: Mapping[RolePath, int]) -> None:
+        args = [self.substitute(RolePath.parse(a), binding) for a in spec.args]
+        shown = [path.join(a) for a in args]
+        label = f"{path or '.'}:{spec.label}({', '.join(str(s) for s in shown)})"
         for rp, allowed in spec.requires:
-            concrete = f"{path}{self.substitute(rp, binding)}"
+            concrete = path.join(self.substitute(RolePath.parse(rp), binding))
             filler = self.fillers.get(concrete)
             if filler is None:
                 decl = self._concept_of_path(concrete)
@@ -224,17 +224,17 @@ class _Walker:
                 )
                 return
         evidence = kind_of(spec.kind).evidence
-        if evidence == "segment" and args == ["self"]:
-            found = self.contours.get(path[:-1])
+        if evidence == "segment" and args == [ROOT]:
+            found = self.contours.get(path)
             if found is None:
                 self.skipped.append(f"{label}: no image segment for this contour")
                 return
             a, b, seg = found
-            self.add(spec, (int(a), int(b)), label, edge=seg)
+            self.add(spec, path, (int(a), int(b)), label, edge=seg)
             return
         parts = [self.resolve(s) for s in shown]
         if any(p is None for p in parts):
-            missing = [s for s, p in zip(shown, parts, strict=True) if p is None]
+            missing = [str(s) for s, p in zip(shown, parts, strict=True) if p is None]
             self.skipped.append(f"{label}: unassigned {', '.join(missing)}")
             return
         ids = tuple(int(p) for p in parts if p is not None)
@@ -243,19 +243,20 @@ class _Walker:
             if pos is None:
                 self.skipped.append(f"{label}: no region evidence for part {ids[0]}")
                 return
-            self.add(spec, ids, label, position=pos)
+            self.add(spec, path, ids, label, position=pos)
         elif evidence == "segment":
             segs = self.edges.get((min(ids), max(ids)), ())
             if not segs:
                 self.skipped.append(f"{label}: no image segment of this edge")
             for k, seg in enumerate(segs):
-                self.add(spec, ids, f"{label}#{k}" if len(segs) > 1 else label, edge=seg)
+                self.add(spec, path, ids, f"{label}#{k}" if len(segs) > 1 else label, edge=seg)
         else:
-            self.add(spec, ids, label)
+            self.add(spec, path, ids, label)
 
     def add(
         self,
         spec: ConstraintSpec,
+        owner: RolePath,
         parts: tuple[int, ...],
         label: str,
         *,
@@ -279,7 +280,7 @@ class _Walker:
                     label=spec.label,
                     rule="knowledge",
                     concept=spec.concept,
-                    owner=label.split(":", 1)[0].lstrip("."),
+                    owner=owner,
                     span=spec.span,
                 ),
             )
@@ -287,15 +288,21 @@ class _Walker:
         self.specs.append(spec)
 
 
+def _paths(mapping: PathMap[_V] | None) -> dict[RolePath, _V]:
+    """A mapping keyed by role paths; dotted keys are parsed (once: paths are interned)."""
+    items: list[tuple[RolePath | str, _V]] = list((mapping or {}).items())
+    return {k if isinstance(k, RolePath) else RolePath.parse(k): v for k, v in items}
+
+
 def constraints_from_kb(
     kb: KnowledgeBase,
     root: str,
-    assignment: Mapping[str, int],
+    assignment: PathMap[int],
     *,
-    fillers: Mapping[str, str] | None = None,
+    fillers: PathMap[str] | None = None,
     positions: Mapping[int, PositionData] | None = None,
     edges: Mapping[tuple[int, int], Sequence[EdgeData]] | None = None,
-    contours: Mapping[str, tuple[int, int, EdgeData]] | None = None,
+    contours: PathMap[tuple[int, int, EdgeData]] | None = None,
 ) -> KbConstraints:
     """The solver constraints of concept ``root`` under ``assignment`` (see the module doc).
 
@@ -316,12 +323,7 @@ def constraints_from_kb(
         If ``root`` or a filler names an unknown concept.
     """
     walker = _Walker(
-        kb,
-        assignment,
-        fillers or {},
-        positions or {},
-        edges or {},
-        contours or {},
+        kb, _paths(assignment), _paths(fillers), positions or {}, edges or {}, _paths(contours)
     )
     walker.walk(root)
     return KbConstraints(tuple(walker.out), tuple(walker.specs), tuple(walker.skipped))
@@ -330,15 +332,15 @@ def constraints_from_kb(
 def problem_from_kb(
     kb: KnowledgeBase,
     root: str,
-    assignment: Mapping[str, int],
+    assignment: PathMap[int],
     normals: npt.ArrayLike,
     offsets: npt.ArrayLike,
     *,
     centres: npt.ArrayLike | None = None,
-    fillers: Mapping[str, str] | None = None,
+    fillers: PathMap[str] | None = None,
     positions: Mapping[int, PositionData] | None = None,
     edges: Mapping[tuple[int, int], Sequence[EdgeData]] | None = None,
-    contours: Mapping[str, tuple[int, int, EdgeData]] | None = None,
+    contours: PathMap[tuple[int, int, EdgeData]] | None = None,
     cameras: Sequence[PinholeCamera] = (),
     fixed_parts: Iterable[int] = (),
     free_cameras: Iterable[int] = (),
@@ -351,7 +353,7 @@ def problem_from_kb(
     found = constraints_from_kb(
         kb, root, assignment, fillers=fillers, positions=positions, edges=edges, contours=contours
     )
-    names_by_index = {int(i): path for path, i in assignment.items()}
+    names_by_index = {int(i): str(path) for path, i in assignment.items()}
     count = int(np.asarray(offsets).reshape(-1).shape[0])
     names = tuple(names_by_index.get(i, f"part {i}") for i in range(count))
     problem = build_problem(

@@ -159,7 +159,7 @@ def residual_row(
         label=c.label or o.label,
         kind=c.kind,
         concept=o.concept,
-        owner=o.owner,
+        owner=str(o.owner),
         rule=o.rule,
         span=o.span,
         parts=parts,

@@ -121,7 +121,7 @@ def test_fragments_of_one_edge_share_one_verdict(buildings_kb: KnowledgeBase) ->
     edges = [EdgeEvidence(("body.front", "body.left"), "body.front", 0, f) for f in fragments]
     v = build_verification(knowledge, "body", "HouseBody", planes, {}, {}, edges, set(), (cam,))
     assert [c.kind for c in v.constraints] == ["angle", "edge", "edge"]
-    assert [c.source.owner for c in v.constraints] == [
+    assert [str(c.source.owner) for c in v.constraints] == [
         "body",
         "body.front.region.contours[0]",
         "body.front.region.contours[1]",
@@ -149,7 +149,7 @@ def test_constraints_come_from_the_knowledge_base(buildings_kb: KnowledgeBase) -
     v = build_verification(
         knowledge, "body", "HouseBody", planes, fillers, {}, [], set(), (), tilts
     )
-    labels = {(c.source.label, c.source.owner) for c in v.constraints}
+    labels = {(c.source.label, str(c.source.owner)) for c in v.constraints}
     # the body's own constraints relate fixed parts only: verified with the body, left out
     assert ("corner_fl", "body") not in labels
     assert ("wings_meet", "body") in labels
@@ -157,7 +157,7 @@ def test_constraints_come_from_the_knowledge_base(buildings_kb: KnowledgeBase) -
     assert meet.value == pytest.approx(math.radians(135.0))
     assert ("Wing#1", "body.wings[0]") in labels
     assert ("Wall.tilt", "body.wings[0].back") in labels
-    tilt = next(c for c in v.constraints if c.source.owner == "body.wings[0].back")
+    tilt = next(c for c in v.constraints if str(c.source.owner) == "body.wings[0].back")
     assert tilt.source.rule == "attribute"
     assert tilt.source.span is not None
     assert tilt.source.span.file.endswith("buildings.kb")
