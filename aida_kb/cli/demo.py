@@ -26,13 +26,6 @@ examples:
 """
 
 ANGLE_TARGET_DEG = 0.5  # the demo's own target: dihedral angles within half a degree
-MAIN_ANGLES = (
-    ("body.front", "body.left", "wall corner"),
-    ("body.floor", "body.front", "wall on the floor"),
-    ("body.front", "body.roof.front", "eaves (90 + pitch)"),
-    ("body.roof.front", "body.roof.back", "ridge (180 - 2 pitch)"),
-    ("body.left", "body.roof.front", "gable"),
-)
 
 
 def register(subparsers: Any) -> None:
@@ -161,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.io.atomic import make_dirs
     from aida_kb.io.scene import read_scene
     from aida_kb.report.html import REPORT_FILE, write_report
-    from aida_kb.synth.scenes import preset, render_scene
+    from aida_kb.synth.scenes import HOUSE_ANGLES, preset, render_scene
 
     path = Path(args.kb) if args.kb else packaged_kb("buildings.kb")
     root = make_dirs(args.out) if args.out else Path(tempfile.mkdtemp(prefix="aida-kb-demo-"))
@@ -214,7 +207,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_ERRORS
     found = {(a.a, a.b): a for a in comparison.angles}
     found.update({(a.b, a.a): a for a in comparison.angles})
-    for a, b, what in MAIN_ANGLES:
+    for a, b, what in HOUSE_ANGLES:
         angle = found.get((a, b))
         if angle is not None:
             console.print(

@@ -38,6 +38,15 @@ Progress = Callable[[int, int], None]
 PRESETS = ("house", "turntable", "lshape", "oriel", "chessboard")
 ROOF_CONCEPTS = {"gable": "GableRoof", "hip": "HipRoof", "flat": "FlatRoof", "shed": "ShedRoof"}
 """The specialisation each roof kind of `synth.buildings` is (synth's own names, in truth.json)."""
+#: the `house` preset's dihedral angles `aida-kb demo` names (its parts' role paths in
+#: kb/buildings.kb: the synthetic renderer may name the parts it renders)
+HOUSE_ANGLES = (
+    ("body.front", "body.left", "wall corner"),
+    ("body.floor", "body.front", "wall on the floor"),
+    ("body.front", "body.roof.front", "eaves (90 + pitch)"),
+    ("body.roof.front", "body.roof.back", "ridge (180 - 2 pitch)"),
+    ("body.left", "body.roof.front", "gable"),
+)
 OCCLUDER_LABEL = 2000  # first render label of occluders (above the ground's); 0 in labels.png
 
 

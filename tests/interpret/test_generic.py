@@ -10,34 +10,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aida_kb.dsl.ast import DIRECTIONS
 from aida_kb.interpret.run import interpret
 from aida_kb.io.evidence import read_evidence
-from aida_kb.kb import compile_path, compile_text
-from aida_kb.kb.relations import PRIMITIVES
-from aida_kb.kb.resolve import VALUE_TYPES
-from aida_kb.kb.shape import MEASURES
+from aida_kb.kb import compile_text
+from aida_kb.testing.knowledge import declared_identifiers
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURES = ROOT / "tests" / "fixtures"
 WORD = re.compile(r"\b[A-Za-z_][A-Za-z0-9_]*\b")
 
 
-def _declared() -> set[str]:
-    """Every identifier buildings.kb declares, less the words of the language itself."""
-    kb = compile_path(ROOT / "kb" / "buildings.kb").kb
-    assert kb is not None
-    names = set(kb.templates)
-    for c in kb.concepts.values():
-        names |= {c.name, *c.parts, *c.con_ofs, *c.attributes}
-        names |= {a.name for a in c.attachments.values()}
-    grammar = (ROOT / "grammars" / "kb.lark").read_text(encoding="utf-8")
-    language = set(re.findall(r'"([a-z][a-z-]*)"', grammar)) | set(MEASURES) | set(VALUE_TYPES)
-    return names - language - set(PRIMITIVES) - set(DIRECTIONS)
-
-
 def _renamed() -> tuple[object, dict[str, str]]:
-    mapping = {n: f"Q{n[::-1]}Z" for n in _declared()}
+    mapping = {n: f"Q{n[::-1]}Z" for n in declared_identifiers(ROOT / "kb" / "buildings.kb")}
     assert {"House", "HouseBody", "front", "roof", "tilt", "perpendicular"} <= set(mapping)
     text = (ROOT / "kb" / "buildings.kb").read_text(encoding="utf-8")
     renamed = WORD.sub(lambda m: mapping.get(m.group(0), m.group(0)), text)
