@@ -2,7 +2,9 @@
 
 Layout (documented field by field in docs/formats.md)::
 
-    DIR/scene.yaml               format, version, name, calib file, list of views and their files
+    DIR/scene.yaml               format, version, name, calib file, scale, list of views and
+                                 their files (version 2: a view may name its own calibration
+                                 and give its left camera's pose)
     DIR/calib.yaml               stereo rig as cv2.FileStorage writes it: K1 D1 K2 D2 R T
                                  image_width image_height (x_right = R·x_left + T, T in metres)
     DIR/views/NN/left.png        8-bit image (grey or BGR)
@@ -12,8 +14,9 @@ Layout (documented field by field in docs/formats.md)::
     DIR/truth.json               synthetic only: parts, planes, polygons, view poses
 
 World coordinates are those of the left camera of view 00 (OpenCV: x right, y down, z forward),
-in metres. Every file is written atomically; every problem on reading raises `FormatError`
-naming the file and the field.
+in metres -- or, in a scene whose scale is declared unknown, in the units of its calibration.
+Every file is written atomically; every problem on reading raises `FormatError` naming the file
+and the field.
 """
 
 from __future__ import annotations
@@ -56,7 +59,8 @@ from aida_kb.limits import (
 )
 
 SCENE_FORMAT = "aida-kb-scene"
-SCENE_VERSION = 1
+SCENE_VERSION = 2
+"""The version `write_scene` writes; version 1 (one rig for every view, metres) is still read."""
 SCENE_FILE = "scene.yaml"
 CALIB_FILE = "calib.yaml"
 TRUTH_FILE = "truth.json"
@@ -67,23 +71,76 @@ FloatArray = npt.NDArray[np.float64]
 # scene.yaml
 
 
+Vec2 = tuple[Finite, Finite]
+
+
+class PoseEntry(FrozenModel):
+    """A view's left-camera pose in the world: x_cam = R·x_world + t (t in scene units)."""
+
+    R: Mat3
+    t: Vec3
+
+
 class ViewEntry(FrozenModel):
-    """One view of scene.yaml: an id and its files, relative to the scene directory."""
+    """One view of scene.yaml: an id and its files, relative to the scene directory.
+
+    Version 2 only: `calib`, the view's own stereo calibration (else the scene's), and `pose`,
+    the left camera's pose in the world (view 00's is the identity by definition).
+    """
 
     id: ViewId
     left: str = Field(min_length=1)
     right: str = Field(min_length=1)
     labels: str | None = None
     depth_left: str | None = None
+    calib: str | None = None
+    pose: PoseEntry | None = None
+
+
+class BaselineScale(FrozenModel):
+    """The scale from one known baseline: the distance between the two cameras of `view`."""
+
+    view: ViewId
+    metres: Finite = Field(gt=0)
+
+
+class DistanceScale(FrozenModel):
+    """The scale from one known distance between two points seen in both images of `view`.
+
+    left, right : the two points' pixel positions (x, y) in the left and in the right image
+    (original, distorted images, OpenCV pixel centres); metres : their true distance.
+    """
+
+    view: ViewId
+    left: tuple[Vec2, Vec2]
+    right: tuple[Vec2, Vec2]
+    metres: Finite = Field(gt=0)
+
+
+class ScaleEntry(FrozenModel):
+    """scene.yaml `scale:` as a mapping: exactly one known length that fixes the scale."""
+
+    baseline: BaselineScale | None = None
+    distance: DistanceScale | None = None
+
+    @model_validator(mode="after")
+    def _one(self) -> ScaleEntry:
+        if (self.baseline is None) == (self.distance is None):
+            raise ValueError("give exactly one of baseline, distance")
+        return self
+
+
+ScaleField = Literal["metres", "unknown"] | ScaleEntry
 
 
 class SceneIndex(FrozenModel):
-    """The content of scene.yaml."""
+    """The content of scene.yaml (version 1 or 2)."""
 
     format: Literal["aida-kb-scene"] = "aida-kb-scene"
-    version: Literal[1] = 1
+    version: Literal[1, 2] = 1
     name: str = ""
-    calib: str = CALIB_FILE
+    calib: str | None = CALIB_FILE
+    scale: ScaleField = "metres"
     truth: str | None = None
     views: list[ViewEntry] = Field(min_length=1, max_length=MAX_VIEWS)
 
@@ -95,6 +152,21 @@ class SceneIndex(FrozenModel):
         if dupes:
             raise ValueError(f"view ids must be unique; repeated: {', '.join(dupes)}")
         return views
+
+    @model_validator(mode="after")
+    def _version_fields(self) -> SceneIndex:
+        if self.version == 1:
+            if self.scale != "metres":
+                raise ValueError("scale: needs version 2")
+            if self.calib is None:
+                raise ValueError("calib: version 1 needs the scene's calibration")
+            for i, v in enumerate(self.views):
+                if v.calib is not None or v.pose is not None:
+                    raise ValueError(f"views[{i}]: calib and pose need version 2")
+        for i, v in enumerate(self.views):
+            if v.calib is None and self.calib is None:
+                raise ValueError(f"views[{i}].calib: missing (and the scene has no calib)")
+        return self
 
 
 # ---------------------------------------------------------------------------------------------
@@ -293,7 +365,7 @@ def _calib_int(fs: Any, file: Path, name: str) -> int:
 CALIB_ORTHONORMAL_TOL = 1e-4
 
 
-def _nearest_rotation(R: FloatArray, file: Path) -> FloatArray:
+def _nearest_rotation(R: FloatArray, file: Path, name: str = "R") -> FloatArray:
     """The rotation nearest to R (3, 3) (Frobenius norm), or FormatError naming `file`.
 
     R must be orthonormal to CALIB_ORTHONORMAL_TOL (max |R R^T - I|) and have det > 0.
@@ -301,7 +373,7 @@ def _nearest_rotation(R: FloatArray, file: Path) -> FloatArray:
     err = float(np.abs(R @ R.T - np.eye(3)).max())
     if err > CALIB_ORTHONORMAL_TOL or np.linalg.det(R) <= 0:
         raise FormatError(
-            f"{file}: field R: not a rotation matrix (max |R R^T - I| = {err:.2g}, tolerance "
+            f"{file}: field {name}: not a rotation matrix (max |R R^T - I| = {err:.2g}, tolerance "
             f"{CALIB_ORTHONORMAL_TOL:g}; det {np.linalg.det(R):.6g}, must be +1)"
         )
     U, _, Vt = np.linalg.svd(R)
@@ -366,22 +438,44 @@ def read_calib(path: str | os.PathLike[str]) -> StereoCalib:
 # the scene as a whole
 
 
+Pose = tuple[FloatArray, FloatArray]
+"""(R_cam_world (3, 3), t_cam_world (3,)): x_cam = R·x_world + t, t in the scene's units."""
+
+
 @dataclass(frozen=True)
 class SceneView:
-    """One view of a scene: its id and absolute file paths (labels/depth may be absent)."""
+    """One view of a scene: its id, absolute file paths (labels/depth may be absent), its
+    stereo calibration, and its left camera's pose in the world if the scene gives it."""
 
     id: str
     left: Path
     right: Path
     labels: Path | None = None
     depth_left: Path | None = None
+    calib: StereoCalib | None = None
+    pose: Pose | None = None
+
+    @property
+    def rig(self) -> StereoCalib:
+        """The view's stereo calibration (every view read by `read_scene` has one)."""
+        if self.calib is None:
+            raise FormatError(f"view {self.id}: has no stereo calibration")
+        return self.calib
+
+
+ScaleKind = Literal["metres", "unknown"]
 
 
 @dataclass(frozen=True)
 class Scene:
     """A scene directory as read by `read_scene`: calibration, views, optional ground truth.
 
-    ``files`` lists every file of the scene (scene.yaml, the calibration, the view images,
+    ``calib`` is the first view's calibration (every view's own is ``views[i].calib``).
+    ``scale`` is "metres" when lengths are metres (given so, or fixed by one known length:
+    ``scale_factor`` is the factor the file's translations were multiplied by), "unknown"
+    when the scene is known up to scale only (structure from motion): lengths are then in
+    the calibration's arbitrary units, and nothing derived from them is metric.
+    ``files`` lists every file of the scene (scene.yaml, the calibrations, the view images,
     labels and depth maps, truth.json): the inputs no output may overwrite.
     """
 
@@ -391,6 +485,8 @@ class Scene:
     views: tuple[SceneView, ...]
     truth: SceneTruth | None = None
     files: tuple[Path, ...] = ()
+    scale: ScaleKind = "metres"
+    scale_factor: float = 1.0
 
     def view(self, view_id: str) -> SceneView:
         """The view with id `view_id` (KeyError if there is none)."""
@@ -398,6 +494,11 @@ class Scene:
             if v.id == view_id:
                 return v
         raise KeyError(view_id)
+
+    @property
+    def metric(self) -> bool:
+        """Whether the scene's lengths are metres (False: known up to scale only)."""
+        return self.scale == "metres"
 
 
 def _read_text(file: Path, limit: int) -> str:
@@ -486,15 +587,29 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
         raise FormatError(f"{root}: not a directory (expected a scene directory)")
     index_file = root / SCENE_FILE
     index = _read_index(index_file)
-    calib_file = _resolve(root, index_file, "calib", index.calib)
-    calib = read_calib(calib_file)
-    # before any image is decoded or any pyramid allocated: the run's memory from the size
-    over_budget = memory_problem(*calib.image_size)
-    if over_budget is not None:
-        raise FormatError(f"{calib_file}: {over_budget}")
+    calibs: dict[str, tuple[Path, StereoCalib]] = {}
+
+    def calib_of(field_name: str, rel: str) -> tuple[Path, StereoCalib]:
+        if rel not in calibs:
+            file = _resolve(root, index_file, field_name, rel)
+            calib = read_calib(file)
+            # before any image is decoded or any pyramid allocated: the run's memory
+            over_budget = memory_problem(*calib.image_size)
+            if over_budget is not None:
+                raise FormatError(f"{file}: {over_budget}")
+            calibs[rel] = (file, calib)
+        return calibs[rel]
+
+    if index.calib is not None:
+        calib_of("calib", index.calib)
     views = []
     for i, v in enumerate(index.views):
         prefix = f"views[{i}]"
+        if v.calib is not None:
+            _, view_calib = calib_of(f"{prefix}.calib", v.calib)
+        else:
+            _, view_calib = calib_of("calib", index.calib or "")
+        pose = None if v.pose is None else _pose(v.pose, index_file, f"{prefix}.pose", i)
         views.append(
             SceneView(
                 id=v.id,
@@ -506,6 +621,8 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
                 depth_left=None
                 if v.depth_left is None
                 else _resolve(root, index_file, f"{prefix}.depth_left", v.depth_left),
+                calib=view_calib,
+                pose=pose,
             )
         )
     for i, view in enumerate(views):
@@ -513,7 +630,12 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
             raise FormatError(
                 f"{index_file}: field views[{i}].right: the same file as the left image"
             )
-    files = [index_file, calib_file]
+    scale: ScaleKind = "unknown" if index.scale == "unknown" else "metres"
+    factor = 1.0
+    if isinstance(index.scale, ScaleEntry):
+        factor = _scale_factor(index.scale, views, index_file)
+        views = [_scaled(v, factor) for v in views]
+    files = [index_file] + [f for f, _ in calibs.values()]
     files += [p for v in views for p in (v.left, v.right, v.labels, v.depth_left) if p]
     if index.truth is not None:
         files.append(root / index.truth)
@@ -522,11 +644,11 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
         truth_file = _resolve(root, index_file, "truth", index.truth)
         truth = read_json_model(truth_file, SceneTruth)
         ids = {v.id for v in views}
-        for j, pose in enumerate(truth.views):
-            if pose.view not in ids:
+        for j, pose_truth in enumerate(truth.views):
+            if pose_truth.view not in ids:
                 raise FormatError(
-                    f"{truth_file}: field views[{j}].view: {pose.view!r} is not a view of "
-                    f"{index_file}"
+                    f"{truth_file}: field views[{j}].view: {pose_truth.view!r} is not a view "
+                    f"of {index_file}"
                 )
         labels = [p.label for p in truth.parts] + ([truth.ground.label] if truth.ground else [])
         if len(set(labels)) != len(labels):
@@ -534,11 +656,113 @@ def read_scene(directory: str | os.PathLike[str], *, with_truth: bool = True) ->
     return Scene(
         root=root,
         name=index.name,
-        calib=calib,
+        calib=views[0].rig,
         views=tuple(views),
         truth=truth,
         files=tuple(files),
+        scale=scale,
+        scale_factor=factor,
     )
+
+
+def _pose(entry: PoseEntry, index_file: Path, where: str, i: int) -> Pose:
+    """The pose of scene.yaml's `where` as arrays; the rotation re-orthonormalised."""
+    R = np.asarray(entry.R, dtype=np.float64)
+    t = np.asarray(entry.t, dtype=np.float64)
+    R = _nearest_rotation(R, index_file, f"{where}.R")
+    if i == 0 and (np.abs(R - np.eye(3)).max() > 1e-9 or np.abs(t).max() > 1e-12):
+        raise FormatError(
+            f"{index_file}: field {where}: view 00's left camera is the world frame; its pose "
+            "must be the identity (R = I, t = 0) or be left out"
+        )
+    return R, t
+
+
+def _scaled(view: SceneView, factor: float) -> SceneView:
+    """`view` with every translation (the rig's T, the pose's t) multiplied by `factor`."""
+    rig = view.rig
+    calib = StereoCalib(
+        K1=rig.K1, D1=rig.D1, K2=rig.K2, D2=rig.D2, R=rig.R, T=rig.T * factor,
+        image_size=rig.image_size,
+    )  # fmt: skip
+    pose = None if view.pose is None else (view.pose[0], view.pose[1] * factor)
+    return SceneView(
+        id=view.id,
+        left=view.left,
+        right=view.right,
+        labels=view.labels,
+        depth_left=view.depth_left,
+        calib=calib,
+        pose=pose,
+    )
+
+
+MIN_SCALE_PARALLAX_DEG = 0.05
+"""A known distance whose points' two rays meet at less than this angle is refused: their
+triangulated depth (and so the scale) is undetermined. 0.05 deg is a disparity of about one
+pixel at a focal length of 1,100 px."""
+
+
+def triangulate_pair(calib: StereoCalib, left_px: FloatArray, right_px: FloatArray) -> FloatArray:
+    """Points (N, 3), left camera frame, scene units, from pixels (N, 2) in both images.
+
+    The pixels are of the original (distorted) images; the midpoint of the two rays' closest
+    approach. Raises FormatError for rays that are parallel (to MIN_SCALE_PARALLAX_DEG) or
+    meet behind a camera.
+    """
+    import cv2
+
+    def rays(px: FloatArray, K: FloatArray, D: FloatArray) -> FloatArray:
+        flat = cv2.undistortPoints(px.reshape(-1, 1, 2).astype(np.float64), K, D).reshape(-1, 2)
+        d = np.column_stack([flat, np.ones(len(flat))])
+        unit: FloatArray = d / np.linalg.norm(d, axis=1, keepdims=True)
+        return unit
+
+    d1 = rays(left_px, calib.K1, calib.D1)
+    # right camera centre and rays in the left frame: x_left = R^T (x_right - T)
+    c2 = -calib.R.T @ calib.T
+    d2 = rays(right_px, calib.K2, calib.D2) @ calib.R
+    cross = np.cross(d1, d2)
+    sin = np.linalg.norm(cross, axis=1)
+    if np.any(sin < math.sin(math.radians(MIN_SCALE_PARALLAX_DEG))):
+        raise FormatError("the two rays of a point are parallel: no depth from this pair")
+    # closest approach of the rays s·d1 and c2 + u·d2 (per point)
+    b = np.einsum("ij,ij->i", d1, d2)
+    d_ = -(d1 @ c2)
+    e = -(d2 @ c2)
+    denom = 1.0 - b * b
+    s = (b * e - d_) / denom
+    u = (e - b * d_) / denom
+    if np.any(s <= 0) or np.any(u <= 0):
+        raise FormatError("a point's rays meet behind a camera")
+    mid: FloatArray = 0.5 * (d1 * s[:, None] + (c2 + d2 * u[:, None]))
+    return mid
+
+
+def _scale_factor(entry: ScaleEntry, views: Sequence[SceneView], index_file: Path) -> float:
+    """The factor that turns the scene's units into metres, from its one known length."""
+    known = entry.baseline or entry.distance
+    assert known is not None  # the model's validator wants exactly one
+    kind = "baseline" if entry.baseline is not None else "distance"
+    match = [v for v in views if v.id == known.view]
+    if not match:
+        raise FormatError(f"{index_file}: field scale.{kind}.view: no view {known.view!r}")
+    rig = match[0].rig
+    if entry.distance is not None:
+        try:
+            pts = triangulate_pair(
+                rig,
+                np.asarray(entry.distance.left, dtype=np.float64),
+                np.asarray(entry.distance.right, dtype=np.float64),
+            )
+        except FormatError as exc:
+            raise FormatError(f"{index_file}: field scale.distance: {exc}") from None
+        units = float(np.linalg.norm(pts[0] - pts[1]))
+        if units <= 0:
+            raise FormatError(f"{index_file}: field scale.distance: the two points coincide")
+    else:
+        units = rig.baseline_m
+    return float(known.metres) / units
 
 
 def _existing_file(file: Path) -> Path:
@@ -674,6 +898,10 @@ class ViewData:
     labels: npt.NDArray[np.uint16] | None = None
     depth_left: npt.NDArray[np.float32] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    calib: StereoCalib | None = None
+    """The view's own stereo calibration (written to views/NN/calib.yaml); None: the scene's."""
+    pose: Pose | None = None
+    """The left camera's (R_cam_world, t_cam_world), scene units; None: not known."""
 
 
 def _write_png(path: Path, image: npt.NDArray[Any]) -> None:
@@ -691,24 +919,34 @@ def _write_npy(path: Path, array: npt.NDArray[Any]) -> None:
 
 def write_scene(
     directory: str | os.PathLike[str],
-    calib: StereoCalib,
+    calib: StereoCalib | None,
     views: Sequence[ViewData],
     *,
     truth: SceneTruth | None = None,
     name: str = "",
     view_ids: Sequence[str] | None = None,
+    scale: ScaleField = "metres",
 ) -> Path:
-    """Write a scene directory; every file atomically, scene.yaml last. Returns its path.
+    """Write a scene directory (version 2); every file atomically, scene.yaml last.
 
-    views : one `ViewData` per view; ids default to "00", "01", ...
+    calib : the scene's stereo rig (calib.yaml), or None when every view has its own.
+    views : one `ViewData` per view; ids default to "00", "01", ... A view's own `calib` is
+    written to views/NN/calib.yaml, its `pose` into scene.yaml.
+    scale : "metres", "unknown" (translations in arbitrary units) or one known length.
+    Returns the directory.
     """
     root = make_dirs(directory)
     ids = list(view_ids) if view_ids is not None else [f"{i:02d}" for i in range(len(views))]
     if len(ids) != len(views):
         raise FormatError(f"{root}: {len(ids)} view ids for {len(views)} views")
-    width, height = calib.image_size
     entries = []
     for vid, view in zip(ids, views, strict=True):
+        rig = view.calib or calib
+        if rig is None:
+            raise FormatError(
+                f"{root}: view {vid}: no calibration (neither its own nor the scene's)"
+            )
+        width, height = rig.image_size
         for what, img in (("left", view.left), ("right", view.right)):
             if img.dtype != np.uint8 or img.shape[:2] != (height, width):
                 raise FormatError(
@@ -718,13 +956,23 @@ def write_scene(
         base = Path("views") / vid
         _write_png(root / base / "left.png", view.left)
         _write_png(root / base / "right.png", view.right)
-        labels_rel = depth_rel = None
+        labels_rel = depth_rel = calib_rel = None
         if view.labels is not None:
             labels_rel = (base / "labels.png").as_posix()
             _write_png(root / labels_rel, np.asarray(view.labels, dtype=np.uint16))
         if view.depth_left is not None:
             depth_rel = (base / "depth_left.npy").as_posix()
             _write_npy(root / depth_rel, np.asarray(view.depth_left, dtype=np.float32))
+        if view.calib is not None:
+            calib_rel = (base / CALIB_FILE).as_posix()
+            write_calib(root / calib_rel, view.calib)
+        pose = None
+        if view.pose is not None:
+            R, t = view.pose
+            pose = PoseEntry(
+                R=tuple(tuple(float(x) for x in row) for row in np.asarray(R).reshape(3, 3)),
+                t=tuple(float(x) for x in np.asarray(t).ravel()),
+            )
         entries.append(
             ViewEntry(
                 id=vid,
@@ -732,15 +980,25 @@ def write_scene(
                 right=(base / "right.png").as_posix(),
                 labels=labels_rel,
                 depth_left=depth_rel,
+                calib=calib_rel,
+                pose=pose,
             )
         )
-    write_calib(root / CALIB_FILE, calib)
+    if calib is not None:
+        write_calib(root / CALIB_FILE, calib)
     if truth is not None:
         write_json_model(root / TRUTH_FILE, truth)
     index = SceneIndex(
-        name=name, calib=CALIB_FILE, truth=TRUTH_FILE if truth else None, views=entries
+        version=SCENE_VERSION,
+        name=name,
+        calib=CALIB_FILE if calib is not None else None,
+        scale=scale,
+        truth=TRUTH_FILE if truth else None,
+        views=entries,
     )
-    data = index.model_dump(exclude_none=True)
+    data = index.model_dump(exclude_none=True, mode="json")
+    if data.get("calib") is None:
+        data["calib"] = None  # explicit: no scene-wide calibration (else the default applies)
     text = "# aida-kb scene directory (see docs/formats.md)\n" + yaml.safe_dump(
         data, sort_keys=False
     )

@@ -80,7 +80,7 @@ def right_segments(scene: Scene, view_id: str) -> StereoSegments:
     """
     from aida_kb.vision.lines import detect_segments
 
-    calib = scene.calib
+    calib = scene.view(view_id).rig
     grey = read_image(scene.view(view_id).right, grey=True)
     seg = detect_segments(grey)
     K2 = np.asarray(calib.K2, dtype=np.float64)

@@ -181,7 +181,7 @@ def _view_section(
     overlay: list[str] = []
     if model is not None:
         cam = _camera_of(model, vid)
-        D = np.asarray(scene.calib.D1, dtype=np.float64)
+        D = np.asarray(view.rig.D1, dtype=np.float64)
         if cam is not None:
             overlay.append("<h3>The model in this view</h3>")
             if previous is not None:

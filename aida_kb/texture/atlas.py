@@ -80,13 +80,13 @@ def scene_cameras(model: ReconstructedModel, scene: Scene) -> list[TextureCamera
     Poses: the model file's (x_cam = R·x_world + t); the right camera follows the left by the
     calibration (R_right = R_calib·R, t_right = R_calib·t + T_calib).
     """
-    calib = scene.calib
     known = {v.id for v in scene.views}
     out = []
     for cam in model.cameras:
         if cam.view not in known:
             continue
         view = scene.view(cam.view)
+        calib = view.rig
         left = camera_of(cam)
         R, t = left.R_cam_world, left.t_cam_world
         w, h = left.width, left.height

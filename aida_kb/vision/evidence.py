@@ -365,7 +365,9 @@ def process_view(
     except KeyError:
         raise VisionError(f"{scene.root}: no view {view_id!r}") from None
     tick: Stage = stage or (lambda _name: None)
-    calib = scene.calib
+    calib = view.rig
+    if pose is None and view.pose is not None:  # the scene gives the view's pose
+        pose = view.pose
     tick("rectify")
     left, right = _read_pair(view, calib)
     rect = rect or stereo_rectification(calib)
@@ -525,10 +527,13 @@ def scene_evidence(
     missing = [i for i in ids if i not in known]
     if missing:
         raise VisionError(f"{scene.root}: no view(s) {', '.join(missing)}")
-    rect = stereo_rectification(scene.calib)
-    rays = original_rays(scene.calib)
+    rigs: dict[int, tuple[Rectification, F64]] = {}  # one rectification per distinct rig
     products = []
     for vid in ids:
+        rig = scene.view(vid).rig
+        if id(rig) not in rigs:
+            rigs[id(rig)] = (stereo_rectification(rig), original_rays(rig))
+        rect, rays = rigs[id(rig)]
 
         def tick(name: str, vid: str = vid) -> None:
             if stage is not None:
