@@ -93,6 +93,24 @@ def reconstruct_scene(
         )
 
 
+UP_TO_SCALE = (
+    "up to scale: the scene's scale is unknown, lengths are in its calibration's units, not "
+    "metres (the knowledge's dimension ranges were applied to those units)"
+)
+"""Said in the summary line of a scene whose scene.yaml `scale` is `unknown`."""
+
+
+def up_to_scale(interp: Interpretation) -> Interpretation:
+    """`interp` of a scene known up to scale only: the summary line says so and the model's
+    units are 'unknown' (no metric claim without a scale)."""
+    model = interp.model
+    if model is not None:
+        model = model.model_copy(update={"units": "unknown"})
+    return interp.model_copy(
+        update={"message": f"{interp.message} [{UP_TO_SCALE}]", "model": model}
+    )
+
+
 def _reconstruct(
     kb: KnowledgeBase,
     scene: Scene,
@@ -126,6 +144,8 @@ def _reconstruct(
         progress=progress,
     )
     interp = with_verdict(interp, judge(kb, interp, evidence))
+    if not scene.metric:
+        interp = up_to_scale(interp)
     names = ["evidence.json", "interpretation.json", "interpretation.kb"]
     atlas = None
     with publish_dir(out) as work:

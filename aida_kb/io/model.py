@@ -160,7 +160,11 @@ class ReconstructedModel(_Frozen):
 
     format: Literal["aida-kb/model"] = "aida-kb/model"
     version: Literal[1] = 1
-    units: Literal["m"] = "m"
+    units: Literal["m", "unknown"] = Field(
+        default="m",
+        description="'m': metres; 'unknown': the scene's scale is unknown (structure from "
+        "motion) and every length is in its calibration's arbitrary units (up to scale)",
+    )
     frame: str = "world = left camera of view 00; OpenCV axes (x right, y down, z forward)"
     parts: list[ModelPart]
     cameras: list[ModelCamera] = Field(default_factory=list)
