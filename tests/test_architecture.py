@@ -15,6 +15,7 @@ LAYERS: list[set[str]] = [
     {"diagnostics"},
     {"dsl"},
     {"kb"},
+    {"lsp"},  # the language server: only the front end below it (no numpy: it starts fast)
     {"geometry"},
     {"constraints"},
     {"solve"},

@@ -22,6 +22,7 @@ COMMANDS: tuple[str, ...] = (
     "lint",
     "validate",
     "fmt",
+    "lsp",
     "explain",
     "graph",
     "compile",
