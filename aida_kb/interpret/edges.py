@@ -17,11 +17,13 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.interpret.observe import CameraView, SegmentView
+from aida_kb.register.match import match_segments as register_match
 
 FloatArray = npt.NDArray[np.float64]
 
 MAX_ANGLE_DEG = 12.0  # between a segment and the projected edge line
 MAX_DISTANCE_PX = 25.0  # mean distance of the segment's ends from the projected edge line
+MIN_SEGMENT_PX = 8.0  # shorter segments give no reliable direction to match an edge by
 
 
 @dataclass(frozen=True)
@@ -58,19 +60,20 @@ def image_line(camera: CameraView, point_m: FloatArray, direction: FloatArray) -
     return out
 
 
-def _fit(segment: SegmentView, line: FloatArray) -> tuple[float, float]:
-    """(mean end distance in px, angle in degrees) of a segment against an image line."""
-    ends = np.column_stack([segment.ends_px, np.ones(2)])
-    distance = float(np.mean(np.abs(ends @ line)))
-    seg = segment.ends_px[1] - segment.ends_px[0]
-    seg_dir = seg / max(float(np.linalg.norm(seg)), 1e-12)
-    line_dir = np.array([-line[1], line[0]])
-    angle = math.degrees(math.acos(min(1.0, abs(float(seg_dir @ line_dir)))))
-    return distance, angle
-
-
 def _ordered(a: str, b: str) -> tuple[str, str]:
     return (a, b) if a <= b else (b, a)
+
+
+def _candidates(
+    segment: SegmentView, binding: Mapping[str, str], adjacency: Mapping[str, frozenset[str]]
+) -> set[tuple[str, str]]:
+    """The edges a segment may show, by the parts its regions are bound to (module doc)."""
+    bound = sorted({binding[r] for r in segment.regions if r in binding})
+    if len(bound) == 2:
+        return {(bound[0], bound[1])} if bound[1] in adjacency.get(bound[0], ()) else set()
+    if len(bound) == 1:
+        return {_ordered(bound[0], other) for other in adjacency.get(bound[0], ())}
+    return set()
 
 
 def match_segments(
@@ -82,6 +85,10 @@ def match_segments(
     max_distance_px: float = MAX_DISTANCE_PX,
 ) -> list[EdgeMatch]:
     """Explain segments as edges between adjacent parts.
+
+    Each view's candidate edges (the pairs its segments' region bindings admit) are projected
+    as whole image lines and matched by `aida_kb.register.match.match_segments`, the project's
+    one matcher, with the mean end distance and the pairs as its ``allowed`` mask.
 
     Parameters
     ----------
@@ -96,33 +103,54 @@ def match_segments(
     -------
     The matches, in the order of the segments; a segment matches at most one edge.
     """
-    matches: list[EdgeMatch] = []
-    for seg in segments:
-        camera = cameras.get(seg.view)
-        if camera is None or seg.length_px < 8.0:
+    by_view: dict[str, list[tuple[int, SegmentView, set[tuple[str, str]]]]] = {}
+    for k, seg in enumerate(segments):
+        if seg.view not in cameras or seg.length_px < MIN_SEGMENT_PX:
             continue
-        bound = sorted({binding[r] for r in seg.regions if r in binding})
-        if len(bound) == 2:
-            pairs = [(bound[0], bound[1])] if bound[1] in adjacency.get(bound[0], ()) else []
-        elif len(bound) == 1:
-            pairs = [_ordered(bound[0], other) for other in adjacency.get(bound[0], ())]
-        else:
+        pairs = {
+            (a, b) for a, b in _candidates(seg, binding, adjacency) if a in planes and b in planes
+        }
+        if pairs:
+            by_view.setdefault(seg.view, []).append((k, seg, pairs))
+    found: list[tuple[int, EdgeMatch]] = []
+    for view, items in by_view.items():
+        edges = sorted(set().union(*(pairs for _, _, pairs in items)))
+        lines = [_edge_line(cameras[view], planes[a], planes[b]) for a, b in edges]
+        keep = [i for i, line in enumerate(lines) if line is not None]
+        if not keep:
             continue
-        best: tuple[float, tuple[str, str]] | None = None
-        for a, b in sorted(set(pairs)):
-            if a not in planes or b not in planes:
-                continue
-            line3 = plane_line(planes[a][0], planes[a][1], planes[b][0], planes[b][1])
-            if line3 is None:
-                continue
-            line = image_line(camera, *line3)
-            if not line.any():
-                continue
-            distance, angle = _fit(seg, line)
-            if angle > MAX_ANGLE_DEG or distance > max_distance_px:
-                continue
-            if best is None or distance < best[0]:
-                best = (distance, (a, b))
-        if best is not None:
-            matches.append(EdgeMatch(seg, best[1], best[0]))
-    return matches
+        ends = np.array([lines[i] for i in keep])  # (E, 2, 2): two points of each image line
+        col = {edges[i]: e for e, i in enumerate(keep)}
+        allowed = np.zeros((len(keep), len(items)), dtype=bool)
+        for s, (_, _, pairs) in enumerate(items):
+            allowed[[col[p] for p in pairs if p in col], s] = True
+        px = np.array([seg.ends_px for _, seg, _ in items])  # (S, 2, 2)
+        m = register_match(
+            ends[:, 0],
+            ends[:, 1],
+            px[:, 0],
+            px[:, 1],
+            max_distance_px=max_distance_px,
+            max_angle_rad=math.radians(MAX_ANGLE_DEG),
+            min_overlap=None,
+            mean_distance=True,
+            allowed=allowed,
+        )
+        for e, s, d in zip(m.edge, m.segment, m.distance_px, strict=True):
+            k, seg, _ = items[int(s)]
+            found.append((k, EdgeMatch(seg, edges[keep[int(e)]], float(d))))
+    return [match for _, match in sorted(found, key=lambda km: km[0])]
+
+
+def _edge_line(
+    camera: CameraView, plane_a: tuple[FloatArray, float], plane_b: tuple[FloatArray, float]
+) -> FloatArray | None:
+    """Two points (2, 2) px of the image line where two planes meet; None when it has none."""
+    line3 = plane_line(plane_a[0], plane_a[1], plane_b[0], plane_b[1])
+    if line3 is None:
+        return None
+    line = image_line(camera, *line3)
+    if not line.any():
+        return None
+    foot = -line[2] * line[:2]  # the line's point nearest the image origin
+    return np.array([foot, foot + np.array([-line[1], line[0]])])

@@ -13,6 +13,7 @@ import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
 
 __all__ = ["Matches", "chamfer_cost", "match_segments"]
 
@@ -52,20 +53,27 @@ def match_segments(
     *,
     max_distance_px: float,
     max_angle_rad: float,
-    min_overlap: float = 0.5,
+    min_overlap: float | None = 0.5,
+    mean_distance: bool = False,
+    allowed: BoolArray | None = None,
 ) -> Matches:
     """Assign each image segment to the projected model edge it most likely shows.
 
     A segment may show edge e when its direction is within ``max_angle_rad`` of the edge's,
-    both its ends lie within ``max_distance_px`` of the edge's line, and at least
-    ``min_overlap`` of its length projects onto the edge. Among those it takes the edge whose
-    line is nearest (mean distance of its two ends). An edge may receive several segments (an
-    edge broken into pieces).
+    its ends lie within ``max_distance_px`` of the edge's line (both ends, or with
+    ``mean_distance`` their mean), at least ``min_overlap`` of its length projects onto the
+    edge (``min_overlap`` None: the edges are whole lines through a and b, no overlap asked)
+    and ``allowed`` (when given) admits the pair. Among those it takes the edge whose line is
+    nearest (mean distance of its two ends; the first edge on a tie). An edge may receive
+    several segments (an edge broken into pieces). This is the one segment-to-edge matcher:
+    registration calls it with projected model edges, the interpreter
+    (`aida_kb.interpret.edges`) with the image lines of adjacent parts' plane intersections.
 
     Parameters
     ----------
-    a, b : (E, 2) projected edge end points, pixels.
+    a, b : (E, 2) projected edge end points (or two points of each line), pixels.
     p1, p2 : (S, 2) segment end points, pixels.
+    allowed : (E, S) bool, the pairs that may match; None: every pair.
     """
     if a.shape[0] == 0 or p1.shape[0] == 0:
         empty = np.zeros(0, dtype=np.intp)
@@ -77,15 +85,19 @@ def match_segments(
     rel2 = p2[None, :, :] - a[:, None, :]
     d1 = np.abs(np.einsum("esk,ek->es", rel1, n))
     d2 = np.abs(np.einsum("esk,ek->es", rel2, n))
-    t1 = np.einsum("esk,ek->es", rel1, u)
-    t2 = np.einsum("esk,ek->es", rel2, u)
-    overlap = np.minimum(np.maximum(t1, t2), length[:, None]) - np.maximum(np.minimum(t1, t2), 0.0)
-    ok = (
-        (sin < np.sin(max_angle_rad))
-        & (np.maximum(d1, d2) < max_distance_px)
-        & (overlap >= min_overlap * seg_len[None, :])
+    mean = 0.5 * (d1 + d2)
+    ok = (sin < np.sin(max_angle_rad)) & (
+        (mean if mean_distance else np.maximum(d1, d2)) < max_distance_px
     )
-    score = np.where(ok, 0.5 * (d1 + d2), np.inf)
+    if min_overlap is not None:
+        t1 = np.einsum("esk,ek->es", rel1, u)
+        t2 = np.einsum("esk,ek->es", rel2, u)
+        top = np.minimum(np.maximum(t1, t2), length[:, None])
+        overlap = top - np.maximum(np.minimum(t1, t2), 0.0)
+        ok &= overlap >= min_overlap * seg_len[None, :]
+    if allowed is not None:
+        ok &= allowed
+    score = np.where(ok, mean, np.inf)
     best = np.argmin(score, axis=0)  # (S,)
     best_score = score[best, np.arange(score.shape[1])]
     seg = np.flatnonzero(np.isfinite(best_score))

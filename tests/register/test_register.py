@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -102,6 +103,26 @@ def test_matching_takes_the_nearest_parallel_edge() -> None:
     assert m.segment.tolist() == [0, 1]
     assert m.edge.tolist() == [1, 0]
     np.testing.assert_allclose(m.distance_px, [0.9, 1.25])
+
+
+def test_matching_whole_lines_by_mean_distance_and_a_mask() -> None:
+    """The interpreter's use of the one matcher: edges as whole lines, the ends' mean distance
+    bounded, candidate pairs given as a mask."""
+    a = np.array([[0.0, 0.0], [0.0, 10.0]])
+    b = np.array([[100.0, 0.0], [100.0, 10.0]])
+    # beyond both edges' ends; ends 1 and 4 px off edge 0 (mean 2.5), 9 and 6 off edge 1
+    p1 = np.array([[200.0, 1.0]])
+    p2 = np.array([[260.0, 4.0]])
+    match = functools.partial(
+        match_segments, a, b, p1, p2, max_distance_px=3.0, max_angle_rad=math.radians(5.0)
+    )
+    assert match().size == 0  # no overlap with the edge
+    assert match(min_overlap=None).size == 0  # one end 4 px off
+    m = match(min_overlap=None, mean_distance=True)
+    assert m.edge.tolist() == [0]
+    np.testing.assert_allclose(m.distance_px, [2.5])
+    only_edge_1 = np.array([[False], [True]])
+    assert match(min_overlap=None, mean_distance=True, allowed=only_edge_1).size == 0
 
 
 def test_pose_factors_jacobian_matches_finite_differences() -> None:
