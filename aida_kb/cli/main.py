@@ -37,6 +37,7 @@ COMMANDS: tuple[str, ...] = (
     "batch",
     "register",
     "evaluate",
+    "test",
     "export",
 )
 

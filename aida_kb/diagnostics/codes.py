@@ -166,6 +166,9 @@ MISSING_ROLE = register("KB141", _E, "an instance leaves an obligatory role unbo
 BAD_BINDING = register(
     "KB142", _E, "an instance binding does not fit its role (type, count or kind of value)"
 )
+BAD_EXPECTATION = register(
+    "KB143", _E, "an expectation annotation ('// expect: ...') is malformed or names nothing"
+)
 # warnings
 UNUSED_TEMPLATE = register("KB300", _W, "a template is declared but never used")
 UNREACHABLE_CONCEPT = register(

@@ -15,9 +15,11 @@
   value measured on the model, in ``deg`` or ``m`` (`aida_kb.interpret.verdict.
   measured_attributes`); a value outside the attribute's range (a doubtful result) is
   written as a comment, so that the file stays lint clean;
-- the verdict as the goal instance's doc string (``"verdict: verified"``) and, with the
-  doubts and the summary line, in the header comment; an interpretation that found nothing
-  is the import and that comment alone.
+- the verdict as the goal instance's doc string (``"verdict: verified"``) and as the
+  annotation ``// expect: verdict verified`` (`aida_kb.kb.expectation`: the written file is
+  an expectation ``aida-kb test`` can check a later run against), the doubts and the
+  summary line in the header comment; an interpretation that found nothing is the import
+  and that header alone.
 
 The text is in the canonical layout of `aida-kb fmt` (`aida_kb.dsl.format`). The import is
 relative to the written file's folder and usually leaves it, so the file is
@@ -30,19 +32,32 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 from aida_kb.interpret.result import INSERTED, Instance, Interpretation
 from aida_kb.interpret.verdict import measured_attributes
 from aida_kb.io.atomic import write_text_atomic
+from aida_kb.kb.expectation import INSERTED_DOC, VERDICT_DOC, VERDICTS
 from aida_kb.kb.model import AttributeModel, KnowledgeBase
 
-INSERTED_DOC = "inserted from the knowledge base: no view shows this part"
-"""The doc string that marks an instance inserted from the knowledge (binding 'inserted')."""
+__all__ = [
+    "INSERTED_DOC",
+    "VERDICT_DOC",
+    "evidence_roles",
+    "instance_name",
+    "interpretation_kb",
+    "relative_import",
+    "role_name",
+    "write_interpretation_kb",
+]
 
-VERDICT_DOC = "verdict: "
-"""The goal instance's doc string starts with this, followed by the verdict."""
+
+GENERATED_HEAD = "The interpretation of aida-kb for the goal"
+"""How the first header line of a written interpretation starts."""
+
+GENERATED_NOTES = ("// doubt: ", "// summary: ", "// check: ", "// verdict: ")
+"""The header comments written from the result (rewritten with it)."""
 
 DECIMALS = {"rad": 2, "m": 3}
 """Decimals of a written measured value: degrees to 0.01 deg, metres to the millimetre (finer
@@ -66,10 +81,26 @@ def instance_name(role: str, goal: str) -> str:
     return base
 
 
-def _role_name(inst: Instance) -> str:
+def role_name(inst: Instance) -> str:
     """The role of `inst` in its parent: the last path component without its index."""
     tail = inst.role[len(inst.parent) + 1 :] if inst.parent else inst.role
     return _INDEX.sub("", tail)
+
+
+def evidence_roles(kb: KnowledgeBase, interp: Interpretation) -> set[str]:
+    """The role paths of the image-layer instances bound to evidence: written as their
+    parent's binding to the evidence ids, with no declaration of their own."""
+    bottom = kb.layers[-1] if kb.layers else None
+    return {
+        i.role
+        for i in interp.instances
+        if i.bindings
+        and INSERTED not in i.bindings
+        and bottom is not None
+        and i.concept in kb.concepts
+        and kb.concepts[i.concept].layer == bottom
+        and i.parent is not None
+    }
 
 
 def _number(value: float, decimals: int) -> str:
@@ -100,39 +131,45 @@ def _comment_lines(lines: Iterable[str]) -> list[str]:
 
 
 def interpretation_kb(
-    kb: KnowledgeBase, interp: Interpretation, import_path: str, *, lint_hint: str = ""
+    kb: KnowledgeBase,
+    interp: Interpretation,
+    import_path: str,
+    *,
+    lint_hint: str = "",
+    annotations: Sequence[str] = (),
+    value_notes: Mapping[tuple[str, str], str] = {},
+    preamble: Sequence[str] = (),
 ) -> str:
     """The text of ``interpretation.kb`` for `interp` (see the module docstring).
 
     import_path : the knowledge base's root file, relative to the folder the text is written to
     lint_hint : the command that checks the file, for the header comment ('' for none)
+    annotations : further ``// expect:`` lines for the header (an updated fixture keeps its
+        rejections and tolerances, aida_kb.interpret.fixture)
+    value_notes : (role path, attribute) -> a comment written after that measured value
+    preamble : comment lines (``// ...``) that open the file instead of the standard one
     """
     verdict = interp.verdict or ("not judged" if interp.accepted else "nothing")
-    header = [
-        f"The interpretation of aida-kb for the goal {interp.goal}, as instances of the "
-        "knowledge base it imports (docs/formats.md).",
-        f"verdict: {verdict}",
-        *(f"doubt: {d}" for d in interp.doubts),
-        f"summary: {interp.message}",
-    ]
+    header = list(preamble) or _comment_lines(
+        [
+            f"{GENERATED_HEAD} {interp.goal}, as instances of the "
+            "knowledge base it imports (docs/formats.md); as an expectation of aida-kb test, "
+            "the 'expect:' lines are what it checks (docs/testing.md)."
+        ]
+    )
+    header.append(
+        f"// expect: verdict {verdict}" if verdict in VERDICTS else f"// verdict: {verdict}"
+    )
+    header += [a for a in annotations if not a.startswith("// expect: verdict")]
+    notes_header = [*(f"doubt: {d}" for d in interp.doubts), f"summary: {interp.message}"]
     if lint_hint:
-        header.append(f"check: {lint_hint}")
-    lines = _comment_lines(header)
+        notes_header.append(f"check: {lint_hint}")
+    lines = header + _comment_lines(notes_header)
     lines += [f"import {_string(import_path)}", ""]
     if not interp.accepted:
         return "\n".join(lines)
 
-    bottom = kb.layers[-1] if kb.layers else None
-    evidence = {
-        i.role
-        for i in interp.instances
-        if i.bindings
-        and INSERTED not in i.bindings
-        and bottom is not None
-        and i.concept in kb.concepts
-        and kb.concepts[i.concept].layer == bottom
-        and i.parent is not None
-    }
+    evidence = evidence_roles(kb, interp)
     names: dict[str, str] = {}
     taken = set(kb.instances)  # instances the knowledge base declares itself (KB110)
     for inst in interp.instances:
@@ -165,7 +202,7 @@ def interpretation_kb(
         roles: dict[str, list[str]] = {}
         several: set[str] = set()
         for child in children.get(inst.role, []):
-            role = _role_name(child)
+            role = role_name(child)
             if child.role in evidence:
                 roles.setdefault(role, []).extend(_string(b) for b in child.bindings)
             else:
@@ -184,7 +221,8 @@ def interpretation_kb(
         for attr, value in values.get(inst.role, []):
             text, inside = _quantity(attr, value)
             if inside:
-                body.append(f"{attr.name} = {text}")
+                note = value_notes.get((inst.role, attr.name))
+                body.append(f"{attr.name} = {text}" + (f"  {note}" if note else ""))
             else:
                 notes.append(f"// measured {attr.name} = {text}: outside its range (see verdict)")
         if lines[-1] == "}":

@@ -107,6 +107,7 @@ def _internal(exc: Exception, file: str) -> Diagnostic:
 
 def _compile(loaded: Loaded) -> CompileResult:
     from aida_kb.kb.check import run_checks
+    from aida_kb.kb.expectation import check_expectations
     from aida_kb.kb.resolve import resolve
 
     diags = list(loaded.diagnostics)
@@ -114,6 +115,7 @@ def _compile(loaded: Loaded) -> CompileResult:
         table, found = resolve(loaded.modules, loaded.broken)
         diags.extend(found)
         diags.extend(run_checks(table))
+        diags.extend(check_expectations(table, loaded.sources))  # issue 20: fixtures
     except Exception as exc:  # the safety net: compiling must never raise
         diags.append(_internal(exc, loaded.modules[0].file if loaded.modules else "<string>"))
         return CompileResult(diags, loaded.sources)

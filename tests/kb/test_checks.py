@@ -359,6 +359,13 @@ CASES = [
         23,
     ),
     (
+        "expectation-unknown-verdict",
+        H + "concept W in world { }\n// expect: verdict found",
+        "KB143",
+        3,
+        1,
+    ),
+    (
         "unused-template",
         H + "template t(a: W, b: W) { parallel(a, b) }\nconcept W in scene { }",
         "KB300",
