@@ -55,7 +55,7 @@ def test_annotations_are_read_with_their_units() -> None:
     assert ann.tolerance == {"rad": math.radians(2), "m": 0.1}
     assert ann.value_tolerances == {4: (0.003, "m")}
     assert ann.trailing == {4: "// expect: +- 3 mm"}
-    assert DEFAULT_TOLERANCE == {"rad": math.radians(0.5), "m": 0.05}
+    assert {"rad": math.radians(0.5), "m": 0.05} == DEFAULT_TOLERANCE
 
 
 def test_a_good_expectation_compiles_clean_and_gives_its_tree() -> None:
