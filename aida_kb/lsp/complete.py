@@ -15,10 +15,11 @@ from lsprotocol import types
 
 from aida_kb.dsl import ast
 from aida_kb.kb.relations import PRIMITIVES
-from aida_kb.kb.resolve import VALUE_TYPES, PathRes
+from aida_kb.kb.resolve import VALUE_TYPES, PathRes, SlotKind
 from aida_kb.kb.shape import MEASURES
 from aida_kb.lsp.analysis import Analysis
 from aida_kb.lsp.features import slot_text
+from aida_kb.lsp.index import NameKind
 
 __all__ = [
     "DECLARATION_KEYWORDS",
@@ -56,7 +57,7 @@ _HEADER = re.compile(
 _NAME = r"[A-Za-z_]\w*"
 
 
-def enclosing(text: str) -> tuple[str, str, str | None] | None:
+def enclosing(text: str) -> tuple[NameKind, str, str | None] | None:
     """The declaration whose body the end of ``text`` is in: ``(kind, name, concept)`` for
     ``concept``/``template``/``instance`` (``concept`` is an instance's), or None at top level."""
     clean = _STRING.sub(lambda m: " " * len(m.group()), _COMMENT.sub(" ", text))
@@ -78,7 +79,13 @@ def enclosing(text: str) -> tuple[str, str, str | None] | None:
                 return None
     if not opened:
         return None
-    kind = "concept" if found.group(1) else "template" if found.group(2) else "instance"
+    kind = (
+        NameKind.CONCEPT
+        if found.group(1)
+        else NameKind.TEMPLATE
+        if found.group(2)
+        else NameKind.INSTANCE
+    )
     return kind, found.group(4), found.group(5)
 
 
@@ -132,14 +139,14 @@ def _members(a: Analysis, concept: str) -> list[types.CompletionItem]:
     seen = set()
     for name, slot in sorted(info.slots.items()):
         seen.add(name)
-        kind = K.Property if slot.kind == "attribute" else K.Field
+        kind = K.Property if slot.kind == SlotKind.ATTRIBUTE else K.Field
         where = "" if slot.owner == concept else f" (from {slot.owner})"
         out.append(_item(name, kind, slot_text(slot) + where))
     for d in table.descendants(concept):
         for name, slot in sorted(table.concepts[d].slots.items()):
             if name not in seen:
                 seen.add(name)
-                kind = K.Property if slot.kind == "attribute" else K.Field
+                kind = K.Property if slot.kind == SlotKind.ATTRIBUTE else K.Field
                 out.append(_item(name, kind, f"{slot_text(slot)} (when it is a {slot.owner})"))
     return out
 
@@ -154,16 +161,16 @@ def _calls(a: Analysis) -> list[types.CompletionItem]:
 
 
 def _path_members(
-    a: Analysis, where: tuple[str, str, str | None] | None, prefix: list[str]
+    a: Analysis, where: tuple[NameKind, str, str | None] | None, prefix: list[str]
 ) -> list[types.CompletionItem]:
     """Members after ``prefix.`` in the declaration ``where``."""
     if where is None:
         return []
     kind, name, _ = where
     owner: str | None = None
-    if kind == "concept":
+    if kind == NameKind.CONCEPT:
         owner = name
-    elif kind == "template":
+    elif kind == NameKind.TEMPLATE:
         t = a.table.templates.get(name)
         p = next((p for p in t.params if p.name.text == prefix[0]), None) if t else None
         if p is None:
@@ -182,13 +189,13 @@ def _path_members(
     return _members(a, target) if target is not None else []
 
 
-def _knows(a: Analysis, where: tuple[str, str, str | None] | None) -> bool:
+def _knows(a: Analysis, where: tuple[NameKind, str, str | None] | None) -> bool:
     if where is None:
         return True
     kind, name, _ = where
-    if kind == "concept":
+    if kind == NameKind.CONCEPT:
         return name in a.table.concepts
-    return kind != "template" or name in a.table.templates
+    return kind != NameKind.TEMPLATE or name in a.table.templates
 
 
 def completions(a: Analysis, text: str, position: types.Position) -> list[types.CompletionItem]:
@@ -235,11 +242,11 @@ def completions(a: Analysis, text: str, position: types.Position) -> list[types.
     if where is None:
         return _keywords(DECLARATION_KEYWORDS) if at_start else []
     kind, name, concept = where
-    if kind == "instance":
+    if kind == NameKind.INSTANCE:
         if at_start and concept is not None:
             return _members(a, concept)
         return [_item(i, K.Variable, "instance") for i in sorted(a.table.instances)]
-    if kind == "template":
+    if kind == NameKind.TEMPLATE:
         t = a.table.templates.get(name)
         params = [_item(p.name.text, K.Variable, p.type.text) for p in t.params] if t else []
         return params + _calls(a) + _keywords(QUALIFIER_KEYWORDS)

@@ -18,7 +18,7 @@ from aida_kb.dsl import ast
 from aida_kb.kb.resolve import Slot
 from aida_kb.lsp.analysis import Analysis
 from aida_kb.lsp.diagnose import DID_YOU_MEAN, explain_href
-from aida_kb.lsp.index import Occurrence, SymbolKey
+from aida_kb.lsp.index import NameKind, Occurrence, SymbolKey
 
 __all__ = [
     "NAME",
@@ -182,17 +182,17 @@ def _role_hover(a: Analysis, key: SymbolKey) -> str:
 
 def _symbol_hover(a: Analysis, key: SymbolKey) -> str:
     kind = key[0]
-    if kind == "concept":
+    if kind == NameKind.CONCEPT:
         return _concept_hover(a, key[1])
-    if kind == "template":
+    if kind == NameKind.TEMPLATE:
         t = a.table.templates.get(key[1])
         if t is None:
             return f"template **{key[1]}**"
         text = f"```kb\n{_template_signature(t)}\n```"
         return text + (f"\n\n{t.doc}" if t.doc else "")
-    if kind == "role":
+    if kind == NameKind.ROLE:
         return _role_hover(a, key)
-    if kind == "param":
+    if kind == NameKind.PARAM:
         t = a.table.templates.get(key[1])
         p = next((p for p in t.params if p.name.text == key[2]), None) if t else None
         if t is None or p is None:
@@ -202,7 +202,7 @@ def _symbol_hover(a: Analysis, key: SymbolKey) -> str:
             f"```kb\n{p.name.text}: {p.type.text}\n```\n\nparameter of `{_template_signature(t)}`"
         )
         return text + (f"\n\nunit: {unit}" if unit else "")
-    if kind == "layer":
+    if kind == NameKind.LAYER:
         layers = a.table.layers
         members = sorted(c for c, i in a.table.concepts.items() if i.layer == key[1])
         where = f"{layers.index(key[1]) + 1} of {len(layers)}" if key[1] in layers else "?"
@@ -340,9 +340,10 @@ def _check_new_name(a: Analysis, key: SymbolKey, new: str) -> None:
     if new in RESERVED:
         raise RenameError(f"'{new}' is a keyword of the language")
     kind = key[0]
-    if kind in ("concept", "template", "instance", "layer") and (kind, new) in a.index.symbols:
+    named = (NameKind.CONCEPT, NameKind.TEMPLATE, NameKind.INSTANCE, NameKind.LAYER)
+    if kind in named and (kind, new) in a.index.symbols:
         raise RenameError(f"a {kind} named '{new}' exists already")
-    if kind == "role":
+    if kind == NameKind.ROLE:
         for k in a.index.group(key):
             owner = k[1]
             clashing = [
@@ -353,7 +354,7 @@ def _check_new_name(a: Analysis, key: SymbolKey, new: str) -> None:
             ]
             if clashing:
                 raise RenameError(f"concept {clashing[0]} has a member named '{new}' already")
-    if kind == "param":
+    if kind == NameKind.PARAM:
         t = a.table.templates.get(key[1])
         if t is not None and any(p.name.text == new for p in t.params):
             raise RenameError(f"template {key[1]} has a parameter named '{new}' already")

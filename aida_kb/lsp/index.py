@@ -20,12 +20,25 @@ from __future__ import annotations
 import bisect
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from enum import StrEnum
 
 from aida_kb.diagnostics.core import Span
 from aida_kb.dsl import ast
 from aida_kb.kb.resolve import PathRes, Table
 
-__all__ = ["Index", "Occurrence", "Symbol", "SymbolKey", "build_index"]
+__all__ = ["Index", "NameKind", "Occurrence", "Symbol", "SymbolKey", "build_index"]
+
+
+class NameKind(StrEnum):
+    """What a symbol is."""
+
+    CONCEPT = "concept"
+    TEMPLATE = "template"
+    ROLE = "role"
+    PARAM = "param"
+    LAYER = "layer"
+    INSTANCE = "instance"
+
 
 #: ``(kind, *names)``: ``("concept", "House")``, ``("role", "Wing", "front")``,
 #: ``("param", "perpendicular", "tol")``, ``("template", ...)``, ``("instance", ...)``,
@@ -41,9 +54,9 @@ class Symbol:
     decl: Span
 
     @property
-    def kind(self) -> str:
-        """``concept``, ``template``, ``role``, ``param``, ``instance`` or ``layer``."""
-        return self.key[0]
+    def kind(self) -> NameKind:
+        """What the symbol is."""
+        return NameKind(self.key[0])
 
     @property
     def name(self) -> str:
@@ -141,7 +154,10 @@ def build_index(modules: Iterable[ast.Module], table: Table) -> Index:
                 for p in info.parents:
                     base = table.concepts[p].slots.get(name.text)
                     if base is not None:
-                        index.link(("role", cname, name.text), ("role", base.owner, name.text))
+                        index.link(
+                            (NameKind.ROLE, cname, name.text),
+                            (NameKind.ROLE, base.owner, name.text),
+                        )
     return index
 
 
@@ -169,30 +185,30 @@ class _Walker:
         index, table = self.index, self.table
         if isinstance(item, ast.Layers):
             for n in item.names:
-                index.declare(("layer", n.text), n)
+                index.declare((NameKind.LAYER, n.text), n)
         elif isinstance(item, ast.Template):
             self.template_decl(item)
         elif isinstance(item, ast.Concept):
             self.concept(item)
         elif isinstance(item, ast.Instance):
-            index.declare(("instance", item.name.text), item.name)
+            index.declare((NameKind.INSTANCE, item.name.text), item.name)
             self.concept_ref(item.concept)
             info = table.concepts.get(item.concept.text)
             for b in item.bindings:
                 slot = info.slots.get(b.role.text) if info is not None else None
                 if slot is not None:
-                    index.refer(("role", slot.owner, b.role.text), b.role)
+                    index.refer((NameKind.ROLE, slot.owner, b.role.text), b.role)
                 self.value(b.value)
 
     def concept_ref(self, name: ast.Name) -> None:
         if name.text in self.table.concepts:
-            self.index.refer(("concept", name.text), name)
+            self.index.refer((NameKind.CONCEPT, name.text), name)
 
     def template_decl(self, t: ast.Template) -> None:
         self.template = t
-        self.index.declare(("template", t.name.text), t.name)
+        self.index.declare((NameKind.TEMPLATE, t.name.text), t.name)
         for p in t.params:
-            self.index.declare(("param", t.name.text, p.name.text), p.name)
+            self.index.declare((NameKind.PARAM, t.name.text, p.name.text), p.name)
             self.concept_ref(p.type)
             if p.default is not None:
                 self.expr(p.default)
@@ -203,16 +219,16 @@ class _Walker:
     def concept(self, c: ast.Concept) -> None:
         index = self.index
         cname = c.name.text
-        index.declare(("concept", cname), c.name)
+        index.declare((NameKind.CONCEPT, cname), c.name)
         if c.layer is not None and c.layer.text in self.table.layer_index:
-            index.refer(("layer", c.layer.text), c.layer)
+            index.refer((NameKind.LAYER, c.layer.text), c.layer)
         for p in c.parents:
             self.concept_ref(p)
         known = cname in self.table.concepts and self.table.concepts[cname].node is c
         self.owner = cname if known else None
         for m in c.members:
             for name in _declared(m):
-                index.declare(("role", cname, name.text), name)
+                index.declare((NameKind.ROLE, cname, name.text), name)
             self.member(m)
         self.owner = None
 
@@ -271,14 +287,14 @@ class _Walker:
                 self.value(item)
         elif isinstance(v, ast.Path):
             if v.is_simple and v.dotted in self.table.instances:
-                self.index.refer(("instance", v.dotted), v.parts[0])
+                self.index.refer((NameKind.INSTANCE, v.dotted), v.parts[0])
         elif isinstance(v, ast.Call):
             self.expr(v)
 
     def expr(self, e: ast.Expr) -> None:
         if isinstance(e, ast.Call):
             if e.func.text in self.table.templates:
-                self.index.refer(("template", e.func.text), e.func)
+                self.index.refer((NameKind.TEMPLATE, e.func.text), e.func)
             for a in e.args:
                 self.expr(a)
         elif isinstance(e, ast.Path):
@@ -291,7 +307,7 @@ class _Walker:
             param = next((p for p in t.params if p.name.text == parts[0].text), None)
             if param is None:
                 return
-            self.index.refer(("param", t.name.text, param.name.text), parts[0])
+            self.index.refer((NameKind.PARAM, t.name.text, param.name.text), parts[0])
             if len(parts) > 1 and param.type.text in self.table.concepts:
                 self.role_path(param.type.text, parts[1:])
             return
@@ -308,11 +324,11 @@ class _Walker:
             res = table.resolve_path(owner, ast.Path(prefix, name.span))
             if not isinstance(res, PathRes) or res.slot is None:
                 return
-            key: SymbolKey = ("role", res.slot.owner, name.text)
+            key: SymbolKey = (NameKind.ROLE, res.slot.owner, name.text)
             index.refer(key, name)
             before = ".".join(p.text for p in parts[:i])
             if res.requires and res.requires[-1][0] == before:
                 for cand in res.requires[-1][1]:
                     other = table.concepts[cand].slots.get(name.text)
                     if other is not None:
-                        index.link(key, ("role", other.owner, name.text))
+                        index.link(key, (NameKind.ROLE, other.owner, name.text))
