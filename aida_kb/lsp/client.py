@@ -134,6 +134,10 @@ class ServerClient:
         """Send the request ``method`` (``"textDocument/hover"``) and return its result."""
         return self._run(lambda: self.client.protocol.send_request_async(method, params))
 
+    def notify(self, method: str, params: Any) -> None:
+        """Send the notification ``method`` (``"workspace/didChangeWorkspaceFolders"``)."""
+        self._notify(lambda: self.client.protocol.notify(method, params))
+
     def stop(self) -> None:
         """Shut the server down and end the client."""
         try:

@@ -281,24 +281,38 @@ def _imported(a: Analysis, importer: str, imp: ast.Import) -> str | None:
     return target if target in a.sources else None
 
 
+#: An occurrence and the analysis it was found in.
+Located = tuple[Analysis, Occurrence]
+
+
 def _same_symbol(a: Analysis, b: Analysis, key: SymbolKey) -> bool:
     """True when ``b`` declares ``key`` at the same place ``a`` does (the same knowledge base)."""
     sa, sb = a.index.symbols.get(key), b.index.symbols.get(key)
     return sa is not None and sb is not None and sa.decl == sb.decl
 
 
-def _all_occurrences(a: Analysis, others: Iterable[Analysis], key: SymbolKey) -> list[Location2]:
-    found: dict[tuple[str, Span], Location2] = {}
-    for b in [a, *others]:
-        if b is not a and not _same_symbol(a, b, key):
-            continue
-        for occ in b.index.references(key):
-            uri = b.uri_of(occ.span.file)
-            found.setdefault((uri, occ.span), (b, occ))
+def _all_occurrences(a: Analysis, others: Iterable[Analysis], key: SymbolKey) -> list[Located]:
+    """Every occurrence of ``key`` and the symbols linked to it in any of the analyses of the
+    same knowledge base; each file's from the analysis that has its text as the editor does
+    (the one whose root it is, else the first that imports it)."""
+    relevant = [a, *(b for b in others if _same_symbol(a, b, key))]
+    keys = {key}
+    while True:  # a root that sees more of the net may link more roles
+        grown = {k for b in relevant for known in keys for k in b.index.group(known)}
+        if grown <= keys:
+            break
+        keys |= grown
+    reader: dict[str, Analysis] = {}
+    for b in relevant:
+        for file in b.sources:
+            if file == b.path or file not in reader:
+                reader[file] = b
+    found: dict[tuple[str, Span], Located] = {}
+    for b in relevant:
+        for occ in b.index.occurrences:
+            if occ.key in keys and reader.get(occ.span.file) is b:
+                found.setdefault((occ.span.file, occ.span), (b, occ))
     return sorted(found.values(), key=lambda e: (e[0].uri_of(e[1].span.file), e[1].span))
-
-
-Location2 = tuple[Analysis, Occurrence]
 
 
 def references(

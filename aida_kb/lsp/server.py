@@ -21,7 +21,9 @@ from aida_kb import __version__
 from aida_kb.lsp import features
 from aida_kb.lsp.analysis import Analysis
 from aida_kb.lsp.complete import completions
+from aida_kb.lsp.convert import path_of_uri
 from aida_kb.lsp.diagnose import publishable
+from aida_kb.lsp.workspace import WorkspaceFiles
 
 __all__ = ["KbServer", "make_server"]
 
@@ -36,6 +38,7 @@ class KbServer(LanguageServer):
         super().__init__("aida-kb", __version__)
         self.analyses: dict[str, Analysis] = {}
         self.search_paths: list[str] = []
+        self.files = WorkspaceFiles()
 
     def analyse(self, uri: str) -> Analysis:
         """Compile the document ``uri`` as the editor has it; publish its diagnostics."""
@@ -53,8 +56,14 @@ class KbServer(LanguageServer):
         return found if found is not None else self.analyse(uri)
 
     def others(self, uri: str) -> list[Analysis]:
-        """The analyses of the open documents other than ``uri``."""
-        return [a for u, a in self.analyses.items() if u != uri]
+        """The analyses of the open documents other than ``uri``, then of the workspace's
+        .kb files that are not open."""
+        folders = [path_of_uri(f.uri) for f in self.workspace.folders.values()]
+        if not folders and self.workspace.root_uri:
+            folders = [path_of_uri(self.workspace.root_uri)]
+        opened = [a for u, a in self.analyses.items() if u != uri]
+        closed = self.files.analyses(folders, {uri, *self.analyses}, self.search_paths)
+        return opened + closed
 
 
 def make_server() -> KbServer:

@@ -276,6 +276,43 @@ def test_definition_references_and_rename_across_an_import(
     server.close(root)
 
 
+def test_references_and_rename_reach_workspace_files_that_are_not_open(
+    server: ServerClient, tmp_path: Path
+) -> None:
+    """Only the imported file is open: its importer is found in the workspace folder."""
+    (tmp_path / "walls.kb").write_text(LIB, encoding="utf-8")
+    (tmp_path / "house.kb").write_text(ROOT_KB, encoding="utf-8")
+    (tmp_path / "other.kb").write_text("layers a\nconcept Wall in a { }\n", encoding="utf-8")
+    root, lib = uri_of_path(str(tmp_path / "house.kb")), uri_of_path(str(tmp_path / "walls.kb"))
+    folder = types.WorkspaceFolder(uri_of_path(str(tmp_path)), "kb")
+    server.notify(
+        types.WORKSPACE_DID_CHANGE_WORKSPACE_FOLDERS,
+        types.DidChangeWorkspaceFoldersParams(types.WorkspaceFoldersChangeEvent([folder], [])),
+    )
+    try:
+        server.open(lib, LIB)
+        server.diagnostics(lib)
+        tilt = pos(LIB, "attribute tilt", 0, len("attribute "))
+        got = references(server, lib, tilt, False)
+        assert [(g.uri, g.range.start) for g in got] == [
+            (root, pos(ROOT_KB, "front.tilt", 0, len("front.")))
+        ]
+        wall = pos(LIB, "concept Wall", 0, len("concept "))
+        edit = server.request(
+            types.TEXT_DOCUMENT_RENAME, types.RenameParams(doc(lib), wall, "Facade")
+        )
+        # other.kb declares a Wall of its own knowledge base: not renamed
+        assert set(edit.changes) == {root, lib}
+        assert "part front, side: Facade" in apply(ROOT_KB, edit.changes[root])
+        assert "concept Facade is-a Plane" in apply(LIB, edit.changes[lib])
+        server.close(lib)
+    finally:
+        server.notify(
+            types.WORKSPACE_DID_CHANGE_WORKSPACE_FOLDERS,
+            types.DidChangeWorkspaceFoldersParams(types.WorkspaceFoldersChangeEvent([], [folder])),
+        )
+
+
 def test_an_error_in_an_imported_file_shows_at_the_import(
     server: ServerClient, tmp_path: Path
 ) -> None:
@@ -400,3 +437,25 @@ def test_the_server_imports_no_numpy_scipy_cv2() -> None:
         [sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=60
     )
     assert done.stdout.strip() == "[]"
+
+
+def test_a_misspelt_unit_gets_its_quick_fix_and_its_code_explained(
+    server: ServerClient, tmp_path: Path
+) -> None:
+    uri = uri_of_path(str(tmp_path / "unit.kb"))
+    text = "layers world\nconcept Box in world {\n    attribute tilt: angle = 90 dge\n}\n"
+    server.open(uri, text)
+    (d,) = [d for d in server.diagnostics(uri) if d.severity == types.DiagnosticSeverity.Error]
+    assert d.code == "KB003"
+    assert d.range.start == pos(text, "dge")
+    actions = server.request(
+        types.TEXT_DOCUMENT_CODE_ACTION,
+        types.CodeActionParams(doc(uri), d.range, types.CodeActionContext([d])),
+    )
+    assert [a.title for a in actions] == ["Replace 'dge' with 'deg'"]
+    fixed = apply(text, actions[0].edit.changes[uri])
+    assert fixed.endswith("= 90 deg\n}\n")
+    shown = hover_text(server, uri, pos(text, "dge", 0, 1))
+    assert "[KB003](" in shown
+    assert "unknown unit — `aida-kb explain KB003`" in shown
+    server.close(uri)
