@@ -11,6 +11,7 @@ presets:
   turntable   reference box turned to 0, 85, 195, 265 degrees (paper §6.2)
   lshape      L-shaped house (main body + wing; --set meeting_deg=135 for a skew wing)
   oriel       gable house with box oriels on the front wall
+  tower       square tower with a pyramid roof (kb/tower.kb)
   chessboard  chessboard poses for cv2.calibrateCamera / cv2.stereoCalibrate
   random      a randomised scene of --seed (aida_kb.synth.randomised): any of the above
               with random sizes, materials, cameras, light, occluders, 1-8 views, or no
@@ -44,7 +45,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "preset",
-        choices=("house", "turntable", "lshape", "oriel", "chessboard", "random"),
+        choices=("house", "turntable", "lshape", "oriel", "tower", "chessboard", "random"),
         help="scene",
     )
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="scene directory to write")

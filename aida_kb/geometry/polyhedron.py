@@ -54,6 +54,12 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 RELATIVE_TOLERANCE = 1e-9
+# `Polyhedron.concurrent`: a vertex off its faces' planes by less than this fraction of the
+# solid's size is on them (model files check planarity to 1e-4 of a vertex's distance from the
+# origin); the planes are refitted at most this many times (a pyramid's apex off by 1 degree
+# of tilt converges in a few dozen)
+CONCURRENT_TOLERANCE = 1e-9
+MAX_CONCURRENT_ROUNDS = 200
 """Edge lengths and polygon clearances below this times the solid's size are degenerate."""
 
 
@@ -430,6 +436,34 @@ class Polyhedron:
         X, res = _vertices(nm, N, d, self.vertex_faces, self.max_condition)
         topo = _Topology(self.rings, self.face_vertices, self.vertex_faces)
         return self._checked(nm, N, d, topo, X, res, self.max_condition)
+
+    def concurrent(self) -> Polyhedron:
+        """The same solid with its planes moved until every vertex lies on all its faces.
+
+        Where more than three planes meet (the eaves corner of a hip roof, a pyramid's apex)
+        the vertex is their least-squares point, off each plane by its residual, and the faces
+        are not planar. Alternating projections — each face's plane refitted to its vertices
+        (least squares, same outward side), the vertices recomputed — lower the sum of squared
+        vertex-plane distances at every step, to zero for a consistent solid; the planes move
+        by about the residuals. Stops when every residual is below `CONCURRENT_TOLERANCE` of
+        the solid's size or after `MAX_CONCURRENT_ROUNDS`. A solid whose residuals are already
+        below that is returned as it is.
+        """
+        solid = self
+        tolerance = CONCURRENT_TOLERANCE * max(self.size, 1e-300)
+        for _ in range(MAX_CONCURRENT_ROUNDS):
+            if float(solid.vertex_residuals.max(initial=0.0)) <= tolerance:
+                break
+            normals = np.empty_like(solid.normals)
+            offsets = np.empty_like(solid.offsets)
+            for f, vertices in enumerate(solid.face_vertices):
+                points = solid.vertices[list(vertices)]
+                centre = points.mean(axis=0)
+                n = np.linalg.svd(points - centre)[2][-1]
+                n = n if float(n @ solid.normals[f]) >= 0 else -n
+                normals[f], offsets[f] = n, float(n @ centre)
+            solid = solid.with_planes(normals, offsets)
+        return solid
 
     # ---- checks -------------------------------------------------------------------------
 

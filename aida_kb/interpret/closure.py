@@ -135,7 +135,9 @@ def close(
     """The closed solid of the faces (role path, unit normal (3,), offset m): every polygon.
 
     Returns role path -> polygon (K, 3), metres, world frame, counter-clockwise seen from
-    outside; every edge is shared by exactly two polygons.
+    outside, planar; every edge is shared by exactly two polygons. Where more than three
+    planes meet and are not concurrent, the planes are first moved until they are
+    (`Polyhedron.concurrent`): the polygons' planes then differ from the given ones by millimetres.
 
     Raises
     ------
@@ -159,7 +161,7 @@ def close(
             raise GeometryError(
                 f"{name} has no face in the closed model ({area:.2g} m² of {biggest:.3g} m²)"
             )
-    return solid.polygons()
+    return solid.concurrent().polygons()
 
 
 def inside_face(face: FloatArray, point_m: FloatArray, margin: float = 0.0) -> bool:

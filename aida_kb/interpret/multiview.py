@@ -348,6 +348,10 @@ def _rebuilt(
         inside = np.isin(model.edge_faces[:, 0], faces)
         adjacency = [(model.names[a], model.names[b]) for a, b in model.edge_faces[inside]]
         poly = Polyhedron.from_adjacency(names, normals[faces], offsets[faces], adjacency)
+        moved = poly.concurrent()  # more than three planes at a vertex: made to meet there
+        if moved is not poly:
+            poly, normals, offsets = moved, normals.copy(), offsets.copy()
+            normals[faces], offsets[faces] = poly.normals, poly.offsets
         for i, name in zip(faces, names, strict=True):
             polygons[int(i)] = poly.polygon(name)
     n = normals / np.linalg.norm(normals, axis=1, keepdims=True)

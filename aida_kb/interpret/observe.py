@@ -18,7 +18,9 @@ segments give it better where there are many: the vanishing point of the vertica
 degree on real facades (where the regions' estimate was 0.5-2 degrees off), and also with
 one wall direction in view and a camera pitched up at it, where the regions cannot give it.
 So it comes first when VP_MIN_SUPPORT segments support it to VP_MAX_SIGMA_DEG; then the
-regions; with neither, the camera's -y axis is the answer.
+regions; with one wall direction in view, a level region facing up (the ground, a table, a
+box's lid: a turntable scene) whose normal lies in the camera's window; with none of these,
+the camera's -y axis is the answer.
 """
 
 from __future__ import annotations
@@ -255,7 +257,7 @@ def estimate_up(
     weights = np.array([max(r.weight, 1e-12) for r in regions])
     limit = math.cos(math.radians(prior_window_deg))
     tol = math.sin(math.radians(vertical_tol_deg))
-    best: tuple[float, float, FloatArray] | None = None
+    best: _Candidate | None = None
     for i in range(len(heavy)):
         for j in range(i + 1, len(heavy)):
             cross = np.cross(heavy[i].normal, heavy[j].normal)
@@ -265,15 +267,12 @@ def estimate_up(
             up = cross / norm
             if float(up @ prior) < 0:
                 up = -up
-            agreement = float(up @ prior)
-            if agreement < limit:
-                continue
-            along = normals @ up
-            score = float(weights[(np.abs(along) < tol) | (along > math.cos(tol))].sum())
-            if best is None or (score, agreement) > (best[0], best[1]):
-                best = (score, agreement, up)
+            best = _better(best, up, prior, limit, normals, weights, tol)
     if best is None:
-        return fallback
+        # one wall direction (or none) in view: a level region facing up (the ground, a table,
+        # a lid, a flat roof) gives it, as the weighted mean normal of the level regions
+        level_up = _level_up(heavy, normals, weights, prior, limit, tol)
+        return fallback if level_up is None else level_up
     up = best[2]
     vertical = np.abs(normals @ up) < tol
     scatter = (normals[vertical] * weights[vertical, None]).T @ normals[vertical]
@@ -283,6 +282,57 @@ def estimate_up(
         up = refined if float(refined @ up) > 0 else -refined
     result: FloatArray = np.asarray(up / np.linalg.norm(up), dtype=np.float64)
     return result
+
+
+_Candidate = tuple[float, float, FloatArray]  # score, agreement with the prior, up (3,)
+
+
+def _better(
+    best: _Candidate | None,
+    up: FloatArray,
+    prior: FloatArray,
+    limit: float,
+    normals: FloatArray,
+    weights: FloatArray,
+    tol: float,
+) -> _Candidate | None:
+    """`best` or the candidate `up` if it is better: within the prior window (cosine `limit`)
+    and making more weight of the regions (`normals` (N, 3), `weights` (N,)) vertical or level
+    facing up (sine/cosine `tol`), ties to the one nearer the prior."""
+    agreement = float(up @ prior)
+    if agreement < limit:
+        return best
+    along = normals @ up
+    score = float(weights[(np.abs(along) < tol) | (along > math.cos(tol))].sum())
+    if best is None or (score, agreement) > (best[0], best[1]):
+        return (score, agreement, up)
+    return best
+
+
+def _level_up(
+    heavy: list[RegionView],
+    normals: FloatArray,
+    weights: FloatArray,
+    prior: FloatArray,
+    limit: float,
+    tol: float,
+) -> FloatArray | None:
+    """Up (unit, (3,), world frame) as the normal of a heavy region taken for level, or None.
+
+    Each heavy region whose normal lies within the prior window (cosine `limit`) of `prior` is
+    a candidate; the winner makes the largest weight of regions vertical or level facing up
+    (sine/cosine `tol`, as in `estimate_up`); up is then the weighted mean normal of the
+    regions level under it. `normals` (N, 3) and `weights` (N,) are all regions'.
+    """
+    best: _Candidate | None = None
+    for region in heavy:
+        up = np.asarray(region.normal, dtype=np.float64)
+        best = _better(best, up, prior, limit, normals, weights, tol)
+    if best is None:
+        return None
+    level = normals @ best[2] > math.cos(tol)
+    mean = (normals[level] * weights[level, None]).sum(axis=0)
+    return np.asarray(mean / np.linalg.norm(mean), dtype=np.float64)
 
 
 def _vanishing_up(

@@ -6,6 +6,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from aida_kb.errors import InterpretError
 from aida_kb.interpret.interpreter import Interpreter, State
@@ -41,6 +42,24 @@ def _cameras(evidence: Evidence) -> list[ModelCamera]:
     ]
 
 
+FloatArray = npt.NDArray[np.float64]
+
+# a closed polygon off its adjusted plane by more than this (metres) was made concurrent with
+# its neighbours (`closure.close`): the part's plane is the polygon's
+OFF_PLANE_M = 1e-9
+
+
+def _plane_of(polygon: FloatArray, normal: FloatArray, offset_m: float) -> tuple[FloatArray, float]:
+    """The plane of a closed polygon (K, 3): the adjusted plane (`normal` (3,) unit,
+    `offset_m`) if the polygon lies in it, else the polygon's own (least squares, same side)."""
+    if float(np.max(np.abs(polygon @ normal - offset_m))) <= OFF_PLANE_M:
+        return normal, offset_m
+    centre = polygon.mean(axis=0)
+    n = np.linalg.svd(polygon - centre)[2][-1]
+    n = n if float(n @ normal) >= 0 else -n
+    return n, float(n @ centre)
+
+
 def model_of(state: State, evidence: Evidence) -> ReconstructedModel:
     """The reconstructed model of an accepted state: every part's plane and closed polygon.
 
@@ -55,12 +74,13 @@ def model_of(state: State, evidence: Evidence) -> ReconstructedModel:
         ]
         faces += [(c.role, c.concept, c.normal, c.offset_m) for c in level.closing]
         for role, concept, n, d in faces:
+            n, d = _plane_of(level.polygons[role], n / np.linalg.norm(n), float(d))
             parts.append(
                 ModelPart(
                     role=role,
                     concept=concept,
-                    normal=_v3(n / np.linalg.norm(n)),
-                    offset_m=float(d),
+                    normal=_v3(n),
+                    offset_m=d,
                     polygon=[_v3(p) for p in level.polygons[role]],
                 )
             )

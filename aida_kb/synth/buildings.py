@@ -534,3 +534,50 @@ def signed_volume(solid: Solid) -> float:
         for i in range(1, len(p) - 1):
             vol += float(np.dot(p[0], np.cross(p[i], p[i + 1]))) / 6.0
     return vol
+
+
+def tower(
+    side: float = 6.0,
+    height: float = 14.0,
+    pitch_deg: float = 50.0,
+    wall_material: str = "brick",
+    roof_material: str = "tiles",
+    floors: int = 4,
+) -> Model:
+    """A square tower with a pyramid roof (kb/tower.kb), centred on the y axis (site frame).
+
+    side : the shaft's side, height : its eaves height, metres; pitch_deg : the slope of each
+    of the four roof planes, degrees. Roles: ``shaft.north`` faces +z, ``shaft.east`` +x,
+    ``shaft.south`` -z, ``shaft.west`` -x, ``shaft.base`` the ground, ``shaft.cap.*`` the
+    roof's slopes above the walls of the same name (the renderer names the parts it renders).
+    """
+    if min(side, height) <= 0:
+        raise GeometryError("tower: side and height must be positive")
+    if not 0 < pitch_deg < 80:
+        raise GeometryError("tower: the roof's pitch must be in (0, 80) degrees")
+    s = side / 2
+    apex = np.array([0.0, height + s * math.tan(math.radians(pitch_deg)), 0.0])
+    F = [np.array(p) for p in ([-s, 0, s], [s, 0, s], [s, 0, -s], [-s, 0, -s])]
+    E = [np.array([p[0], height, p[2]]) for p in F]
+    # wall k runs from corner k to corner k + 1: north (+z), east (+x), south (-z), west (-x)
+    faces: list[tuple[str, str, str, FloatArray]] = [("shaft.base", "Ground", "floor", np.array(F))]
+    for k, name in enumerate(("north", "east", "south", "west")):
+        a, b = k, (k + 1) % 4
+        faces.append(
+            (f"shaft.{name}", "Masonry", wall_material, np.array([F[a], F[b], E[b], E[a]]))
+        )
+        faces.append((f"shaft.cap.{name}", "Slope", roof_material, np.array([E[a], E[b], apex])))
+    solid = _solid("shaft", np.array([0.0, height / 2, 0.0]), faces)
+    walls = tuple(
+        replace(f, params={"floors": float(floors), "floor_h": height / max(floors, 1)})
+        if f.concept == "Masonry"
+        else f
+        for f in solid.faces
+    )
+    params: dict[str, float | str | bool] = {
+        "side": side,
+        "height": height,
+        "pitch_deg": pitch_deg,
+        "floors": floors,
+    }
+    return Model("Tower", (Solid("shaft", walls),), params)

@@ -325,7 +325,7 @@ def _albedo(
         g = tx.sample(*tex["grain"], u, v, fp)[:, 0]
         m = tx.sample(*tex["macro"], u * 0.25, v * 0.25, scaled(0.25))[:, 0]
         alb = alb * (1.0 + 0.05 * g + 0.05 * m)[:, None]
-    if "floors" in s.params and s.concept == "Wall":
+    if "floors" in s.params:  # walls with a window grid (`buildings._with_windows`)
         frame, glass, gy = tx.windows_mask(
             u,
             v,

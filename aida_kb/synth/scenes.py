@@ -35,7 +35,7 @@ from aida_kb.synth.render import GROUND_LABEL, Exposure, Lighting, Surface, rend
 FloatArray = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
 
-PRESETS = ("house", "turntable", "lshape", "oriel", "chessboard")
+PRESETS = ("house", "turntable", "lshape", "oriel", "tower", "chessboard")
 ROOF_CONCEPTS = {"gable": "GableRoof", "hip": "HipRoof", "flat": "FlatRoof", "shed": "ShedRoof"}
 """The specialisation each roof kind of `synth.buildings` is (synth's own names, in truth.json)."""
 #: the `house` preset's dihedral angles `aida-kb demo` names (its parts' role paths in
@@ -173,6 +173,7 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
     "k1": (-1.0, 1.0, False),
     "noise_sigma": (0.0, 100.0, False),
     "width": (1e-2, 1000.0, False),
+    "side": (1e-2, 1000.0, False),
     "depth": (1e-2, 1000.0, False),
     "height": (1e-2, 1000.0, False),
     "wing_width": (1e-2, 1000.0, False),
@@ -240,6 +241,7 @@ KNOWN_KEYS = {
         "floors",
         "distance",
     },
+    "tower": {"side", "height", "pitch_deg", "floors", "wall", "distance"},
     "turntable": {"width", "depth", "height", "distance", "angles"},
     "chessboard": {"cols", "rows", "square_m"},
 }
@@ -342,6 +344,28 @@ def preset(
             seed=seed,
             noise_sigma=sigma,
             truth_concepts={"body.roof": "GableRoof"},
+        )
+    if name == "tower":
+        model = bld.tower(
+            side=_float(p, "side", 9.0),
+            height=_float(p, "height", 10.0),
+            pitch_deg=_float(p, "pitch_deg", 45.0),
+            wall_material=wall,
+            floors=int(_float(p, "floors", 4)),
+        )
+        n = views or 2
+        dist = _float(p, "distance", 30.0)
+        angles = [-40.0 + 80.0 * k for k in range(n)]
+        eaves = float(model.parameters["height"])
+        poses = _orbit(np.array([0.0, 0.6 * eaves, 0.0]), dist, 1.4 * eaves, angles)
+        return SceneSpec(
+            "tower",
+            model,
+            _rig_from(p, 0.4),
+            poses,
+            _sun(-60.0, 40.0),
+            seed=seed,
+            noise_sigma=sigma,
         )
     if name == "turntable":
         model = bld.reference_box(

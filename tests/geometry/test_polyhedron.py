@@ -12,7 +12,7 @@ import pytest
 
 from aida_kb.errors import GeometryError
 from aida_kb.geometry.polygon import intersect_planes, polygon_centroid
-from aida_kb.geometry.polyhedron import Polyhedron
+from aida_kb.geometry.polyhedron import CONCURRENT_TOLERANCE, Polyhedron
 from aida_kb.geometry.rotation import rotation_from_rvec
 from aida_kb.synth import buildings
 from aida_kb.synth.buildings import polygon_normal
@@ -67,6 +67,7 @@ SYNTH = {
     "lshape90": lambda: buildings.lshape_house(),
     "lshape135": lambda: buildings.lshape_house(meeting_deg=135.0),
     "oriels": lambda: buildings.oriel_house(),
+    "tower": lambda: buildings.tower(),
     "box": lambda: buildings.reference_box(),
 }
 
@@ -95,6 +96,28 @@ def test_hip_roof_has_degree_four_eaves_corners() -> None:
     for corner in (c for c in poly.vertex_faces if len(c) == 4):
         roofs = [poly.names[f] for f in corner if ".roof." in poly.names[f]]
         assert len(roofs) == 2  # two walls and two roof planes meet at each eaves corner
+
+
+def test_concurrent_moves_non_concurrent_planes_until_every_vertex_lies_on_its_faces() -> None:
+    truth = {f.role: f.polygon for f in buildings.tower().faces}
+    exact = _build(truth)
+    assert exact.concurrent() is exact  # nothing to move
+    rng = np.random.default_rng(3)
+    N = exact.normals + rng.normal(0.0, 0.01, exact.normals.shape)
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    d = exact.offsets + rng.normal(0.0, 0.01, exact.offsets.shape)
+    tilted = exact.with_planes(N, d)
+    assert float(np.max(tilted.vertex_residuals)) > 0.01  # the apex and eaves corners
+    moved = tilted.concurrent()
+    tolerance = CONCURRENT_TOLERANCE * moved.size
+    assert float(np.max(moved.vertex_residuals)) <= tolerance
+    for name, polygon in moved.polygons().items():
+        f = moved.names.index(name)
+        assert np.max(np.abs(polygon @ moved.normals[f] - moved.offsets[f])) <= tolerance
+    # the planes moved by about the residuals, not more
+    turned = np.degrees(np.arccos(np.clip(np.sum(moved.normals * N, axis=1), -1.0, 1.0)))
+    assert float(np.max(turned)) < 1.5
+    assert float(np.max(np.abs(moved.offsets - d))) < 0.1
 
 
 # ---- non-convex solids -------------------------------------------------------------------

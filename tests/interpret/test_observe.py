@@ -138,3 +138,38 @@ def test_regions_beside_each_other_by_segment_or_outline(synthetic: ModuleType) 
     assert touching.beside(front, left)
     apart = replace(bare, outlines={front: (square,), left: (square + np.array([70.0, 0.0]),)})
     assert not apart.beside(front, left)
+
+
+def test_one_wall_direction_and_a_level_region_give_up_not_the_camera_axis() -> None:
+    """A box on a turntable seen from the front by a camera pitched 17 degrees down: one wall
+    direction, the lid and the table. Up is the level regions' normal, not the camera's -y."""
+    from aida_kb.interpret.observe import CameraView, RegionView
+
+    pitch = math.radians(17.0)
+    # the camera looks down by `pitch`; the world's up is -y (OpenCV, y down)
+    R = np.array(
+        [
+            [1.0, 0.0, 0.0],
+            [0.0, math.cos(pitch), -math.sin(pitch)],
+            [0.0, math.sin(pitch), math.cos(pitch)],
+        ]
+    )
+    camera = CameraView("00", np.diag([800.0, 800.0, 1.0]), R, np.zeros(3), 640, 480)
+    front = np.array([0.0, 0.0, -1.0])  # the box's front faces the camera (world frame)
+    rng = np.random.default_rng(0)
+
+    def region(rid: str, normal: np.ndarray, weight: float) -> RegionView:
+        n = normal + rng.normal(0.0, 0.002, 3)
+        return RegionView(rid, "00", n / np.linalg.norm(n), np.zeros(3), weight, 1000.0, 0.001)
+
+    up_world = np.array([0.0, -1.0, 0.0])
+    regions = [
+        region("00/1", front, 0.78),
+        region("00/5", up_world, 0.12),
+        region("00/1000", up_world, 0.10),
+    ]
+    up = estimate_up(regions, camera)
+    assert math.degrees(math.acos(float(up @ up_world))) < 0.5
+    # the camera's axis would have been 17 degrees off
+    prior = R.T @ np.array([0.0, -1.0, 0.0])
+    assert math.degrees(math.acos(float(prior @ up_world))) == pytest.approx(17.0)

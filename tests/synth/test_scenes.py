@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from aida_kb.cli.main import main
@@ -86,3 +87,26 @@ def test_oriels_that_overlap_are_refused(params: dict[str, str], message: str) -
     with pytest.raises(GeometryError, match=message):
         preset("oriel", params=params)
     assert len(preset("oriel", params={"n_oriels": "3"}).model.solids) == 4
+
+
+def test_the_tower_preset_renders_the_parts_kb_tower_declares() -> None:
+    from aida_kb.interpret.knowledge import Knowledge
+    from aida_kb.kb import compile_path
+
+    kb = compile_path(Path(__file__).resolve().parents[2] / "kb" / "tower.kb").kb
+    assert kb is not None
+    knowledge = Knowledge.from_kb(kb)
+    real = knowledge.realisation("Tower")
+    assert real is not None
+    (structure,) = knowledge.structures(real.concept, real.role, "", "con-of")
+    spec = preset("tower", params={"side": "8", "height": "12", "pitch_deg": "40"})
+    faces = {f.role: f for f in spec.model.faces}
+    assert set(faces) == {leaf.role for leaf in structure.leaves}
+    assert spec.model.concept == "Tower"
+    assert {faces[leaf.role].concept for leaf in structure.leaves} == {
+        leaf.concept for leaf in structure.leaves
+    }
+    slope = faces["shaft.cap.north"].normal
+    assert float(np.degrees(np.arccos(slope[1]))) == pytest.approx(40.0)
+    with pytest.raises(GeometryError, match="pitch must be in"):
+        preset("tower", params={"pitch_deg": "85"})
