@@ -9,6 +9,7 @@ are the grammar's (grammars/kb.lark; a test checks that every word here is a key
 
 from __future__ import annotations
 
+import os
 import re
 
 from lsprotocol import types
@@ -160,6 +161,28 @@ def _calls(a: Analysis) -> list[types.CompletionItem]:
     return out
 
 
+#: At most this many files are offered after ``import "`` (a folder's tree can be large).
+MAX_IMPORT_CHOICES = 200
+
+
+def _importable(a: Analysis) -> list[types.CompletionItem]:
+    """The .kb files below the document's folder, as an import names them (relative, ``/``)."""
+    if not os.path.isabs(a.path):
+        return []
+    base = os.path.dirname(a.path)
+    out: list[types.CompletionItem] = []
+    for root, dirs, names in os.walk(base):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        for n in sorted(names):
+            path = os.path.join(root, n)
+            if n.endswith(".kb") and path != a.path:
+                rel = os.path.relpath(path, base).replace(os.sep, "/")
+                out.append(_item(rel, K.File, "import"))
+                if len(out) >= MAX_IMPORT_CHOICES:
+                    return out
+    return out
+
+
 def _path_members(
     a: Analysis, where: tuple[NameKind, str, str | None] | None, prefix: list[str]
 ) -> list[types.CompletionItem]:
@@ -213,7 +236,9 @@ def completions(a: Analysis, text: str, position: types.Position) -> list[types.
         without = "\n".join([*lines[: position.line], "", *lines[position.line + 1 :]])
         a = Analysis(a.uri, without, a.search_paths)
     s = before_line
-    if re.search(r"(?:^|\s)import\s+\"[^\"]*$", s) or re.search(r"//", s):
+    if re.search(r"(?:^|\s)import\s+\"[^\"]*$", s):
+        return _importable(a)
+    if "//" in s:
         return []
     if re.search(rf"^\s*(?:abstract\s+)?concept\s+{_NAME}\s+in\s+\w*$", s):
         return [_item(n, K.EnumMember, "layer") for n in a.table.layers]

@@ -379,6 +379,11 @@ def test_completion_in_context(server: ServerClient, tmp_path: Path) -> None:
     # layers after 'concept NAME in', value types after 'attribute NAME:'
     assert typed("concept House in scene", "concept Porch in ") == ["scene", "world", "image"]
     assert typed(body, "    attribute span: ") == ["angle", "length", "number"]
+    # the .kb files beside the document after 'import "'
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "walls.kb").write_text("", encoding="utf-8")
+    (tmp_path / "roofs.kb").write_text("", encoding="utf-8")
+    assert typed("concept House in scene", 'import "') == ["roofs.kb", "lib/walls.kb"]
     # templates, primitives and roles inside a constraint
     inside = typed(body, "    constraint ")
     assert {"perpendicular", "parallel_planes", "angle", "edge", "front", "roof", "self"} <= set(
