@@ -27,7 +27,7 @@ import os
 import re
 import tempfile
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -55,6 +55,7 @@ __all__ = [
     "EXPECTED_SUFFIX",
     "Difference",
     "Fixture",
+    "Interpreter",
     "Outcome",
     "compare",
     "find_fixtures",
@@ -224,7 +225,8 @@ def _alternative(choices: str, role: str, concept: str) -> bool:
 
 def _check_rejection(interp: Interpretation, r: Rejection) -> Difference | None:
     """None when a hypothesis that makes `r.role` a `r.concept` was rejected by the
-    constraint `r.constraint`; otherwise what happened to it instead."""
+    constraint `r.constraint` (None: when such hypotheses were tried and all rejected);
+    otherwise what happened to it instead."""
     tried = []
     for h in interp.trace:
         m = _CHOICES.match(h.reason)
@@ -232,6 +234,14 @@ def _check_rejection(interp: Interpretation, r: Rejection) -> Difference | None:
             m is not None and _alternative(m.group(1), r.role, r.concept)
         ):
             tried.append(h)
+    if r.constraint is None:
+        kept = [h for h in tried if h.status != "rejected"]
+        if tried and not kept:
+            return None
+        want = f"expected {r.role} of {r.concept} rejected"
+        if kept:
+            return Difference(r.span, f"{want}, got it {kept[0].status}: {kept[0].reason}")
+        return Difference(r.span, f"{want}, got no such hypothesis")
     if any(h.status == "rejected" and h.constraint == r.constraint for h in tried):
         return None
     want = f"expected '{r.constraint}' to reject {r.role} of {r.concept}"
@@ -397,11 +407,24 @@ def _interpret(kb: KnowledgeBase, fixture: Fixture, goal: str | None) -> Interpr
         return reconstruct_scene(kb, fixture.scene, Path(tmp) / "out").interpretation
 
 
+Interpreter = Callable[[KnowledgeBase, Fixture, "str | None"], Interpretation]
+"""What gives a fixture's judged result: (knowledge base, fixture, goal or None) -> result."""
+
+
 def run_fixture(
-    path: str | os.PathLike[str], search_paths: Sequence[str] = (), *, update: bool = False
+    path: str | os.PathLike[str],
+    search_paths: Sequence[str] = (),
+    *,
+    update: bool = False,
+    interpret: Interpreter | None = None,
 ) -> Outcome:
     """Run the fixture whose expectation is `path` (see the module docstring); never
-    raises on a bad fixture (an *error* outcome says what is wrong)."""
+    raises on a bad fixture (an *error* outcome says what is wrong).
+
+    interpret : what gives the result (default: interpret the evidence and judge it, or
+        reconstruct the scene, as ``aida-kb interpret`` and ``reconstruct`` do); a test
+        suite passes one that reuses results it has computed already
+    """
     from aida_kb.diagnostics.render import render_text
     from aida_kb.errors import AidaError
     from aida_kb.io.atomic import write_text_atomic
@@ -434,7 +457,7 @@ def run_fixture(
     )
     goal = tree.nodes[""].concept if "" in tree.nodes else None
     try:
-        interp = _interpret(kb, fixture, goal)
+        interp = (interpret or _interpret)(kb, fixture, goal)
     except AidaError as exc:
         return Outcome(fixture, "error", [f"{path}: {exc}"], time.perf_counter() - start)
     diffs = compare(kb, tree, interp)

@@ -68,7 +68,7 @@ re-run that only moves the numbers by solver noise passes and a changed result d
 
 _PREFIX = re.compile(r"//\s*expect:\s*")
 _QUANTITY = re.compile(r"(-?\d+(?:\.\d+)?(?:[eE][+-]?\d+)?)[ \t]*([A-Za-z_]\w*)")
-_REJECT = re.compile(r"reject\s+(\S+)\s+of\s+([A-Za-z_]\w*)\s+by\s+(\S+)\s*$")
+_REJECT = re.compile(r"reject\s+(\S+)\s+of\s+([A-Za-z_]\w*)(?:\s+by\s+(\S+))?\s*$")
 _STEP = re.compile(r"([A-Za-z_]\w*)(?:\[(\d+)\])?$")
 _AUTO_LABEL = re.compile(r"([A-Za-z_]\w*)#\d+(?:/\d+)?$")
 
@@ -123,11 +123,13 @@ def line_comments(text: str) -> list[Comment]:
 @dataclass(frozen=True, slots=True)
 class Rejection:
     """``// expect: reject ROLE of CONCEPT by CONSTRAINT``: the constraint labelled
-    CONSTRAINT rejects the alternative that makes the instance at role path ROLE a CONCEPT."""
+    CONSTRAINT rejects the alternative that makes the instance at role path ROLE a CONCEPT;
+    without ``by CONSTRAINT`` (`constraint` None) the alternative is tried and every
+    hypothesis of it rejected, for whatever reason."""
 
     role: str
     concept: str
-    constraint: str
+    constraint: str | None
     span: Span
 
 
@@ -216,7 +218,7 @@ def read_annotations(text: str, file: str) -> Annotations:
             if r is None:
                 bad(
                     f"'{body}' is no rejection",
-                    "write '// expect: reject ROLE of CONCEPT by CONSTRAINT', as in "
+                    "write '// expect: reject ROLE of CONCEPT [by CONSTRAINT]', as in "
                     "'// expect: reject body.roof of GableRoof by slopes'",
                 )
             else:
@@ -307,6 +309,8 @@ def _check_rejection(table: Table, goals: list[str], r: Rejection) -> Iterator[D
             f"{r.concept} cannot fill '{r.role}', which takes a {filler[0]}",
             r.span,
         )
+    if r.constraint is None:
+        return
     auto = _AUTO_LABEL.fullmatch(r.constraint)
     if r.constraint not in _labels(table) and not (auto and auto.group(1) in table.concepts):
         yield diag(
