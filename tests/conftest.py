@@ -35,6 +35,32 @@ def demo_run(tmp_path_factory: pytest.TempPathFactory) -> DemoRun:
     return DemoRun(code, buffer.getvalue(), root)
 
 
+@dataclass(frozen=True)
+class LShapeRun:
+    """The `lshape` preset (a wing at 135 degrees, one view, 480 x 360) rendered and
+    reconstructed with kb/buildings.kb: the scene, the output directory and its result."""
+
+    scene: Path
+    out: Path
+    result: Any
+
+
+@pytest.fixture(scope="session")
+def lshape_run(tmp_path_factory: pytest.TempPathFactory) -> LShapeRun:
+    """The L-shape scene rendered and reconstructed once per session."""
+    from aida_kb.interpret.pipeline import reconstruct_scene
+    from aida_kb.kb import compile_path
+    from aida_kb.synth.scenes import preset, render_scene
+
+    root = tmp_path_factory.mktemp("lshape")
+    kb = compile_path(Path(__file__).resolve().parents[1] / "kb" / "buildings.kb").kb
+    assert kb is not None
+    params = {"meeting_deg": "135", "image_width": "480", "image_height": "360", "focal_px": "600"}
+    render_scene(preset("lshape", seed=0, views=1, params=params), root / "scene")
+    result = reconstruct_scene(kb, root / "scene", root / "model")
+    return LShapeRun(root / "scene", root / "model", result)
+
+
 def _check_cityjson(doc: dict[str, Any]) -> None:
     """The checks of cjval (the CityJSON validator) that apply to this file, and closure.
 

@@ -20,7 +20,14 @@ from aida_kb.interpret.context import Context
 from aida_kb.interpret.hypotheses import Frame
 from aida_kb.interpret.knowledge import Structure
 from aida_kb.interpret.observe import RegionView
-from aida_kb.interpret.plausibility import MAX_MEAN_COST, closed, misfit, outside, unseen
+from aida_kb.interpret.plausibility import (
+    MAX_MEAN_COST,
+    attribute_violation,
+    closed,
+    misfit,
+    outside,
+    unseen,
+)
 from aida_kb.interpret.trace import Trace
 from aida_kb.interpret.unseen import Planes, UnseenError
 from aida_kb.interpret.verify import Outcome, Verification
@@ -102,6 +109,10 @@ def verify_alternative(
             polygons, closing = closed(ctx, structure, outcome, fixed, frame)
         except GeometryError as exc:
             reasons.append((f"its planes do not close a solid: {exc}", None))
+            continue
+        violation = attribute_violation(ctx, structure, frame, outcome.planes, polygons)
+        if violation is not None:
+            reasons.append((violation.text, violation))
             continue
         why = outside(ctx, binding, polygons) or unseen(
             ctx, adjusted.visible, polygons, anchor_of(forced)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from aida_kb.errors import AidaError
-from aida_kb.interpret.plausibility import MAX_MEAN_COST
+from aida_kb.interpret.plausibility import MAX_MEAN_COST, Violation
 from aida_kb.interpret.verify import (
     BLAME_EVALUATIONS,
     BlameGroup,
@@ -25,7 +25,8 @@ from aida_kb.solve import ConstraintResidual
 
 BLAME_CANDIDATES = 6  # constraints left out in turn to find a contradiction's culprit
 
-Reason = tuple[str, ConstraintResidual | None]  # text, the rejecting constraint's report row
+# text, and the rejecting constraint's report row or the attribute whose range was left
+Reason = tuple[str, ConstraintResidual | Violation | None]
 
 
 def first_named(reasons: list[Reason | Callable[[], Reason]]) -> Reason:

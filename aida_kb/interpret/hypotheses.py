@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aida_kb.diagnostics.core import Span
 from aida_kb.errors import InterpretError
 from aida_kb.interpret.observe import CameraView, RegionView, slope_deg
 from aida_kb.kb.model import PlacementKind
@@ -86,6 +87,7 @@ class PlanarPart:
     direction: str | None = None  # the direction it faces in its structure's frame
     tilt_deg: float | None = None  # its declared tilt (None: the evidence says)
     default_tilt_deg: float | None = None  # its slope attribute's default
+    orient_span: Span | None = None  # the ``orient`` declaration it follows (None: none)
 
 
 def predicted_normal(part: PlanarPart, frame: Frame, pitch_deg: float) -> FloatArray:

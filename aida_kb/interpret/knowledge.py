@@ -317,6 +317,7 @@ class Knowledge:
             direction=o.direction,
             pitched=tilted,
             tilt_deg=math.degrees(tilt) if tilt is not None else None,
+            orient_span=o.span,
         )
 
     def holds(self, owner: str, requires: Requires, fillers: Mapping[str, str]) -> bool:

@@ -4,18 +4,24 @@ An adjusted alternative is plausible when its constraints fit together (reduced 
 `MAX_MEAN_COST`, none over its threshold: `alternative`), its planes close a solid with a face
 for every part (`closed`), every bound region lies on its part's closed face (`outside`), and
 no inserted part is so large in the reference image that the camera could not have missed it
-(`unseen`). Its cost (`misfit`) adds penalties for evidence it leaves unexplained.
+(`unseen`), and every measured length attribute of the knowledge (``is height(self)``,
+``is distance(a, b)`` ...) lies in its range in the closed model (`attribute_violation`). Its
+cost (`misfit`) adds penalties for evidence it leaves unexplained.
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 import numpy.typing as npt
 
+from aida_kb.diagnostics.core import Span
 from aida_kb.interpret.closure import ClosingFace, close, inside_face
 from aida_kb.interpret.context import Context
 from aida_kb.interpret.hypotheses import Frame
-from aida_kb.interpret.knowledge import Structure
+from aida_kb.interpret.knowledge import Structure, join
 from aida_kb.interpret.observe import RegionView
 from aida_kb.interpret.unseen import Planes, closing_of
 from aida_kb.interpret.verify import Outcome
@@ -101,3 +107,72 @@ def unseen(
                 f"{limit:.0f}) but no region fits it"
             )
     return ""
+
+
+# the measures of length an attribute may stand for (docs/language.md §3.10), by the model
+LENGTH_MEASURES = ("height", "width", "depth", "distance")
+
+
+@dataclass(frozen=True)
+class Violation:
+    """A measured attribute of the knowledge outside its range in a closed model."""
+
+    text: str
+    label: str  # CONCEPT.ATTRIBUTE
+    span: Span | None  # the attribute's declaration
+
+
+def attribute_violation(
+    ctx: Context,
+    structure: Structure,
+    frame: Frame,
+    planes: Planes,
+    polygons: dict[str, FloatArray],
+) -> Violation | None:
+    """The first attribute of a length measure (height, width, depth, distance) of the
+    structure's instances whose measure in the closed model lies outside its range, or None.
+
+    `planes` : role path -> (unit normal (3,), offset m), world frame; `polygons` : role path ->
+    closed face (K, 3), metres. ``height`` is the extent of the instance's faces along up,
+    ``width`` along its frame's right, ``depth`` along its front; ``distance(a, b)`` is the
+    distance of a point of plane b from plane a.
+    """
+    axes = {"height": frame.up, "width": frame.right, "depth": frame.front}
+    for node in structure.nodes:
+        for attribute in ctx.knowledge.concept(node.concept).attributes.values():
+            if attribute.measure not in LENGTH_MEASURES or not attribute.measure_args:
+                continue
+            if attribute.low is None and attribute.high is None:
+                continue
+            paths = [join(node.role, a) for a in attribute.measure_args]
+            if attribute.measure == "distance":
+                a, b = paths[0], paths[-1]
+                if a not in planes or b not in planes:
+                    continue
+                (n_a, d_a), (n_b, d_b) = planes[a], planes[b]
+                value = abs(float(n_a @ (np.asarray(n_b) * d_b)) - d_a)
+            else:
+                prefix = paths[0]
+                faces = [
+                    p
+                    for r, p in polygons.items()
+                    if not prefix or r == prefix or r.startswith(prefix + ".")
+                ]
+                if not faces:
+                    continue
+                along = np.concatenate(faces) @ axes[attribute.measure]
+                value = float(along.max() - along.min())
+            low = attribute.low if attribute.low is not None else -math.inf
+            high = attribute.high if attribute.high is not None else math.inf
+            if low <= value <= high:
+                continue
+            where = f" ({attribute.span})" if attribute.span is not None else ""
+            label = f"{node.concept}.{attribute.name}"
+            return Violation(
+                f"attribute {attribute.name} of {node.role or node.concept} ({node.concept}{where})"
+                f" measures {value:.3g} m in the closed model, outside its range "
+                f"[{low:.3g} m, {high:.3g} m]",
+                label,
+                attribute.span,
+            )
+    return None

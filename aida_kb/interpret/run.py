@@ -152,7 +152,8 @@ def interpret(
         named = [h for h in reasons if h.constraint is not None]
         first = (named or reasons)[:1]
         why = first[0].reason if first else "no alternative was verified"
-        if first and first[0].constraint is not None:
+        # an attribute's rejection (no cost) names the attribute and its line in its text
+        if first and first[0].constraint is not None and first[0].cost is not None:
             why = f"constraint {first[0].constraint!r} (cost {first[0].cost:.3g}): {why}"
         if len(reasons) > 1:
             why = f"{len(reasons)} alternatives rejected, e.g. {why}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from aida_kb.interpret.plausibility import Violation
 from aida_kb.interpret.result import HypothesisTrace
 from aida_kb.solve import ConstraintResidual
 
@@ -38,9 +39,23 @@ class Trace:
             update={"status": "verified", "step": self.step, "reason": reason}
         )
 
-    def reject(self, hid: int, reason: str, row: ConstraintResidual | None = None) -> None:
+    def reject(
+        self, hid: int, reason: str, row: ConstraintResidual | Violation | None = None
+    ) -> None:
         """Mark a hypothesis rejected, with the constraint (its report row) that felled it:
-        its label, normalised cost and ``.kb`` line."""
+        its label, normalised cost and ``.kb`` line; or the attribute whose range it left."""
+        if isinstance(row, Violation):
+            self.entries[hid] = self.entries[hid].model_copy(
+                update={
+                    "status": "rejected",
+                    "step": self.step,
+                    "reason": reason,
+                    "constraint": row.label,
+                    "cost": None,
+                    "span": row.span,
+                }
+            )
+            return
         self.entries[hid] = self.entries[hid].model_copy(
             update={
                 "status": "rejected",

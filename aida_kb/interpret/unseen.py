@@ -112,9 +112,10 @@ def initial_planes(
                 visible.append(leaf.role)
                 planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
                 continue
+            where = f", oriented at {leaf.orient_span}" if leaf.orient_span is not None else ""
             raise UnseenError(
-                f"{leaf.role} ({leaf.concept}) would face camera {evidence.camera.view} "
-                "but no region fits it"
+                f"{leaf.role} ({leaf.concept}{where}) would face camera "
+                f"{evidence.camera.view} but no region fits it"
             )
         planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
     for role, (n, d) in sorted(fixed.items()):

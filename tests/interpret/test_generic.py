@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -30,30 +31,46 @@ def _renamed() -> tuple[object, dict[str, str]]:
     return result.kb, {v: k for k, v in mapping.items()}
 
 
-@pytest.mark.parametrize("name", ["house_occluded.json", "wing_90.json"])
-def test_renamed_knowledge_gives_the_same_model(
-    name: str, interpreted: Callable[[str], object]
-) -> None:
-    kb, back = _renamed()
-    original = interpreted(name)
-    got = interpret(kb, read_evidence(FIXTURES / name), source=name)  # type: ignore[arg-type]
-    assert original.accepted  # type: ignore[attr-defined]
+def _assert_same(original: Any, got: Any, back: dict[str, str]) -> None:
+    """The interpretation with the renamed knowledge is the original one up to names: the
+    same instances (role, concept, bindings) and the same model within 1e-6 m."""
+    assert original.accepted, original.message
     assert got.accepted, got.message
     assert got.goal == "QesuoHZ"  # the only scene concept is the goal
 
     def plain(role: str) -> str:
         return WORD.sub(lambda m: back.get(m.group(0), m.group(0)), role)
 
-    want = {p.role: p for p in original.model.parts}  # type: ignore[attr-defined]
-    have = {plain(p.role): p for p in got.model.parts}  # type: ignore[union-attr]
+    assert sorted((plain(i.role), plain(i.concept), tuple(i.bindings)) for i in got.instances) == (
+        sorted((i.role, i.concept, tuple(i.bindings)) for i in original.instances)
+    )
+    want = {p.role: p for p in original.model.parts}
+    have = {plain(p.role): p for p in got.model.parts}
     assert set(have) == set(want)
-    assert {plain(i.concept) for i in got.instances} == {
-        i.concept
-        for i in original.instances  # type: ignore[attr-defined]
-    }
     for role, part in want.items():
         np.testing.assert_allclose(have[role].normal, part.normal, atol=1e-9)
         assert have[role].offset_m == pytest.approx(part.offset_m, abs=1e-6)
         np.testing.assert_allclose(
             sorted(map(tuple, have[role].polygon)), sorted(map(tuple, part.polygon)), atol=1e-6
         )
+
+
+@pytest.mark.parametrize("name", ["house_occluded.json", "wing_90.json"])
+def test_renamed_knowledge_gives_the_same_model(
+    name: str, interpreted: Callable[[str], object]
+) -> None:
+    kb, back = _renamed()
+    got = interpret(kb, read_evidence(FIXTURES / name), source=name)  # type: ignore[arg-type]
+    _assert_same(interpreted(name), got, back)
+
+
+@pytest.mark.parametrize("scene", ["demo", "lshape"])
+def test_renamed_knowledge_interprets_the_rendered_scenes_alike(
+    scene: str, demo_run: Any, lshape_run: Any, buildings_kb: Any
+) -> None:
+    """The rendered demo house and L-shape (their evidence, from the session's renders)."""
+    out = demo_run.root / "model" if scene == "demo" else lshape_run.out
+    evidence = read_evidence(out / "evidence.json")
+    kb, back = _renamed()
+    original = interpret(buildings_kb, evidence, source=scene)
+    _assert_same(original, interpret(kb, evidence, source=scene), back)  # type: ignore[arg-type]

@@ -5,28 +5,25 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from aida_kb.interpret.pipeline import reconstruct_scene
 from aida_kb.io.scene import read_scene
 from aida_kb.kb import compile_path
-from aida_kb.synth.scenes import preset, render_scene
 
 KB = Path(__file__).resolve().parents[2] / "kb" / "buildings.kb"
 MEDIUM = {"image_width": "480", "image_height": "360", "focal_px": "600"}
 
 
 def test_wing_walls_keep_to_their_own_evidence(
-    tmp_path: Path, check_interpretation_kb: Any
+    lshape_run: Any, check_interpretation_kb: Any
 ) -> None:
     # The wing's foot lies on the body's floor, which no camera sees (inserted from knowledge):
     # a segment along that foot, seen at a grazing angle, measured the guessed floor and moved
     # the wing's seen front wall 1.6 m and its roof 1.4 m away from their stereo evidence.
     kb = compile_path(KB).kb
     assert kb is not None
-    scene = tmp_path / "scene"
-    render_scene(preset("lshape", seed=0, views=1, params={"meeting_deg": "135", **MEDIUM}), scene)
-    interp = reconstruct_scene(kb, scene, tmp_path / "model").interpretation
+    scene = lshape_run.scene
+    interp = lshape_run.result.interpretation
     assert interp.model is not None, interp.message
-    check_interpretation_kb(tmp_path / "model" / "interpretation.kb", kb, interp)
+    check_interpretation_kb(lshape_run.out / "interpretation.kb", kb, interp)
     truth = read_scene(scene).truth
     assert truth is not None
     d_true = {p.role: p.d for p in truth.parts}
