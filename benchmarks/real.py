@@ -58,7 +58,7 @@ from aida_kb.io.scene import read_labels, read_scene
 from aida_kb.kb import compile_path
 from aida_kb.vision.disprange import disparity_range
 from aida_kb.vision.evaluate import score_disparity
-from aida_kb.vision.evidence import scene_evidence
+from aida_kb.vision.evidence import VisionParams, scene_evidence
 from aida_kb.vision.rectify import stereo_rectification
 from aida_kb.vision.sgm import sgm_disparity
 from aida_kb.vision.stereo import ncc_disparity
@@ -86,12 +86,15 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float:
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
 
 
-def real_scene(path: Path, kb: Any) -> dict[str, Any]:
+def real_scene(path: Path, kb: Any, matcher: str = "ncc") -> dict[str, Any]:
     """Evidence, vertical, main wall and verdict of one real scene directory."""
     scene = read_scene(path, with_truth=False)
     start = time.perf_counter()
     evidence, products = scene_evidence(
-        scene, views=[scene.views[0].id], segmentation="orientation"
+        scene,
+        views=[scene.views[0].id],
+        segmentation="orientation",
+        params=VisionParams(matcher="sgm" if matcher == "sgm" else "ncc"),
     )
     t_evidence = time.perf_counter() - start
     prod = products[0]

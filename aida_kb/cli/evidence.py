@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from aida_kb.cli.disparity import add_matcher
+
 EXAMPLE = """\
 Per view: rectify, NCC disparity + certainty, depth, regions (labels.png where the scene has
 one, else planar regions of equal orientation), plane fits (n_init, c_init, w_c), line
@@ -15,6 +17,7 @@ examples:
   aida-kb synth house -o out/house
   aida-kb evidence out/house -o out/house/evidence.json --debug out/house/debug
   aida-kb evidence out/house -o ev.json --segmentation orientation --views 00
+  aida-kb evidence out/house -o ev-sgm.json --matcher sgm --views 00
 """
 
 
@@ -42,7 +45,10 @@ def register(subparsers: Any) -> None:
         "always segment planar regions of equal orientation from the depth",
     )
     add_max_disp(p)
-    p.add_argument("--window", type=int, default=11, metavar="N", help="NCC window (odd, 11)")
+    p.add_argument(
+        "--window", type=int, default=None, metavar="N", help="NCC window (odd; 11, sgm 7)"
+    )
+    add_matcher(p)
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(run=run)
 
@@ -90,13 +96,17 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.io.evidence import write_evidence
     from aida_kb.io.scene import read_scene
     from aida_kb.vision.debug import write_debug
-    from aida_kb.vision.evidence import STAGES, VisionParams, scene_evidence
+    from aida_kb.vision.evidence import DEFAULT_WINDOW, STAGES, VisionParams, scene_evidence
 
     check_max_disp(args.max_disp)
     scene = read_scene(args.scene, with_truth=False)
     check_outputs([args.output], scene.files, directories=[args.debug] if args.debug else [])
     views = parse_views(args.views)
-    params = VisionParams(num_disp=args.max_disp, window=args.window)
+    params = VisionParams(
+        num_disp=args.max_disp,
+        window=args.window or DEFAULT_WINDOW,
+        matcher="sgm" if args.matcher == "sgm" else "ncc",
+    )
     n_views = len(views) if views is not None else len(scene.views)
     console = Console(stderr=True)
     with Progress(

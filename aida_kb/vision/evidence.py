@@ -50,6 +50,7 @@ from aida_kb.vision.segmentation import (
     region_contours,
     segment_planes,
 )
+from aida_kb.vision.sgm import SGM_WINDOW, sgm_disparity
 from aida_kb.vision.stereo import DisparityMap, ncc_disparity
 
 F32 = npt.NDArray[np.float32]
@@ -61,6 +62,7 @@ SegmentationMode = Literal["auto", "labels", "orientation"]
 
 STAGES = ("rectify", "disparity", "depth", "segmentation", "planes", "lines", "contours")
 MIN_FIT_SAMPLES = 30
+DEFAULT_WINDOW = 11  # the block matcher's window, pixels (see VisionParams.window)
 FALLBACK_NUM_DISP = 128  # disparities searched when neither given nor found from features
 # A disparity below this many pixels gives no depth worth the name: stereo noise of ~0.2 px
 # changes it by over 10 % (and near the horizon by kilometres). Such samples still shape the
@@ -81,7 +83,11 @@ class VisionParams:
     # found from sparse feature matches (aida_kb.vision.disprange), else 0 .. FALLBACK_NUM_DISP
     num_disp: int | None = None
     min_disp: int = 0
-    window: int = 11  # small enough for narrow faces seen at grazing angles
+    window: int = DEFAULT_WINDOW  # small enough for narrow faces seen at grazing angles
+    # the dense matcher: "ncc" block matching (aida_kb.vision.stereo) or "sgm", semi-global
+    # aggregation of the same NCC costs (aida_kb.vision.sgm: fills weak texture, slower);
+    # with "sgm" the window is SGM_WINDOW unless `window` is changed from 11
+    matcher: Literal["ncc", "sgm"] = "ncc"
     min_certainty: float = 0.05
     min_line_px: float = 15.0
     min_region_px: int = 200
@@ -375,7 +381,11 @@ def process_view(
     left_r, right_r = rect.rectify(left, right)
     tick("disparity")
     min_disp, num_disp, warnings = _search_range(left_r, right_r, p)
-    disp = ncc_disparity(left_r, right_r, min_disp=min_disp, num_disp=num_disp, window=p.window)
+    if p.matcher == "sgm":
+        window = SGM_WINDOW if p.window == DEFAULT_WINDOW else p.window
+        disp = sgm_disparity(left_r, right_r, min_disp=min_disp, num_disp=num_disp, window=window)
+    else:
+        disp = ncc_disparity(left_r, right_r, min_disp=min_disp, num_disp=num_disp, window=p.window)
     sparse = sparse_disparities(left_r, right_r) if p.num_disp is not None else None
     warnings += saturation_warnings(disp, min_disp, num_disp, sparse)
     tick("depth")

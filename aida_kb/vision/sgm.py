@@ -40,10 +40,10 @@ from aida_kb.vision.stereo import (
     DISTINCT_SCALE,
     PEAK_FLOOR,
     DisparityMap,
-    _as_grey_f32,
     _prepare,
     _WindowSums,
     _Workspace,
+    checked_pair,
 )
 
 F32 = npt.NDArray[np.float32]
@@ -248,21 +248,8 @@ def sgm_disparity(
         * clip(uniqueness / UNIQUE_SCALE) * gradient factor, peak (the NCC at the disparity)
         and distinctiveness (the aggregate's uniqueness, 0..1).
     """
-    L = _as_grey_f32(left, "left image")
-    R = _as_grey_f32(right, "right image")
-    if L.shape != R.shape:
-        raise VisionError(f"left and right images differ in size: {L.shape} vs {R.shape}")
-    if window < 3 or window % 2 == 0:
-        raise VisionError(f"window must be odd and >= 3, got {window}")
-    if min_disp < 0 or not 3 <= num_disp <= 256:
-        raise VisionError(
-            f"need min_disp >= 0 and 3 <= num_disp <= 256, got {min_disp}, {num_disp}"
-        )
+    L, R = checked_pair(left, right, min_disp, num_disp, window)
     H, W = L.shape
-    if window >= min(W, H) or min_disp + window >= W:
-        raise VisionError(
-            f"the {W}x{H} image is too small for window {window} and min_disp {min_disp}"
-        )
     need = _BYTES_PER_CELL * H * W * num_disp
     if need > memory_budget():
         raise VisionError(

@@ -81,6 +81,40 @@ def _as_grey_f32(image: npt.NDArray[np.generic], what: str) -> F32:
     return out
 
 
+def checked_pair(
+    left: npt.NDArray[np.generic],
+    right: npt.NDArray[np.generic],
+    min_disp: int,
+    num_disp: int,
+    window: int,
+) -> tuple[F32, F32]:
+    """The pair as float grey images (grey levels - 128), checked for a matcher: the same
+    size, an odd window >= 3 smaller than the image, 0 <= min_disp, 3 <= num_disp <= 256 and
+    min_disp + window below the width. VisionError says what does not fit."""
+    L = _as_grey_f32(left, "left image")
+    R = _as_grey_f32(right, "right image")
+    if L.shape != R.shape:
+        raise VisionError(f"left and right images differ in size: {L.shape} vs {R.shape}")
+    if window < 3 or window % 2 == 0:
+        raise VisionError(f"window must be odd and >= 3, got {window}")
+    if min_disp < 0 or not 3 <= num_disp <= 256:
+        raise VisionError(
+            f"need min_disp >= 0 and 3 <= num_disp <= 256, got {min_disp}, {num_disp}"
+        )
+    H, W = L.shape
+    if window >= min(W, H):
+        raise VisionError(
+            f"window {window} does not fit the {W}x{H} image: it must be odd, >= 3 and "
+            f"smaller than the image"
+        )
+    if min_disp + window >= W:
+        raise VisionError(
+            f"image of {W}x{H} pixels is too small for the disparity range: min_disp {min_disp} "
+            f"+ window {window} must be below the width"
+        )
+    return L, R
+
+
 def ncc_disparity(
     left: npt.NDArray[np.generic],
     right: npt.NDArray[np.generic],
@@ -122,27 +156,7 @@ def ncc_disparity(
         clip((peak - PEAK_FLOOR) / (1 - PEAK_FLOOR)) * clip(distinctiveness / DISTINCT_SCALE)
         * g² / (g² + GRADIENT_SCALE²), g the mean gradient magnitude in the window.
     """
-    L = _as_grey_f32(left, "left image")
-    R = _as_grey_f32(right, "right image")
-    if L.shape != R.shape:
-        raise VisionError(f"left and right images differ in size: {L.shape} vs {R.shape}")
-    if window < 3 or window % 2 == 0:
-        raise VisionError(f"window must be odd and >= 3, got {window}")
-    if min_disp < 0 or not 3 <= num_disp <= 256:
-        raise VisionError(
-            f"need min_disp >= 0 and 3 <= num_disp <= 256, got {min_disp}, {num_disp}"
-        )
-    H, W = L.shape
-    if window >= min(W, H):
-        raise VisionError(
-            f"window {window} does not fit the {W}x{H} image: it must be odd, >= 3 and "
-            f"smaller than the image"
-        )
-    if min_disp + window >= W:
-        raise VisionError(
-            f"image of {W}x{H} pixels is too small for the disparity range: min_disp {min_disp} "
-            f"+ window {window} must be below the width"
-        )
+    L, R = checked_pair(left, right, min_disp, num_disp, window)
     n_workers = workers if workers is not None else max(1, cv2.getNumThreads())
     args = (L, R, min_disp, num_disp, window, lr_tolerance_px, exact, adaptive_range)
     if n_workers <= 1:

@@ -22,7 +22,10 @@ def _pair(tmp_path: Path) -> tuple[Path, Path]:
     return lp, rp
 
 
-def test_disparity_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("matcher", ["ncc", "sgm"])
+def test_disparity_command(
+    matcher: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     lp, rp = _pair(tmp_path)
     out, cert = tmp_path / "d.npy", tmp_path / "c.npy"
     code = main(
@@ -36,6 +39,8 @@ def test_disparity_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
             "16",
             "--certainty",
             str(cert),
+            "--matcher",
+            matcher,
         ]
     )
     assert code == 0

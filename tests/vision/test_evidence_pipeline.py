@@ -182,3 +182,15 @@ def test_scene_evidence_refuses_a_view_given_twice_before_any_work(small_house: 
     with pytest.raises(VisionError, match="views 00, 00: a view is given more than once"):
         scene_evidence(scene, views=["00", "00"], stage=lambda v, s: stages.append((v, s)))
     assert stages == []
+
+
+def test_evidence_with_the_semi_global_matcher(
+    small_house: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--matcher sgm: the labelled faces within 2 deg, most of the image with a depth."""
+    out = tmp_path / "evidence.json"
+    args = ["evidence", str(small_house), "-o", str(out), "--views", "00", "--quiet"]
+    assert main([*args, "--matcher", "sgm"]) == 0
+    sgm = read_evidence(out).views[0]
+    assert len(_check_faces(small_house, sgm, 0.02, 2.0)) >= 3
+    assert sgm.disparity_density > 0.5

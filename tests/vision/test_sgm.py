@@ -2,26 +2,13 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 
 from aida_kb.errors import VisionError
+from aida_kb.testing.pairs import random_texture, warp_right
 from aida_kb.vision.sgm import _p2_map, aggregate, sgm_disparity
 from aida_kb.vision.stereo import ncc_disparity
-
-
-def _texture(h: int, w: int, seed: int = 0) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    tex = cv2.GaussianBlur(rng.normal(0.0, 1.0, (h, w)).astype(np.float32), (0, 0), 1.2)
-    tex = (tex - tex.mean()) / tex.std()
-    return np.clip(128 + 40 * tex, 0, 255).astype(np.float32)
-
-
-def _warp(img: np.ndarray, disparity: np.ndarray) -> np.ndarray:
-    h, w = img.shape
-    ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
-    return cv2.remap(img, xs + disparity.astype(np.float32), ys, cv2.INTER_CUBIC)
 
 
 def _line_reference(cost: np.ndarray, p1: float, p2: np.ndarray) -> np.ndarray:
@@ -80,9 +67,9 @@ def test_p2_is_halved_across_an_image_edge_of_p2_edge_grey() -> None:
 
 
 def test_a_slanted_textured_plane_is_dense_and_within_half_a_pixel() -> None:
-    left = _texture(96, 192)
+    left = random_texture(96, 192)
     in_right = (6.0 + 0.05 * np.arange(192, dtype=np.float32))[None, :].repeat(96, axis=0)
-    right = _warp(left, in_right)
+    right = warp_right(left, in_right)
     # d at the left pixel x = x_r + d(x_r): d = 6 + 0.05 (x - d), so d = (6 + 0.05 x) / 1.05
     truth = in_right / np.float32(1.05)
     res = sgm_disparity(left.astype(np.uint8), right.astype(np.uint8), num_disp=24)
@@ -99,9 +86,9 @@ def test_a_slanted_textured_plane_is_dense_and_within_half_a_pixel() -> None:
 def test_a_textureless_patch_is_filled_where_block_matching_leaves_a_hole() -> None:
     """A flat square inside a textured fronto-parallel plane: block NCC has no window there;
     the aggregation carries the surrounding disparity in, with a low certainty."""
-    left = _texture(120, 200, seed=1)
+    left = random_texture(120, 200, seed=1)
     left[40:80, 80:120] = 128.0
-    right = _warp(left, np.full(left.shape, 9.0, np.float32))
+    right = warp_right(left, np.full(left.shape, 9.0, np.float32))
     patch = (slice(50, 70), slice(90, 110))
     block = ncc_disparity(left.astype(np.uint8), right.astype(np.uint8), num_disp=24, window=11)
     assert np.isnan(block.disparity[patch]).mean() > 0.9
@@ -113,11 +100,11 @@ def test_a_textureless_patch_is_filled_where_block_matching_leaves_a_hole() -> N
 
 
 def test_the_occluded_strip_beside_a_step_gets_no_disparity() -> None:
-    left = _texture(80, 200, seed=2)
+    left = random_texture(80, 200, seed=2)
     truth = np.full(left.shape, 4.0, np.float32)
     truth[:, 100:] = 14.0  # a nearer surface on the right half occludes a strip of the far one
-    right_far = _warp(left, np.full(left.shape, 4.0, np.float32))
-    right_near = _warp(left, np.full(left.shape, 14.0, np.float32))
+    right_far = warp_right(left, np.full(left.shape, 4.0, np.float32))
+    right_near = warp_right(left, np.full(left.shape, 14.0, np.float32))
     right = right_far.copy()
     right[:, 86:] = right_near[:, 86:]  # right pixels 86.. see the near surface
     res = sgm_disparity(left.astype(np.uint8), right.astype(np.uint8), num_disp=24)

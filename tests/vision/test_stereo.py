@@ -4,37 +4,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
 from aida_kb.errors import VisionError
 from aida_kb.io.scene import read_image, read_labels, read_scene
+from aida_kb.testing.pairs import random_texture, warp_right
 from aida_kb.vision.evaluate import score_disparity, truth_disparity
 from aida_kb.vision.rectify import stereo_rectification
 from aida_kb.vision.stereo import ncc_disparity
 
 
-def _texture(h: int, w: int, seed: int = 0) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    noise = rng.normal(0.0, 1.0, (h, w)).astype(np.float32)
-    tex = cv2.GaussianBlur(noise, (0, 0), 1.2)
-    tex = (tex - tex.mean()) / tex.std()
-    return np.clip(128 + 40 * tex, 0, 255).astype(np.float32)
-
-
-def _warp(img: np.ndarray, disparity: np.ndarray) -> np.ndarray:
-    """The right image of a scene whose left-image disparity map is `disparity`."""
-    h, w = img.shape
-    ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
-    # right(x_r) = left(x_r + d): d evaluated at the right pixel (fine for smooth d)
-    return cv2.remap(img, xs + disparity.astype(np.float32), ys, cv2.INTER_CUBIC)
-
-
 @pytest.mark.parametrize("exact", [False, True])
 def test_constant_subpixel_shift(exact: bool) -> None:
-    left = _texture(96, 160)
-    right = _warp(left, np.full(left.shape, 7.3, np.float32))
+    left = random_texture(96, 160)
+    right = warp_right(left, np.full(left.shape, 7.3, np.float32))
     res = ncc_disparity(left.astype(np.uint8), right.astype(np.uint8), num_disp=16, exact=exact)
     inner = res.disparity[10:-10, 20:-10]
     assert np.mean(~np.isnan(inner)) > 0.97
@@ -48,10 +32,10 @@ def test_constant_subpixel_shift(exact: bool) -> None:
 
 def test_slanted_plane_subpixel() -> None:
     h, w = 96, 200
-    left = _texture(h, w, seed=1)
+    left = random_texture(h, w, seed=1)
     slope = 8.0 / (w - 1)
     xs = np.arange(w, dtype=np.float32)
-    right = _warp(left, np.tile(4.0 + slope * xs, (h, 1)))  # d as a function of x_right
+    right = warp_right(left, np.tile(4.0 + slope * xs, (h, 1)))  # d as a function of x_right
     # at the left pixel x_l = x_r + d: d = 4 + slope·(x_l - d)
     truth = np.tile((4.0 + slope * xs) / (1.0 + slope), (h, 1))
     res = ncc_disparity(left, right, num_disp=16, window=9)
@@ -63,7 +47,7 @@ def test_slanted_plane_subpixel() -> None:
 def test_occlusion_is_dropped_by_left_right_check() -> None:
     # a fronto-parallel square at disparity 12 in front of a background at disparity 3
     h, w = 100, 160
-    back, front = _texture(h, w + 40, seed=2), _texture(h, w + 40, seed=3)
+    back, front = random_texture(h, w + 40, seed=2), random_texture(h, w + 40, seed=3)
     disp = np.full((h, w), 3.0, np.float32)
     disp[30:70, 60:110] = 12.0
     left = np.where(disp == 12.0, front[:, :w], back[:, :w]).astype(np.float32)
@@ -92,8 +76,8 @@ def test_flat_image_has_no_disparity() -> None:
 
 
 def test_workers_and_bands_give_identical_results() -> None:
-    left = _texture(130, 120, seed=4)
-    right = _warp(left, np.full(left.shape, 5.0, np.float32))
+    left = random_texture(130, 120, seed=4)
+    right = warp_right(left, np.full(left.shape, 5.0, np.float32))
     a = ncc_disparity(left, right, num_disp=12, workers=1)
     b = ncc_disparity(left, right, num_disp=12, workers=3)
     np.testing.assert_array_equal(a.disparity, b.disparity)
