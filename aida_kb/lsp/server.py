@@ -6,11 +6,12 @@ last analysis of their document; references and rename also search the other ope
 that compile the same declarations (a file and the files importing it).
 
 Initialisation options: ``{"importPaths": ["DIR", ...]}``, the directories the compiler's
-``--import-path`` names.
+``--import-path`` names (relative ones from the workspace root).
 """
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 from lsprotocol import types
@@ -73,10 +74,12 @@ def make_server() -> KbServer:
     @server.feature(types.INITIALIZE)
     def initialize(ls: KbServer, params: types.InitializeParams) -> None:
         options: Any = params.initialization_options
-        if isinstance(options, dict):
-            paths = options.get("importPaths", [])
-            if isinstance(paths, list):
-                ls.search_paths = [str(p) for p in paths]
+        paths = options.get("importPaths", []) if isinstance(options, dict) else []
+        if not isinstance(paths, list):
+            return
+        root = path_of_uri(params.root_uri) if params.root_uri else os.getcwd()
+        # a relative folder is relative to the workspace, as the editor's settings write it
+        ls.search_paths = [os.path.normpath(os.path.join(root, str(p))) for p in paths]
 
     @server.feature(types.TEXT_DOCUMENT_DID_OPEN)
     def did_open(ls: KbServer, params: types.DidOpenTextDocumentParams) -> None:

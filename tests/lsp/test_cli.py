@@ -16,7 +16,9 @@ def test_check_prints_what_an_editor_is_shown(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.chdir(ROOT)
-    code = main(["lsp", "--check", "kb/buildings.kb", "kb/examples/broken_names.kb"])
+    fixture = "tests/fixtures/house_correct.expected.kb"  # imports buildings.kb from kb/
+    files = ["kb/buildings.kb", "kb/examples/broken_names.kb", fixture]
+    code = main(["lsp", "--check", *files, "--import-path", "kb"])
     out = capsys.readouterr().out
     assert code == 1  # broken_names.kb has errors
     text = (ROOT / "kb" / "buildings.kb").read_text(encoding="utf-8")
@@ -31,6 +33,11 @@ def test_check_prints_what_an_editor_is_shown(
         "'body' of House\n    hint: did you mean 'HouseBody'?\n"
     ) in out
     assert re.search(r"kb/examples/broken_names\.kb: [1-9]\d* errors", out)
+    instances = len(re.findall(r"^instance ", (ROOT / fixture).read_text(encoding="utf-8"), re.M))
+    assert (
+        f"{fixture}: 0 errors, 0 other diagnostics; outline: 1 imports, {instances} instances\n"
+        in out
+    )
 
 
 def test_check_of_a_missing_file_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:

@@ -260,6 +260,10 @@ def test_definition_references_and_rename_across_an_import(
         (lib, pos(LIB, "attribute tilt", 0, len("attribute "))),
         (root, tilt),
     ]
+    # rename the attribute from its use in house.kb: the declaration in walls.kb follows
+    edit = server.request(types.TEXT_DOCUMENT_RENAME, types.RenameParams(doc(root), tilt, "lean"))
+    assert apply(ROOT_KB, edit.changes[root]).count("front.lean") == 1
+    assert "attribute lean: angle" in apply(LIB, edit.changes[lib])
     edit = server.request(types.TEXT_DOCUMENT_RENAME, types.RenameParams(doc(root), wall, "Facade"))
     assert set(edit.changes) == {root, lib}
     new_root = apply(ROOT_KB, edit.changes[root])
