@@ -25,6 +25,7 @@ from aida_kb.lsp.index import NameKind
 __all__ = [
     "DECLARATION_KEYWORDS",
     "MEMBER_KEYWORDS",
+    "NEXT_KEYWORDS",
     "QUALIFIER_KEYWORDS",
     "completions",
     "enclosing",
@@ -48,6 +49,22 @@ MEMBER_KEYWORDS = (
 )
 #: Words that qualify a relation.
 QUALIFIER_KEYWORDS = ("weight", "reject")
+_NAME = r"[A-Za-z_]\w*"
+#: The words that may follow what the line holds so far: (pattern of the text before the
+#: cursor, the keywords offered). The grammar (grammars/kb.lark) in small.
+NEXT_KEYWORDS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    (rf"^\s*(?:abstract\s+)?concept\s+{_NAME}\s+\w*$", ("in", "is-a")),
+    (rf"^\s*instance\s+{_NAME}\s+\w*$", ("of",)),
+    (r"^\s*adjacent\s+\w*$", ("ring", "pairs")),
+    (r"^\s*frame\s+\w*$", ("from",)),
+    (r"^\s*unseen\s[^:]*:\s*\w*$", ("mirror", "at", "reach")),
+    (r"\bmirror\s+[\w.]+\s+\w*$", ("about",)),
+    (r"^\s*attach\s[^:]*:\s*\w+\s+\w*$", ("in", "against")),
+    (r"^\s*orient\s[^:]*:\s*\w+\s+\w*$", ("tilted",)),
+    (r"\btilted\s+\w*$", ("by",)),
+    (r"\breject\s+\w*$", ("above",)),
+    (rf"^\s*attribute\s+{_NAME}\s*:\s*{_NAME}\s+\w*$", ("in", "is")),
+)
 
 _COMMENT = re.compile(r"//[^\n]*|/\*.*?(?:\*/|$)", re.S)
 _STRING = re.compile(r'"(?:[^"\\\n]|\\.)*"?')
@@ -55,7 +72,6 @@ _HEADER = re.compile(
     r"(?:^|\n)[ \t]*(?:(?:abstract[ \t]+)?(concept)|(template)|(instance))[ \t]+"
     r"([A-Za-z_]\w*)(?:[ \t]+of[ \t]+([A-Za-z_]\w*))?"
 )
-_NAME = r"[A-Za-z_]\w*"
 
 
 def enclosing(text: str) -> tuple[NameKind, str, str | None] | None:
@@ -254,6 +270,11 @@ def completions(a: Analysis, text: str, position: types.Position) -> list[types.
         return _value_types()
     if re.search(rf"^\s*template\s+{_NAME}\s*\(.*\b{_NAME}\s*:\s*\w*$", s):
         return _value_types() + _concepts(a)
+    for pattern, words in NEXT_KEYWORDS:
+        if re.search(pattern, s):
+            return _keywords(words)
+    if re.search(r"^\s*(?:optional\s+)?(?:part|con-of)\b.*\[[\d.\s]*$", s):
+        return []  # a cardinality: numbers, not units
     if re.search(r"(?:^|[^\w.])-?\d+(?:\.\d+)?(?:[eE][+-]?\d+)?\s*[A-Za-z]*$", s):
         return [_item(u, K.Unit, "unit") for u in ast.UNITS]
     if re.search(r"^\s*(?:orient|attach)\s[^:]*:\s*\w*$", s):

@@ -11,7 +11,12 @@ from pathlib import Path
 from typing import Any
 
 from aida_kb.dsl import ast, grammar_path
-from aida_kb.lsp.complete import DECLARATION_KEYWORDS, MEMBER_KEYWORDS, QUALIFIER_KEYWORDS
+from aida_kb.lsp.complete import (
+    DECLARATION_KEYWORDS,
+    MEMBER_KEYWORDS,
+    NEXT_KEYWORDS,
+    QUALIFIER_KEYWORDS,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 VSCODE = ROOT / "editors" / "vscode"
@@ -83,7 +88,8 @@ def test_textmate_patterns_compile_and_match_whole_words() -> None:
 
 def test_completion_keywords_are_grammar_keywords() -> None:
     words = lark_keywords()
-    assert set(DECLARATION_KEYWORDS + MEMBER_KEYWORDS + QUALIFIER_KEYWORDS) <= words
+    following = {w for _, after in NEXT_KEYWORDS for w in after}
+    assert set(DECLARATION_KEYWORDS + MEMBER_KEYWORDS + QUALIFIER_KEYWORDS) | following <= words
 
 
 def test_vscode_manifest_starts_the_server_for_kb_files() -> None:

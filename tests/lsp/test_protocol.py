@@ -388,6 +388,12 @@ def test_completion_in_context(server: ServerClient, tmp_path: Path) -> None:
     (tmp_path / "lib" / "walls.kb").write_text("", encoding="utf-8")
     (tmp_path / "roofs.kb").write_text("", encoding="utf-8")
     assert typed("concept House in scene", 'import "') == ["roofs.kb", "lib/walls.kb"]
+    # the keywords the grammar allows next
+    assert typed(body, "    adjacent ") == ["ring", "pairs"]
+    assert typed(body, "    unseen back: ") == ["mirror", "at", "reach"]
+    assert typed(body, "    orient top: upward ") == ["tilted"]
+    assert typed(body, "    measure edge(self) +- 1 px reject ") == ["above"]
+    assert typed(body, "    part doors: Wall [0..") == []  # a cardinality takes no unit
     # templates, primitives and roles inside a constraint
     inside = typed(body, "    constraint ")
     assert {"perpendicular", "parallel_planes", "angle", "edge", "front", "roof", "self"} <= set(
