@@ -31,6 +31,7 @@ from aida_kb.interpret.plausibility import unexplained
 from aida_kb.interpret.result import INSERTED, Instance
 from aida_kb.interpret.search import best_first
 from aida_kb.interpret.trace import Trace
+from aida_kb.kb.paths import RolePath
 
 # the search gives up (no interpretation) after expanding this many states: a body and its
 # optional parts take a handful; more means the alternatives do not converge
@@ -143,14 +144,13 @@ class Interpreter:
         for slot in self.knowledge.concept(concept).slots:
             if slot.link != "part-of" or slot.obligatory:
                 continue
+            multi = RolePath.parse(join(role, slot.role))
             count = sum(
-                1
-                for lv in state.levels[1:]
-                if lv.structure.root.startswith(join(role, slot.role) + "[")
+                1 for lv in state.levels[1:] if RolePath.parse(lv.structure.root).fills(multi)
             )
             if slot.max is not None and count >= slot.max:
                 continue
-            sub_role = f"{join(role, slot.role)}[{count}]"
+            sub_role = str(multi.indexed(count))
             for structure in self.knowledge.structures(slot.concept, sub_role, role, "part-of"):
                 if structure.anchor is None:
                     continue

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Literal
@@ -25,13 +24,13 @@ from typing import TYPE_CHECKING, Any, Literal
 from aida_kb.diagnostics.core import Span
 from aida_kb.errors import InterpretError
 from aida_kb.interpret.hypotheses import HORIZONTAL, PlanarPart
+from aida_kb.kb.paths import ROOT, RolePath, Step
 
 if TYPE_CHECKING:
     from aida_kb.kb.model import AttachmentModel, ConceptModel, KnowledgeBase, PlacementModel
 
 Link = Literal["goal", "con-of", "part-of"]
 Requires = tuple[tuple[str, tuple[str, ...]], ...]
-_INDEX = re.compile(r"\[\d+\]")
 _RIGHT_ANGLE_DEG = 90.0
 
 
@@ -120,9 +119,12 @@ class Structure:
 
 def join(owner: str, role: str) -> str:
     """The absolute role path of `role` relative to `owner` ('self' is the owner)."""
-    if role == "self":
-        return owner
-    return f"{owner}.{role}" if owner else role
+    return str(RolePath.parse(owner).join(RolePath.parse(role)))
+
+
+def _plain(role: str) -> str:
+    """The role path without filler indices (``wings[1].roof`` -> ``wings.roof``)."""
+    return str(RolePath.parse(role).plain)
 
 
 class Knowledge:
@@ -193,23 +195,23 @@ class Knowledge:
     def direction(self, role: str) -> str | None:
         """The direction a planar part (absolute role path) faces, once its structure has been
         unfolded by `structures` (None: not oriented, or not unfolded)."""
-        return self._directions.get(_INDEX.sub("", role))
+        return self._directions.get(_plain(role))
 
     def concept_at(self, role: str) -> str:
         """The concept of the planar part at an absolute role path, once unfolded ('' if none
         is known; alternatives of one path share their concept's meaning, not always its name:
         the first unfolded is given)."""
-        return self._planes.get(_INDEX.sub("", role), "")
+        return self._planes.get(_plain(role), "")
 
     def attachment(self, root: str) -> AttachmentModel | None:
         """How the sub-object at role path ``root`` (``body.wings[0]``) attaches to its whole."""
-        if "." not in root:
+        path = RolePath.parse(root)
+        if len(path) < 2:
             return None
-        whole, slot = root.rsplit(".", 1)
-        concept = self._composites.get(_INDEX.sub("", whole))
+        concept = self._composites.get(str(path.parent.plain))
         if concept is None:
             return None
-        found: AttachmentModel | None = self.concept(concept).attachments.get(_INDEX.sub("", slot))
+        found: AttachmentModel | None = self.concept(concept).attachments.get(path.last.role)
         return found
 
     def placements(
@@ -224,22 +226,23 @@ class Knowledge:
         concept) do not meet are left out.
         """
         out: list[tuple[PlacementModel, str, Mapping[str, str]]] = []
-        parts = role.split(".")
-        for i in range(len(parts) - 1, -1, -1):
-            owner = ".".join(parts[:i])
-            concept = self._composites.get(_INDEX.sub("", owner))
+        steps = RolePath.parse(role).steps
+        for i in range(len(steps) - 1, -1, -1):
+            owner, rel = RolePath(steps[:i]), RolePath(steps[i:])
+            concept = self._composites.get(str(owner.plain))
             if concept is None:
                 continue
-            rel = ".".join(parts[i:])
-            plain = _INDEX.sub("", rel)
+            plain = str(rel.plain)
             for p in self.concept(concept).placements:
                 if p.part != plain:
                     continue
                 paths = {
-                    x: _indexed(owner, x, rel) for x in (p.ref, *(p.line or ())) if x is not None
+                    x: str(_indexed(owner, x, rel))
+                    for x in (p.ref, *(p.line or ()))
+                    if x is not None
                 }
-                if self.holds(owner, _indexed_requires(p.requires, rel), fillers):
-                    out.append((p, owner, paths))
+                if self.holds(str(owner), _indexed_requires(p.requires, rel), fillers):
+                    out.append((p, str(owner), paths))
         return out
 
     def structures(
@@ -257,9 +260,10 @@ class Knowledge:
             choice = ((role, special),) if special != concept else ()
             if self.is_planar(special):
                 slope = self.slope_attribute(special)
+                path = RolePath.parse(role)
                 leaf = PlanarPart(
                     role,
-                    role.rsplit(".", 1)[-1],
+                    str(path.last) if path else "",
                     special,
                     self.slope_range_deg(special),
                     False,
@@ -269,10 +273,10 @@ class Knowledge:
                         else None
                     ),
                 )
-                self._planes.setdefault(_INDEX.sub("", role), special)
+                self._planes.setdefault(str(path.plain), special)
                 yield Structure(role, (node,), (leaf,), (), choice)
                 continue
-            self._composites[_INDEX.sub("", role)] = special
+            self._composites[_plain(role)] = special
             parts = [s for s in c.slots if s.link == "part-of" and s.obligatory]
             options = [
                 self.structures(s.concept, join(role, s.role), role, "part-of") for s in parts
@@ -302,8 +306,8 @@ class Knowledge:
     ) -> PlanarPart:
         """The leaf with the orientation ``c`` (at role path ``owner``) declares for it, if any:
         a whole's declaration overrides its parts' own (it is applied later, going up)."""
-        rel = leaf.role[len(owner) + 1 :] if owner else leaf.role
-        o = c.orientations.get(_INDEX.sub("", rel))
+        rel = RolePath.parse(leaf.role).relative_to(RolePath.parse(owner))
+        o = c.orientations.get(str(rel.plain))
         if o is None or not self.holds(owner, o.requires, fillers):
             return leaf
         tilt: float | None = o.tilt_rad
@@ -311,7 +315,7 @@ class Knowledge:
             o.tilt_from is not None
             or (tilt is not None and abs(math.degrees(tilt) - _RIGHT_ANGLE_DEG) > 1e-9)
         )
-        self._directions[_INDEX.sub("", leaf.role)] = o.direction
+        self._directions[_plain(leaf.role)] = o.direction
         return replace(
             leaf,
             direction=o.direction,
@@ -390,21 +394,21 @@ def _concept_of(name: str, model: ConceptModel) -> Concept:
     )
 
 
-def _indexed(owner: str, path: str, like: str) -> str:
+def _indexed(owner: RolePath, path: str, like: RolePath) -> RolePath:
     """``path`` (relative to ``owner``) as an absolute path, taking the filler indices of the
     relative path ``like`` where they share roles (``wings.roof.front`` like ``wings[1].left``
     is ``wings[1].roof.front``)."""
-    given = like.split(".")
+    given = like.steps
     out = []
-    for i, name in enumerate(path.split(".")):
-        if i < len(given) and _INDEX.sub("", given[i]) == name:
+    for i, step in enumerate(RolePath.parse(path).steps):
+        if i < len(given) and Step(given[i].role) == step:
             out.append(given[i])
         else:
-            out.append(name)
-            given = []
-    return join(owner, ".".join(out))
+            out.append(step)
+            given = ()
+    return owner.join(RolePath(tuple(out)))
 
 
-def _indexed_requires(requires: Requires, like: str) -> Requires:
+def _indexed_requires(requires: Requires, like: RolePath) -> Requires:
     """Conditions whose role paths take the filler indices of ``like``."""
-    return tuple((_indexed("", path, like), allowed) for path, allowed in requires)
+    return tuple((str(_indexed(ROOT, path, like)), allowed) for path, allowed in requires)

@@ -124,6 +124,21 @@ class RolePath:
         """``rel`` (relative to this path) made absolute; the root `rel` is this path."""
         return RolePath(self.steps + rel.steps) if rel.steps else self
 
+    @property
+    def plain(self) -> RolePath:
+        """The path without filler indices: ``wings[1].roof`` -> ``wings.roof`` (how the
+        knowledge base names what every filler has)."""
+        return RolePath(tuple(Step(s.role) for s in self.steps))
+
+    def fills(self, role: RolePath) -> bool:
+        """True if this path lies under a filler of ``role``, a role with several fillers:
+        ``body.wings[1].front`` fills ``body.wings``."""
+        n = len(role.steps)
+        if n == 0 or len(self.steps) < n or self.steps[: n - 1] != role.steps[:-1]:
+            return False
+        step = self.steps[n - 1]
+        return step.role == role.last.role and step.index is not None
+
     def indexed(self, index: int | None) -> RolePath:
         """The path with its last step's index set (or removed with None)."""
         return RolePath((*self.steps[:-1], Step(self.last.role, index)))

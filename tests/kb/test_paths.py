@@ -52,3 +52,14 @@ def test_structure() -> None:
 def test_bad_paths_are_refused(text: str) -> None:
     with pytest.raises(ValueError, match="not a role"):
         RolePath.parse(text)
+
+
+def test_plain_and_fills() -> None:
+    wing_roof = RolePath.parse("body.wings[1].roof.front")
+    assert wing_roof.plain is RolePath.parse("body.wings.roof.front")
+    wings = RolePath.parse("body.wings")
+    assert wing_roof.fills(wings)
+    assert RolePath.parse("body.wings[0]").fills(wings)
+    assert not wings.fills(wings)  # the role itself is no filler
+    assert not RolePath.parse("body.front").fills(wings)
+    assert not RolePath.parse("other.wings[0]").fills(wings)
