@@ -24,6 +24,7 @@ from aida_kb.lsp.analysis import Analysis
 from aida_kb.lsp.complete import completions
 from aida_kb.lsp.convert import path_of_uri
 from aida_kb.lsp.diagnose import publishable
+from aida_kb.lsp.signature import signature_help
 from aida_kb.lsp.workspace import WorkspaceFiles
 
 __all__ = ["KbServer", "make_server"]
@@ -135,6 +136,15 @@ def make_server() -> KbServer:
         text = ls.workspace.get_text_document(uri).source
         items = completions(ls.analysis(uri), text, params.position)
         return types.CompletionList(is_incomplete=False, items=items)
+
+    @server.feature(
+        types.TEXT_DOCUMENT_SIGNATURE_HELP,
+        types.SignatureHelpOptions(trigger_characters=["(", ","]),
+    )
+    def signature(ls: KbServer, params: types.SignatureHelpParams) -> types.SignatureHelp | None:
+        uri = params.text_document.uri
+        text = ls.workspace.get_text_document(uri).source
+        return signature_help(ls.analysis(uri), text, params.position)
 
     @server.feature(types.TEXT_DOCUMENT_PREPARE_RENAME)
     def prepare_rename(

@@ -402,6 +402,35 @@ def test_completion_in_context(server: ServerClient, tmp_path: Path) -> None:
     server.close(uri)
 
 
+def test_signature_help_marks_the_parameter_being_written(
+    server: ServerClient, buildings: tuple[str, str]
+) -> None:
+    uri, text = buildings
+
+    def help_at(needle: str, offset: int) -> types.SignatureHelp:
+        at = pos(text, needle, 0, offset)
+        got = server.request(
+            types.TEXT_DOCUMENT_SIGNATURE_HELP, types.SignatureHelpParams(doc(uri), at)
+        )
+        assert got is not None
+        return got  # type: ignore[no-any-return]
+
+    line = "constraint corner_fl: perpendicular(front, left)"
+    got = help_at(line, line.index("left"))
+    (sig,) = got.signatures
+    assert sig.label == "perpendicular(a: Plane, b: Plane, tol: angle = 1 deg)"
+    assert got.active_parameter == 1
+    start, end = sig.parameters[1].label
+    assert sig.label[start:end] == "b: Plane"
+    line = "constraint ridge: parallel(edge(roof.front, roof.back), edge("
+    got = help_at(line, line.index("roof.back"))  # inside the inner primitive
+    assert got.signatures[0].label == "edge(a, b)"
+    assert got.active_parameter == 1
+    got = help_at("90 deg is slope(self)", len("90 deg is slope("))
+    assert got.signatures[0].label == "slope(a)"
+    assert got.signatures[0].documentation.value == "measure: gives angle"
+
+
 def test_document_symbols_outline(server: ServerClient, buildings: tuple[str, str]) -> None:
     uri, text = buildings
     got = server.request(types.TEXT_DOCUMENT_DOCUMENT_SYMBOL, types.DocumentSymbolParams(doc(uri)))
