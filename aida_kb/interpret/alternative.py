@@ -24,6 +24,7 @@ from aida_kb.interpret.plausibility import (
     MAX_MEAN_COST,
     attribute_violation,
     closed,
+    hidden_inside,
     misfit,
     outside,
     unseen,
@@ -114,8 +115,14 @@ def verify_alternative(
         if violation is not None:
             reasons.append((violation.text, violation))
             continue
-        why = outside(ctx, binding, polygons) or unseen(
-            ctx, adjusted.visible, polygons, anchor_of(forced)
+        solid = {leaf.role: outcome.planes[leaf.role] for leaf in structure.leaves}
+        solid.update({c.role: (c.normal, c.offset_m) for c in closing})
+        corners = np.concatenate(list(polygons.values()))
+        size = float(np.max(np.ptp(corners, axis=0)))
+        why = (
+            outside(ctx, binding, polygons)
+            or unseen(ctx, adjusted.visible, polygons, anchor_of(forced))
+            or hidden_inside(ctx, solid, set(binding) | set(exclude), size)
         )
         if why:
             reasons.append((why, None))

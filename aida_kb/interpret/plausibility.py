@@ -36,6 +36,9 @@ SEGMENT_PENALTY = 4.0  # cost of leaving every segment of the bound regions unex
 MAX_UNSEEN_SIDE_FRACTION = 0.35
 # a region's centroid may lie this fraction of its face's size outside the face
 FACE_MARGIN = 0.1
+# ... and an unbound region's centroid this fraction of the solid's size inside it (stereo
+# noise and planes fitted to a region's edge) before it contradicts the solid
+INSIDE_MARGIN = 0.05
 
 
 def unexplained(ctx: Context, used: set[str]) -> float:
@@ -81,6 +84,39 @@ def outside(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArra
         centroid = ctx.evidence.regions[rid].centroid_m
         if not inside_face(face, centroid, margin=FACE_MARGIN):
             return f"region {rid} lies outside the face of {role} in the closed model"
+    return ""
+
+
+def hidden_inside(
+    ctx: Context,
+    planes: Planes,
+    ignore: set[str] | frozenset[str],
+    size_m: float,
+) -> str:
+    """Why a seen region contradicts the closed solid ('' if none does).
+
+    A significant region of the reference view that no level binds (`ignore`: the bound
+    ones) cannot lie inside the solid: its centroid would be hidden by the solid's faces. The
+    solid's planes (`planes`, role path -> (unit outward normal (3,), offset m), world frame)
+    bound it; a centroid more than `INSIDE_MARGIN` of the solid's size (`size_m`) behind every
+    plane lies inside (for a non-convex solid the test is conservative).
+    """
+    if not planes:
+        return ""
+    normals = np.array([n for n, _ in planes.values()], dtype=np.float64)
+    offsets = np.array([d for _, d in planes.values()], dtype=np.float64)
+    candidates = [r for r in ctx.regions if r.id not in ignore and ctx.significant(r)]
+    if not candidates:
+        return ""
+    centroids = np.array([r.centroid_m for r in candidates], dtype=np.float64)
+    depth = centroids @ normals.T - offsets  # (R, F), negative inside each plane
+    inside = np.all(depth < -INSIDE_MARGIN * size_m, axis=1)
+    for region, hidden in zip(candidates, inside, strict=True):
+        if hidden:
+            return (
+                f"region {region.id} is seen but lies inside the closed model "
+                f"({-float(depth[candidates.index(region)].max()):.2g} m behind its faces)"
+            )
     return ""
 
 

@@ -79,3 +79,22 @@ def test_a_chessboard_and_the_no_house_fixture_are_no_house_and_the_reason_is_a_
         assert line is not None, got.message
         declared = _line(int(line.group(1))).strip()
         assert declared.startswith(("orient ", "attribute ", "constraint ")), declared
+
+
+def test_a_shed_roof_is_a_tilted_plane_of_the_knowledge(
+    synthetic: ModuleType, buildings_kb: Any
+) -> None:
+    """kb/buildings.kb orients a shed roof's plane forward tilted by its pitch: a mono-pitch
+    house is a ShedRoof (it was a GableRoof with the back half missing when the knowledge said
+    'upward'), and its closed model holds its seen planes."""
+    a = math.radians(-25.0)
+    eye = np.array([30.0 * math.sin(a), 5.5, 30.0 * math.cos(a)])
+    world = synthetic.place(bld.house(roof="shed", pitch_deg=20.0), eye, np.array([0, 5, 0]))
+    evidence = synthetic.to_evidence(synthetic.evidence_of(world, seed=1), scene="shed")
+    got = interpret(buildings_kb, evidence, source="shed")
+    assert got.accepted, got.message
+    assert {i.role: i.concept for i in got.instances}["body.roof"] == "ShedRoof"
+    assert got.model is not None
+    top = next(p for p in got.model.parts if p.role == "body.roof.top")
+    truth = world.face("body.roof.top").normal
+    assert math.degrees(math.acos(float(np.dot(top.normal, truth)))) < 1.0
