@@ -72,7 +72,7 @@ def in_ci() -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Find, run and report the fixtures; the exit status as the epilog says."""
-    from aida_kb.interpret.fixture import find_fixtures, run_fixture
+    from aida_kb.interpret.fixture import find_fixtures
 
     if args.update and in_ci() and not args.force:
         print(
@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     counts = {"passed": 0, "failed": 0, "error": 0, "updated": 0}
     for path in paths:
-        outcome = run_fixture(path, args.import_path, update=args.update)
+        outcome = _run_one(path, args)
         counts[outcome.status] += 1
         head = f"{path}: {outcome.status.upper() if outcome.status != 'passed' else 'passed'}"
         if outcome.status != "passed" or not args.quiet:
@@ -109,3 +109,29 @@ def run(args: argparse.Namespace) -> int:
     if counts["error"]:
         return EXIT_USAGE
     return EXIT_FAILED if counts["failed"] else EXIT_OK
+
+
+def _run_one(path: Any, args: argparse.Namespace) -> Any:
+    """Run one fixture; on a terminal, a transient line on stderr says which stage of a
+    scene's reconstruction it is in."""
+    from rich.console import Console
+    from rich.progress import Progress, TextColumn, TimeElapsedColumn
+
+    from aida_kb.interpret.fixture import default_interpreter, run_fixture
+
+    console = Console(stderr=True)
+    with Progress(
+        TextColumn("{task.description}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+        disable=args.quiet or not console.is_terminal,
+    ) as progress:
+        task = progress.add_task(f"{path}", total=None)
+
+        def stage(text: str) -> None:
+            progress.update(task, description=f"{path}: {text}")
+
+        return run_fixture(
+            path, args.import_path, update=args.update, interpret=default_interpreter(stage)
+        )

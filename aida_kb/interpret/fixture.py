@@ -58,6 +58,7 @@ __all__ = [
     "Interpreter",
     "Outcome",
     "compare",
+    "default_interpreter",
     "find_fixtures",
     "result_tree",
     "run_fixture",
@@ -390,21 +391,33 @@ def updated_text(kb: KnowledgeBase, tree: ExpectedTree, interp: Interpretation, 
 
 
 # ---- running -------------------------------------------------------------------------------
-def _interpret(kb: KnowledgeBase, fixture: Fixture, goal: str | None) -> Interpretation:
-    from aida_kb.interpret.run import check_goal, interpret
-    from aida_kb.interpret.verdict import judge, with_verdict
-    from aida_kb.io.evidence import read_evidence
+def default_interpreter(stage: Callable[[str], None] | None = None) -> Interpreter:
+    """The result of a fixture as the commands give it: the evidence interpreted and judged
+    (``aida-kb interpret``), or the scene reconstructed (``aida-kb reconstruct``, into a
+    temporary folder); `stage` is told each stage of a reconstruction ("view 00: evidence")."""
 
-    goal = check_goal(kb, goal)
-    if fixture.evidence is not None:
-        evidence = read_evidence(fixture.evidence)
-        interp = interpret(kb, evidence, goal=goal, source=str(fixture.evidence))
-        return with_verdict(interp, judge(kb, interp, evidence))
-    from aida_kb.interpret.pipeline import reconstruct_scene
+    def run(kb: KnowledgeBase, fixture: Fixture, goal: str | None) -> Interpretation:
+        from aida_kb.interpret.run import check_goal, interpret
+        from aida_kb.interpret.verdict import judge, with_verdict
+        from aida_kb.io.evidence import read_evidence
 
-    assert fixture.scene is not None
-    with tempfile.TemporaryDirectory(prefix="aida-kb-test-") as tmp:
-        return reconstruct_scene(kb, fixture.scene, Path(tmp) / "out").interpretation
+        goal = check_goal(kb, goal)
+        if fixture.evidence is not None:
+            evidence = read_evidence(fixture.evidence)
+            interp = interpret(kb, evidence, goal=goal, source=str(fixture.evidence))
+            return with_verdict(interp, judge(kb, interp, evidence))
+        from aida_kb.interpret.pipeline import reconstruct_scene
+
+        def tell(view: str, name: str) -> None:
+            if stage is not None:
+                stage(f"view {view}: {name}" if view != "-" else name)
+
+        assert fixture.scene is not None
+        with tempfile.TemporaryDirectory(prefix="aida-kb-test-") as tmp:
+            out = Path(tmp) / "out"
+            return reconstruct_scene(kb, fixture.scene, out, goal=goal, stage=tell).interpretation
+
+    return run
 
 
 Interpreter = Callable[[KnowledgeBase, Fixture, "str | None"], Interpretation]
@@ -457,7 +470,7 @@ def run_fixture(
     )
     goal = tree.nodes[""].concept if "" in tree.nodes else None
     try:
-        interp = (interpret or _interpret)(kb, fixture, goal)
+        interp = (interpret or default_interpreter())(kb, fixture, goal)
     except AidaError as exc:
         return Outcome(fixture, "error", [f"{path}: {exc}"], time.perf_counter() - start)
     diffs = compare(kb, tree, interp)
