@@ -29,6 +29,7 @@ COMMANDS: tuple[str, ...] = (
     "schema",
     "demo",
     "synth",
+    "scene",
     "calibrate",
     "disparity",
     "evidence",

@@ -966,13 +966,7 @@ def write_scene(
         if view.calib is not None:
             calib_rel = (base / CALIB_FILE).as_posix()
             write_calib(root / calib_rel, view.calib)
-        pose = None
-        if view.pose is not None:
-            R, t = view.pose
-            pose = PoseEntry(
-                R=tuple(tuple(float(x) for x in row) for row in np.asarray(R).reshape(3, 3)),
-                t=tuple(float(x) for x in np.asarray(t).ravel()),
-            )
+        pose = None if view.pose is None else pose_entry(view.pose)
         entries.append(
             ViewEntry(
                 id=vid,
@@ -996,6 +990,12 @@ def write_scene(
         truth=TRUTH_FILE if truth else None,
         views=entries,
     )
+    write_index(root, index)
+    return root
+
+
+def write_index(root: Path, index: SceneIndex) -> None:
+    """Write `index` as root/scene.yaml, atomically."""
     data = index.model_dump(exclude_none=True, mode="json")
     if data.get("calib") is None:
         data["calib"] = None  # explicit: no scene-wide calibration (else the default applies)
@@ -1003,4 +1003,12 @@ def write_scene(
         data, sort_keys=False
     )
     write_text_atomic(root / SCENE_FILE, text)
-    return root
+
+
+def pose_entry(pose: Pose) -> PoseEntry:
+    """The scene.yaml entry of a pose (R (3, 3), t (3,))."""
+    R, t = pose
+    return PoseEntry(
+        R=tuple(tuple(float(x) for x in row) for row in np.asarray(R).reshape(3, 3)),
+        t=tuple(float(x) for x in np.asarray(t).ravel()),
+    )
