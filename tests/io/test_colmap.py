@@ -170,3 +170,49 @@ def test_from_colmap_refuses_without_writing(models: dict[str, Path], tmp_path: 
     # the output inside the input: refused
     argv[-1] = str(models["text-images"] / "scene")
     assert main(argv) == 2
+
+
+# Margins of the round trip against the native reconstruction (the demo's): measured with
+# benchmarks/colmap_roundtrip.py, the known pose of view 01 moves the result by well under these
+NORMAL_MARGIN_DEG = 0.25
+VERTEX_MARGIN_REL = 0.005
+
+
+def test_from_colmap_scene_reconstructs_as_well_as_the_native_one(
+    demo_run: Any, models: dict[str, Path], tmp_path: Path
+) -> None:
+    from aida_kb.interpret.evaluate import evaluate
+    from aida_kb.interpret.pipeline import reconstruct_scene
+    from aida_kb.interpret.result import read_interpretation
+    from aida_kb.kb import compile_path
+
+    native_dir = demo_run.root / "scene"
+    native = read_scene(native_dir)
+    assert native.truth is not None
+    out = tmp_path / "sfm"
+    argv = ["scene", "from-colmap", str(models["binary"]), "--images"]
+    argv += [str(models["binary-images"]), "-o", str(out), "--known-distance"]
+    argv += ["v00_left.png", "v00_right.png", str(native.calib.baseline_m)]
+    assert main(argv) == 0
+    # a COLMAP model carries no labels: the native scene's are added back, so that only what
+    # from-colmap changes (rigs, poses, scale, files) differs from the native run
+    index = yaml.safe_load((out / "scene.yaml").read_text())
+    for view, theirs in zip(index["views"], native.views, strict=True):
+        assert theirs.labels is not None
+        shutil.copy(theirs.labels, out / "views" / view["id"] / "labels.png")
+        view["labels"] = f"views/{view['id']}/labels.png"
+    (out / "scene.yaml").write_text(yaml.safe_dump(index, sort_keys=False))
+    kb = compile_path(Path(__file__).resolve().parents[2] / "kb" / "buildings.kb").kb
+    assert kb is not None
+    mine = evaluate(reconstruct_scene(kb, out, tmp_path / "model").interpretation, native.truth)
+    theirs = evaluate(
+        read_interpretation(demo_run.root / "model" / "interpretation.json"), native.truth
+    )
+    assert mine.outcome == theirs.outcome == "verified"
+    assert mine.comparison is not None
+    assert theirs.comparison is not None
+    a, b = mine.comparison, theirs.comparison
+    assert a.max_normal_error_deg <= b.max_normal_error_deg + NORMAL_MARGIN_DEG
+    assert a.max_vertex_error_rel <= b.max_vertex_error_rel + VERTEX_MARGIN_REL
+    cam = next(e for e in mine.cameras if e.view == "01")
+    assert cam.angle_deg < 0.5
