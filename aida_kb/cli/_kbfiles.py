@@ -15,6 +15,7 @@ from aida_kb.errors import FormatError
 
 if TYPE_CHECKING:
     from aida_kb.kb import CompileResult
+    from aida_kb.kb.project import Project
 
 EXIT_OK = 0
 EXIT_ERRORS = 1
@@ -53,13 +54,20 @@ def _below_cwd(path: Path) -> bool:
     return os.path.commonpath([cwd, os.path.realpath(path)]) == cwd
 
 
-def collect_kb_files(paths: Sequence[str]) -> tuple[list[Path], list[str]]:
+def collect_kb_files(
+    paths: Sequence[str], command: str | None = None
+) -> tuple[list[Path], list[str]]:
     """Expand the command line's paths: files as given, directories recursively to ``*.kb``.
 
-    Hidden directories (``.venv``, ``.git``) are skipped. Returns the files (no duplicates,
-    in command-line order, each directory's files sorted) and one message per path that does
-    not exist or holds no ``.kb`` file.
+    Hidden directories (``.venv``, ``.git``) are skipped, and so is what the directory's
+    project (``aida-kb.toml``, `aida_kb.kb.project`) excludes for `command` (``lint``,
+    ``validate``, ``fmt``; None: nothing) — unless the named directory is itself excluded.
+    Returns the files (no duplicates, in command-line order, each directory's files sorted)
+    and one message per path that does not exist or holds no ``.kb`` file. `FormatError` for
+    a project file that cannot be read.
     """
+    from aida_kb.kb.project import find_project
+
     files: list[Path] = []
     problems: list[str] = []
     seen: set[str] = set()
@@ -74,9 +82,18 @@ def collect_kb_files(paths: Sequence[str]) -> tuple[list[Path], list[str]]:
         p = Path(raw)
         if p.is_dir():
             found: list[Path] = []
+            project = find_project(p) if command else None
+            if project is not None and project.excluded(p, command or ""):
+                project = None  # the named folder is excluded: naming it asks for it
+
+            def keep(q: Path, project: Project | None = project) -> bool:
+                return project is None or not project.excluded(q, command or "")
+
             for root, dirs, names in os.walk(p):
-                dirs[:] = sorted(d for d in dirs if not d.startswith("."))
-                found.extend(Path(root) / n for n in names if n.endswith(".kb"))
+                dirs[:] = sorted(d for d in dirs if not d.startswith(".") and keep(Path(root) / d))
+                found.extend(
+                    Path(root) / n for n in names if n.endswith(".kb") and keep(Path(root) / n)
+                )
             if not found:
                 problems.append(f"{raw}: no .kb files in this directory")
             for f in sorted(found):
@@ -112,17 +129,18 @@ def add_import_path_option(parser: Any) -> None:
     )
 
 
-def check(path: Path, import_paths: Sequence[str] = ()) -> CompileResult:
+def check(path: Path, import_paths: Sequence[str] = (), *, library: bool = False) -> CompileResult:
     """Read and compile one .kb file (its imports included); `FormatError` if it is unreadable.
 
     The root file is read here first, so that an unreadable file named on the command line is
     a usage error (exit status 2); an unreadable *import* is a diagnostic of the result.
+    ``library`` accepts a file without layers (docs/language.md §2.3).
     """
     from aida_kb.kb import compile_path
 
     name = display_path(path)
     read_source(path)
-    return compile_path(name, search_paths=import_paths)
+    return compile_path(name, search_paths=import_paths, library=library)
 
 
 def use_color(stream: Any, choice: str = "auto") -> bool:

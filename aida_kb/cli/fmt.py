@@ -11,6 +11,7 @@ exit status: 0 every file is formatted (or was rewritten), 1 a file has a syntax
 
 examples:
   aida-kb fmt --check kb/                # which files would change; writes nothing
+                                         # (kb/aida-kb.toml's [fmt] exclude is left out)
   aida-kb fmt kb/buildings.kb            # rewrite the file in place
 """
 
@@ -52,7 +53,11 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.errors import FormatError
     from aida_kb.io.atomic import write_text_atomic
 
-    files, problems = collect_kb_files(args.paths)
+    try:
+        files, problems = collect_kb_files(args.paths, "fmt")
+    except FormatError as exc:
+        print_error(str(exc))
+        return EXIT_USAGE
     failed = False
     changed = 0
     refused = 0  # files with a syntax error

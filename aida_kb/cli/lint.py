@@ -3,10 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
-from typing import Any
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from aida_kb.cli._kbfiles import add_import_path_option
+from aida_kb.diagnostics.core import Diagnostic, Severity
+from aida_kb.errors import FormatError
+
+if TYPE_CHECKING:
+    from aida_kb.kb import CompileResult
 
 EXAMPLE = """\
 exit status: 0 clean (warnings allowed unless --strict), 1 errors found,
@@ -14,8 +22,9 @@ exit status: 0 clean (warnings allowed unless --strict), 1 errors found,
 
 examples:
   aida-kb lint kb/buildings.kb
-  aida-kb lint kb/                       # every *.kb below kb/
+  aida-kb lint kb/                       # the project kb/ (kb/aida-kb.toml), roots with imports
   aida-kb lint --format json kb/examples/broken_syntax.kb
+  aida-kb lint --format sarif kb/ > kb.sarif
   aida-kb lint --strict kb/              # warnings fail too
 """
 
@@ -34,10 +43,11 @@ def add_check_command(
     p.add_argument("paths", nargs="+", metavar="PATH", help=".kb file or directory (recursive)")
     p.add_argument(
         "--format",
-        choices=("text", "json"),
+        choices=("text", "json", "sarif"),
         default="text",
         help="text (default): compiler-style messages with the source line; "
-        "json: one JSON array of diagnostics on stdout",
+        "json: one JSON array of diagnostics on stdout; "
+        "sarif: a SARIF 2.1.0 log for code scanning",
     )
     p.add_argument("--strict", action="store_true", help="warnings make the run fail too")
     add_import_path_option(p)
@@ -65,6 +75,77 @@ def register(subparsers: Any) -> None:
     )
 
 
+def _context_roots(
+    library: Path, command: str, import_paths: Sequence[str], done: set[str]
+) -> list[CompileResult]:
+    """The roots of `library`'s project that import it (directly or not), compiled.
+
+    Only files whose text names the library's file name are compiled (an import must)."""
+    from aida_kb.cli._kbfiles import check, collect_kb_files, read_source
+    from aida_kb.kb.project import find_project
+
+    project = find_project(library)
+    candidates, _ = collect_kb_files([str(project.folder)], command)
+    key = os.path.realpath(library)
+    found = []
+    for path in candidates:
+        if os.path.realpath(path) in done:
+            continue
+        try:
+            if library.name not in read_source(path):
+                continue
+            result = check(path, import_paths, library=True)
+        except FormatError:
+            continue
+        if not result.library and key in {os.path.realpath(f) for f in result.files[1:]}:
+            found.append(result)
+    return found
+
+
+def lint_in_context(
+    files: Sequence[Path], command: str, import_paths: Sequence[str], problems: list[str]
+) -> tuple[list[Diagnostic], dict[str, str], int]:
+    """Check `files` as a project (docs/language.md §2.3): every root (a file that declares
+    layers) with what it imports; a library (no layers) in the context of the roots that
+    import it — among `files`, else in its project — and on its own when none does.
+
+    Returns the diagnostics (each once), the sources for rendering, and the number of files
+    checked; an unreadable file named in `files` is appended to `problems`.
+    """
+    from aida_kb.cli._kbfiles import check
+
+    results: dict[str, CompileResult] = {}
+    for path in files:
+        try:
+            results[os.path.realpath(path)] = check(path, import_paths, library=True)
+        except FormatError as exc:
+            problems.append(str(exc))
+    covered: set[str] = set()
+    for result in results.values():
+        if not result.library:
+            covered |= {os.path.realpath(f) for f in result.files[1:]}
+    found: dict[tuple[object, ...], Diagnostic] = {}
+    sources: dict[str, str] = {}
+
+    def take(result: CompileResult, only: str | None = None) -> None:
+        sources.update(result.sources)
+        for d in result.diagnostics:  # a file imported twice reports its findings once
+            if only is None or os.path.realpath(d.span.file) == only:
+                found.setdefault((d.code, d.span, d.message), d)
+
+    for key, result in results.items():
+        if not result.library:
+            take(result)
+        elif key not in covered:
+            roots = _context_roots(Path(result.files[0]), command, import_paths, set(results))
+            for root in roots:
+                take(root, only=key)
+            if not roots:
+                take(result)
+    diagnostics = sorted(found.values(), key=Diagnostic.sort_key)
+    return diagnostics, sources, len(results)
+
+
 def run_check(args: argparse.Namespace, *, errors_only: bool) -> int:
     """Check the files of ``args.paths``; print diagnostics; return the exit code.
 
@@ -74,36 +155,27 @@ def run_check(args: argparse.Namespace, *, errors_only: bool) -> int:
         EXIT_ERRORS,
         EXIT_OK,
         EXIT_USAGE,
-        check,
         collect_kb_files,
         print_error,
         use_color,
     )
-    from aida_kb.diagnostics.core import Diagnostic, Severity
-    from aida_kb.diagnostics.render import render_json, render_summary, render_text
-    from aida_kb.errors import FormatError
+    from aida_kb.diagnostics.render import render_json, render_sarif, render_summary, render_text
 
-    files, problems = collect_kb_files(args.paths)
+    command = "validate" if errors_only else "lint"
+    try:
+        files, problems = collect_kb_files(args.paths, command)
+    except FormatError as exc:
+        print_error(str(exc))
+        return EXIT_USAGE
     shown = {Severity.ERROR, Severity.WARNING}
     if errors_only and not args.strict:
         shown = {Severity.ERROR}
-    found: dict[tuple[object, ...], Diagnostic] = {}
-    sources: dict[str, str] = {}
-    checked = 0
-    for path in files:
-        try:
-            result = check(path, args.import_path)
-        except FormatError as exc:
-            problems.append(str(exc))
-            continue
-        checked += 1
-        sources.update(result.sources)
-        for d in result.diagnostics:
-            if d.severity in shown:  # a file imported twice reports its findings once
-                found.setdefault((d.code, d.span, d.message), d)
-    diagnostics = sorted(found.values(), key=Diagnostic.sort_key)
+    everything, sources, checked = lint_in_context(files, command, args.import_path, problems)
+    diagnostics = [d for d in everything if d.severity in shown]
     if args.format == "json":
         sys.stdout.write(render_json(diagnostics) + "\n")
+    elif args.format == "sarif":
+        sys.stdout.write(render_sarif(diagnostics, sources) + "\n")
     else:
         color = use_color(sys.stdout, args.color)
         if diagnostics:

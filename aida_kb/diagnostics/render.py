@@ -28,6 +28,7 @@ __all__ = [
     "TAB_SIZE",
     "diagnostic_to_json",
     "render_json",
+    "render_sarif",
     "render_summary",
     "render_text",
 ]
@@ -214,8 +215,20 @@ def render_summary(diagnostics: Sequence[Diagnostic], files: int, *, color: bool
     return f"{', '.join(parts)} {where}"
 
 
-def diagnostic_to_json(diag: Diagnostic) -> dict[str, str | int]:
-    """The JSON object of one diagnostic: code, severity, message, file and its 1-based span.
+def _span_json(span: Span) -> dict[str, str | int]:
+    return {
+        "file": span.file,
+        "line": span.line,
+        "column": span.column,
+        "end_line": span.end_line,
+        "end_column": span.end_column,
+    }
+
+
+def diagnostic_to_json(diag: Diagnostic) -> dict[str, object]:
+    """The JSON object of one diagnostic: code, severity, message, file and its 1-based span,
+    the hint (or null) and the related places (``related``: each a span and its message; the
+    "imported from" chain of a diagnostic inside an imported file is among them).
 
     Notes (severity ``note``) are reported as ``"warning"``: the JSON format knows only
     ``"error"`` and ``"warning"``.
@@ -224,14 +237,109 @@ def diagnostic_to_json(diag: Diagnostic) -> dict[str, str | int]:
         "code": diag.code,
         "severity": "error" if diag.severity is Severity.ERROR else "warning",
         "message": diag.message,
-        "file": diag.span.file,
-        "line": diag.span.line,
-        "column": diag.span.column,
-        "end_line": diag.span.end_line,
-        "end_column": diag.span.end_column,
+        **_span_json(diag.span),
+        "hint": diag.hint,
+        "related": [{**_span_json(span), "message": text} for span, text in diag.related],
     }
 
 
 def render_json(diagnostics: Iterable[Diagnostic]) -> str:
     """Exactly one JSON array of diagnostic objects (see `diagnostic_to_json`), indented."""
     return json.dumps([diagnostic_to_json(d) for d in diagnostics], indent=2, ensure_ascii=False)
+
+
+#: The SARIF version written and the schema it follows (tests/data/sarif-schema-2.1.0.json).
+SARIF_VERSION = "2.1.0"
+SARIF_SCHEMA = "https://json.schemastore.org/sarif-2.1.0.json"
+_SARIF_LEVEL = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "note"}
+
+
+def _uri(file: str) -> str:
+    """A file name as a SARIF artifact URI: relative names as relative references (``/``
+    separators), absolute ones as ``file://`` URIs; characters outside a URI %-escaped."""
+    from pathlib import PurePath
+    from urllib.parse import quote
+
+    path = PurePath(file)
+    if path.is_absolute():
+        return "file://" + quote(path.as_posix())
+    return quote(path.as_posix())
+
+
+def _sarif_location(span: Span) -> dict[str, object]:
+    return {
+        "physicalLocation": {
+            "artifactLocation": {"uri": _uri(span.file)},
+            "region": {
+                "startLine": max(span.line, 1),
+                "startColumn": max(span.column, 1),
+                "endLine": max(span.end_line, span.line, 1),
+                "endColumn": max(span.end_column, 1),
+            },
+        }
+    }
+
+
+def render_sarif(diagnostics: Sequence[Diagnostic], sources: Mapping[str, str]) -> str:
+    """A SARIF 2.1.0 log (one run of the tool ``aida-kb``) of the diagnostics, for code scanning.
+
+    Each code used is a rule (its summary from the registry, its explanation named as
+    ``aida-kb explain CODE``); each diagnostic a result with its level, message (the hint
+    appended), location and related locations. Columns count Unicode code points, as the
+    spans do. `sources` names the artifacts (the files read).
+    """
+    from aida_kb import __version__
+    from aida_kb.diagnostics.codes import lookup
+
+    rule_index: dict[str, int] = {}
+    rules: list[dict[str, object]] = []
+    results: list[dict[str, object]] = []
+    for d in diagnostics:
+        if d.code not in rule_index:
+            rule_index[d.code] = len(rules)
+            entry = lookup(d.code)
+            summary = entry.summary if entry else d.code
+            level = _SARIF_LEVEL[entry.severity if entry else d.severity]
+            rules.append(
+                {
+                    "id": d.code,
+                    "shortDescription": {"text": summary},
+                    "fullDescription": {
+                        "text": f"{summary}. Run 'aida-kb explain {d.code}' for an example."
+                    },
+                    "defaultConfiguration": {"level": level},
+                }
+            )
+        text = d.message if not d.hint else f"{d.message}\nhint: {d.hint}"
+        result: dict[str, object] = {
+            "ruleId": d.code,
+            "ruleIndex": rule_index[d.code],
+            "level": _SARIF_LEVEL[d.severity],
+            "message": {"text": text},
+            "locations": [_sarif_location(d.span)],
+        }
+        if d.related:
+            result["relatedLocations"] = [
+                {"id": i, **_sarif_location(span), "message": {"text": note}}
+                for i, (span, note) in enumerate(d.related)
+            ]
+        results.append(result)
+    log = {
+        "$schema": SARIF_SCHEMA,
+        "version": SARIF_VERSION,
+        "runs": [
+            {
+                "tool": {
+                    "driver": {
+                        "name": "aida-kb",
+                        "version": __version__,
+                        "rules": rules,
+                    }
+                },
+                "artifacts": [{"location": {"uri": _uri(f)}} for f in sorted(sources)],
+                "columnKind": "unicodeCodePoints",
+                "results": results,
+            }
+        ],
+    }
+    return json.dumps(log, indent=2, ensure_ascii=False)

@@ -6,10 +6,12 @@ import gc
 import os
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
+from aida_kb.dsl import ast
 from aida_kb.kb.loader import Loaded, load_path, load_text
 
 if TYPE_CHECKING:
@@ -33,7 +35,17 @@ class CompileResult:
         linting (diagnostics only) does not pay for the pydantic models.
     """
 
-    __slots__ = ("_built", "_files", "_kb", "_table", "diagnostics", "sources")
+    __slots__ = (
+        "_built",
+        "_files",
+        "_kb",
+        "_table",
+        "diagnostics",
+        "files",
+        "imported_from",
+        "library",
+        "sources",
+    )
 
     def __init__(
         self,
@@ -41,6 +53,10 @@ class CompileResult:
         sources: Mapping[str, str],
         table: Table | None = None,
         files: tuple[str, ...] = (),
+        *,
+        loaded: tuple[str, ...] = (),
+        imported_from: Mapping[str, tuple[str, Span]] | None = None,
+        library: bool = False,
     ) -> None:
         self.diagnostics: tuple[Diagnostic, ...] = tuple(
             sorted(dict.fromkeys(diagnostics), key=Diagnostic.sort_key)
@@ -50,6 +66,12 @@ class CompileResult:
         self._files = files
         self._kb: KnowledgeBase | None = None
         self._built = False
+        #: every file loaded (root first), also when the knowledge base has errors
+        self.files: tuple[str, ...] = loaded or files
+        #: each imported file -> (the file that first imported it, the span of its import)
+        self.imported_from: dict[str, tuple[str, Span]] = dict(imported_from or {})
+        #: True when no loaded file declares layers (a library, docs/language.md §2.3)
+        self.library = library
 
     @property
     def ok(self) -> bool:
@@ -105,26 +127,90 @@ def _internal(exc: Exception, file: str) -> Diagnostic:
     )
 
 
-def _compile(loaded: Loaded) -> CompileResult:
+#: An "imported from" note chain longer than this is cut (its first and last links kept).
+MAX_IMPORT_CHAIN = 8
+
+
+def import_chain(
+    file: str, imported_from: Mapping[str, tuple[str, Span]]
+) -> tuple[tuple[Span, str], ...]:
+    """The "imported from FILE:LINE" notes that lead from the root file to `file`, innermost
+    first (empty for the root file itself)."""
+    notes: list[tuple[Span, str]] = []
+    seen = {file}
+    while file in imported_from:
+        importer, span = imported_from[file]
+        notes.append((span, f"{file} imported from {importer}:{span.line}"))
+        if importer in seen:  # never: each file is loaded once, from its first importer
+            break
+        seen.add(importer)
+        file = importer
+    if len(notes) > MAX_IMPORT_CHAIN:
+        keep = MAX_IMPORT_CHAIN // 2
+        cut = len(notes) - 2 * keep
+        first_cut = notes[keep][0]
+        notes = [*notes[:keep], (first_cut, f"... {cut} more imports ..."), *notes[-keep:]]
+    return tuple(notes)
+
+
+def _with_import_notes(
+    diags: list[Diagnostic], imported_from: Mapping[str, tuple[str, Span]]
+) -> list[Diagnostic]:
+    """Each diagnostic inside an imported file, with the chain of imports that led there."""
+    if not imported_from:
+        return diags
+    chains: dict[str, tuple[tuple[Span, str], ...]] = {}
+    out = []
+    for d in diags:
+        file = d.span.file
+        if file not in imported_from:
+            out.append(d)
+            continue
+        chain = chains.get(file)
+        if chain is None:
+            chain = chains[file] = import_chain(file, imported_from)
+        out.append(replace(d, related=(*d.related, *chain)))
+    return out
+
+
+def _declares_layers(loaded: Loaded) -> bool:
+    return any(isinstance(item, ast.Layers) for m in loaded.modules for item in m.items)
+
+
+def _compile(loaded: Loaded, library: bool = False) -> CompileResult:
     from aida_kb.kb.check import run_checks
     from aida_kb.kb.expectation import check_expectations
     from aida_kb.kb.resolve import resolve
 
+    is_library = library and not _declares_layers(loaded)
+    files = tuple(m.file for m in loaded.modules)
     diags = list(loaded.diagnostics)
+    table: Table | None = None
     try:
-        table, found = resolve(loaded.modules, loaded.broken)
+        table, found = resolve(loaded.modules, loaded.broken, library=is_library)
         diags.extend(found)
         diags.extend(run_checks(table))
         diags.extend(check_expectations(table, loaded.sources))  # issue 20: fixtures
     except Exception as exc:  # the safety net: compiling must never raise
         diags.append(_internal(exc, loaded.modules[0].file if loaded.modules else "<string>"))
-        return CompileResult(diags, loaded.sources)
-    files = tuple(m.file for m in loaded.modules)
-    return CompileResult(diags, loaded.sources, table, files)
+        table = None
+    return CompileResult(
+        _with_import_notes(diags, loaded.imported_from),
+        loaded.sources,
+        None if table is None or is_library else table,
+        files,
+        loaded=files,
+        imported_from=loaded.imported_from,
+        library=is_library,
+    )
 
 
 def compile_text(
-    text: str, file: str = "<string>", *, search_paths: Iterable[str] = ()
+    text: str,
+    file: str = "<string>",
+    *,
+    search_paths: Iterable[str] = (),
+    library: bool = False,
 ) -> CompileResult:
     """Compile a knowledge base given as text.
 
@@ -136,6 +222,9 @@ def compile_text(
         Its name, put into spans; imports are resolved relative to its directory.
     search_paths : iterable of str
         Further directories where imported files are looked for.
+    library : bool
+        Accept a library: a file that declares no layers (nor does anything it imports) is
+        checked without ``KB112`` and gives no model (docs/language.md §2.3).
 
     Returns
     -------
@@ -143,11 +232,11 @@ def compile_text(
         Never raises on bad input: every problem is a diagnostic.
     """
     with _no_cyclic_gc():
-        return _compile(load_text(text, file, tuple(search_paths)))
+        return _compile(load_text(text, file, tuple(search_paths)), library)
 
 
 def compile_path(
-    path: str | os.PathLike[str], *, search_paths: Iterable[str] = ()
+    path: str | os.PathLike[str], *, search_paths: Iterable[str] = (), library: bool = False
 ) -> CompileResult:
     """Read and compile the knowledge base whose root file is ``path`` (imports followed).
 
@@ -157,6 +246,8 @@ def compile_path(
         The root ``.kb`` file; an unreadable file is the diagnostic ``KB900``.
     search_paths : iterable of str
         Further directories where imported files are looked for.
+    library : bool
+        Accept a library file (see `compile_text`).
 
     Returns
     -------
@@ -164,4 +255,4 @@ def compile_path(
         Never raises on bad input: every problem is a diagnostic.
     """
     with _no_cyclic_gc():
-        return _compile(load_path(os.fspath(path), tuple(search_paths)))
+        return _compile(load_path(os.fspath(path), tuple(search_paths)), library)

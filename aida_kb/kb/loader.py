@@ -22,7 +22,7 @@ __all__ = ["Loaded", "load_path", "load_text"]
 class Loaded:
     """Every module of a knowledge base, in load order (root first), and what loading found."""
 
-    __slots__ = ("broken", "diagnostics", "modules", "sources")
+    __slots__ = ("broken", "diagnostics", "imported_from", "modules", "sources")
 
     def __init__(
         self,
@@ -35,6 +35,8 @@ class Loaded:
         self.sources: dict[str, str] = dict() if sources is None else sources
         self.diagnostics: list[Diagnostic] = list() if diagnostics is None else diagnostics
         self.broken: set[str] = set() if broken is None else broken
+        #: each imported file -> (the file that first imported it, the span of its import)
+        self.imported_from: dict[str, tuple[str, Span]] = {}
 
 
 def _diag(code: codes.Code, message: str, span: Span, hint: str | None = None) -> Diagnostic:
@@ -72,6 +74,11 @@ class _Loader:
             os.path.commonpath([real, root]) == root for root in self.roots
         )
 
+    def inside_folder(self, folder: str) -> bool:
+        """True when the real path of `folder` lies inside the project."""
+        real = os.path.realpath(folder)
+        return any(os.path.commonpath([real, root]) == root for root in self.roots)
+
     def key(self, name: str) -> str:
         return os.path.realpath(name)
 
@@ -87,18 +94,38 @@ class _Loader:
         for imp in result.module.imports:
             self.follow(name, imp, chain)
 
-    def locate(self, importer: str, rel: str) -> str | None:
-        base = os.path.dirname(importer)
-        candidates = [os.path.normpath(os.path.join(base, rel))]
-        candidates += [os.path.normpath(os.path.join(p, rel)) for p in self.search_paths]
+    def candidates(self, importer: str, rel: str) -> list[str]:
+        """Where the import `rel` of `importer` may resolve: beside it, then each search path."""
         if os.path.isabs(rel):
-            candidates = [rel]
-        return next((c for c in candidates if os.path.isfile(c)), None)
+            return [rel]
+        base = os.path.dirname(importer)
+        found = [os.path.normpath(os.path.join(base, rel))]
+        return found + [os.path.normpath(os.path.join(p, rel)) for p in self.search_paths]
+
+    def locate(self, importer: str, rel: str) -> str | None:
+        return next((c for c in self.candidates(importer, rel) if os.path.isfile(c)), None)
+
+    def locate_folder(self, importer: str, rel: str) -> str | None:
+        """The folder `rel` names, when an import names a folder instead of a file."""
+        return next((c for c in self.candidates(importer, rel) if os.path.isdir(c)), None)
 
     def follow(self, importer: str, imp: ast.Import, chain: list[tuple[str, str]]) -> None:
         rel = imp.path.value
         span = imp.path.span
         target = self.locate(importer, rel)
+        if target is None and rel.strip():
+            folder = self.locate_folder(importer, rel)
+            if folder is not None and self.inside_folder(folder):
+                self.out.diagnostics.append(
+                    _diag(
+                        codes.MISSING_IMPORT,
+                        f"imported '{rel}' is a folder, not a .kb file",
+                        span,
+                        "import each file of the folder by name, as in "
+                        f'import "{rel.rstrip("/")}/walls.kb"',
+                    )
+                )
+                return
         if target is None:
             where = ", ".join([os.path.dirname(importer) or ".", *self.search_paths])
             self.out.diagnostics.append(
@@ -145,6 +172,7 @@ class _Loader:
                 _diag(codes.UNREADABLE_FILE, f"cannot read '{target}': {_reason(text)}", span)
             )
             return
+        self.out.imported_from[target] = (importer, span)
         self.add(target, text, chain)
 
 

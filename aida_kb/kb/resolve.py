@@ -320,8 +320,14 @@ class Table:
 
 
 # ---- the passes -------------------------------------------------------------------------------
-def _collect(table: Table, modules: list[ast.Module]) -> Iterator[Diagnostic]:
-    """Symbols of every module; duplicates (``KB110``) and the layers declaration (``KB112``)."""
+def _collect(
+    table: Table, modules: list[ast.Module], *, library: bool = False
+) -> Iterator[Diagnostic]:
+    """Symbols of every module; duplicates (``KB110``) and the layers declaration (``KB112``).
+
+    A file that declares the same layers as the first declaration (a knowledge base that is
+    both run on its own and imported) repeats them harmlessly; different layers are ``KB112``.
+    """
     layer_decls: list[ast.Layers] = []
     first: dict[tuple[str, str], ast.Name] = {}
     for module in modules:
@@ -357,7 +363,7 @@ def _collect(table: Table, modules: list[ast.Module]) -> Iterator[Diagnostic]:
             else:
                 table.instances[name.text] = item
     if not layer_decls:
-        if modules:
+        if modules and not library:
             yield diag(
                 codes.LAYERS_DECLARATION,
                 "the knowledge base has no layers declaration",
@@ -365,12 +371,15 @@ def _collect(table: Table, modules: list[ast.Module]) -> Iterator[Diagnostic]:
                 "declare the layers top to bottom: layers scene > world > image",
             )
         return
+    first_names = [n.text for n in layer_decls[0].names]
     for extra in layer_decls[1:]:
+        if [n.text for n in extra.names] == first_names:
+            continue
         yield diag(
             codes.LAYERS_DECLARATION,
-            "a second layers declaration",
+            "a second, different layers declaration",
             extra.span,
-            "declare the layers once per knowledge base",
+            "declare the layers once per knowledge base (an imported file may repeat them exactly)",
             ((layer_decls[0].span, "the first layers declaration"),),
         )
     for name in layer_decls[0].names:
@@ -705,12 +714,18 @@ def _layers_and_members(table: Table) -> Iterator[Diagnostic]:
             yield from _clash_diags(cname, info, clashes)
 
 
-def resolve(modules: list[ast.Module], broken: set[str]) -> tuple[Table, list[Diagnostic]]:
-    """Run the resolution passes over the loaded modules."""
+def resolve(
+    modules: list[ast.Module], broken: set[str], *, library: bool = False
+) -> tuple[Table, list[Diagnostic]]:
+    """Run the resolution passes over the loaded modules.
+
+    ``library`` accepts a knowledge base without a layers declaration (a library file checked
+    on its own, docs/language.md §2.3): no ``KB112`` for the missing declaration.
+    """
     table = Table()
     table.broken = broken
     diags: list[Diagnostic] = []
-    diags.extend(_collect(table, modules))
+    diags.extend(_collect(table, modules, library=library))
     diags.extend(_parents(table))
     diags.extend(_cycles(table))
     diags.extend(_layers_and_members(table))

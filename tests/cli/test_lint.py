@@ -17,7 +17,8 @@ from aida_kb.cli.main import main
 ROOT = Path(__file__).resolve().parents[2]
 BROKEN = ROOT / "kb" / "examples" / "broken_syntax.kb"
 BUILDINGS = ROOT / "kb" / "buildings.kb"
-KEYS = {"code", "severity", "message", "file", "line", "column", "end_line", "end_column"}
+SPAN_KEYS = {"file", "line", "column", "end_line", "end_column"}
+KEYS = {"code", "severity", "message", "hint", "related", *SPAN_KEYS}
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
@@ -77,11 +78,31 @@ def test_clean_json_is_an_empty_array(capsys: pytest.CaptureFixture[str]) -> Non
     assert json.loads(out) == []
 
 
-def test_directory_recurses_over_kb_files(capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_shipped_kb_project_is_clean(capsys: pytest.CaptureFixture[str]) -> None:
+    """kb/aida-kb.toml leaves the golden files (broken on purpose) out of a walk of kb/."""
     code, out, _ = _run(["lint", "--format", "json", str(ROOT / "kb")], capsys)
+    assert code == 0
+    assert [d for d in json.loads(out) if d["severity"] == "error"] == []
+
+
+def test_a_named_excluded_directory_is_linted(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = _run(["lint", "--format", "json", str(ROOT / "kb" / "examples")], capsys)
     assert code == 1
     files = {Path(d["file"]).name for d in json.loads(out)}
-    assert "broken_syntax.kb" in files
+    assert {"broken_syntax.kb", "broken_names.kb", "cycle_b.kb"} <= files
+
+
+def test_json_carries_hints_and_related_places(capsys: pytest.CaptureFixture[str]) -> None:
+    names = ROOT / "kb" / "examples" / "broken_names.kb"
+    code, out, _ = _run(["lint", "--format", "json", str(names)], capsys)
+    assert code == 1
+    data = json.loads(out)
+    twice = next(d for d in data if d["code"] == "KB110")
+    assert twice["hint"] == "rename one of them or delete the repetition"
+    [first] = twice["related"]
+    assert set(first) == {*SPAN_KEYS, "message"}
+    assert first["message"] == "first defined here"
+    assert first["line"] < twice["line"]
 
 
 def test_missing_file_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:

@@ -129,6 +129,8 @@ def test_json_has_exactly_the_contract_keys_and_one_based_positions() -> None:
             "column": 9,
             "end_line": 2,
             "end_column": 13,
+            "hint": None,
+            "related": [],
         },
         diagnostic_to_json(diags[1]),
     ]
