@@ -55,13 +55,15 @@ def _below_cwd(path: Path) -> bool:
 
 
 def collect_kb_files(
-    paths: Sequence[str], command: str | None = None
+    paths: Sequence[str], command: str | None = None, *, force_exclude: bool = False
 ) -> tuple[list[Path], list[str]]:
     """Expand the command line's paths: files as given, directories recursively to ``*.kb``.
 
     Hidden directories (``.venv``, ``.git``) are skipped, and so is what the directory's
     project (``aida-kb.toml``, `aida_kb.kb.project`) excludes for `command` (``lint``,
     ``validate``, ``fmt``; None: nothing) — unless the named directory is itself excluded.
+    With `force_exclude`, a named file the project excludes is left out too (pre-commit
+    hooks name every changed file).
     Returns the files (no duplicates, in command-line order, each directory's files sorted)
     and one message per path that does not exist or holds no ``.kb`` file. `FormatError` for
     a project file that cannot be read.
@@ -99,7 +101,8 @@ def collect_kb_files(
             for f in sorted(found):
                 add(f)
         elif p.exists():
-            add(p)
+            if not (force_exclude and command and find_project(p).excluded(p, command)):
+                add(p)
         else:
             problems.append(f"{raw}: no such file or directory")
     return files, problems
@@ -115,6 +118,16 @@ def read_source(path: Path) -> str:
         raise FormatError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except OSError as exc:
         raise FormatError(f"{path}: cannot read: {exc.strerror or exc}") from None
+
+
+def add_force_exclude_option(parser: Any) -> None:
+    """``--force-exclude``: the project's exclusions apply to files named on the command line."""
+    parser.add_argument(
+        "--force-exclude",
+        action="store_true",
+        help="leave out a named file that the project file (aida-kb.toml) excludes, as a "
+        "folder walk would (for pre-commit hooks, which name every changed file)",
+    )
 
 
 def add_import_path_option(parser: Any) -> None:

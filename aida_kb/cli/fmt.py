@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from aida_kb.cli._kbfiles import add_force_exclude_option
+
 EXAMPLE = """\
 exit status: 0 every file is formatted (or was rewritten), 1 a file has a syntax error or
              (with --check) would change, 2 usage error or unreadable file
@@ -35,6 +37,7 @@ def register(subparsers: Any) -> None:
         action="store_true",
         help="write nothing; list the files that would change and exit 1 if there are any",
     )
+    add_force_exclude_option(p)
     p.set_defaults(run=run)
 
 
@@ -54,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.io.atomic import write_text_atomic
 
     try:
-        files, problems = collect_kb_files(args.paths, "fmt")
+        files, problems = collect_kb_files(args.paths, "fmt", force_exclude=args.force_exclude)
     except FormatError as exc:
         print_error(str(exc))
         return EXIT_USAGE

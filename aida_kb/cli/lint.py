@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aida_kb.cli._kbfiles import add_import_path_option
+from aida_kb.cli._kbfiles import add_force_exclude_option, add_import_path_option
 from aida_kb.diagnostics.core import Diagnostic, Severity
 from aida_kb.errors import FormatError
 
@@ -51,6 +51,7 @@ def add_check_command(
     )
     p.add_argument("--strict", action="store_true", help="warnings make the run fail too")
     add_import_path_option(p)
+    add_force_exclude_option(p)
     p.add_argument(
         "--color",
         choices=("auto", "always", "never"),
@@ -163,7 +164,7 @@ def run_check(args: argparse.Namespace, *, errors_only: bool) -> int:
 
     command = "validate" if errors_only else "lint"
     try:
-        files, problems = collect_kb_files(args.paths, command)
+        files, problems = collect_kb_files(args.paths, command, force_exclude=args.force_exclude)
     except FormatError as exc:
         print_error(str(exc))
         return EXIT_USAGE

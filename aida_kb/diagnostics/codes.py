@@ -77,6 +77,9 @@ NUMBER_TOO_LARGE = register(
     "KB010", Severity.ERROR, "a number is beyond the range of a 64-bit float (such as 1e999)"
 )
 NESTED_TOO_DEEP = register("KB011", Severity.ERROR, "calls or lists are nested more than 32 deep")
+UNCLOSED_BODY = register(
+    "KB012", Severity.ERROR, "a '{' is not closed by '}' before the next declaration"
+)
 INTERNAL_PARSER_ERROR = register(
     "KB099", Severity.ERROR, "the parser failed unexpectedly (a bug in aida-kb: please report it)"
 )

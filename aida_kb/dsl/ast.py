@@ -115,6 +115,10 @@ class ListExpr:
     items: tuple[Value, ...]
     span: Span
 
+    def __str__(self) -> str:
+        shown = (f'"{i.value}"' if isinstance(i, String) else str(i) for i in self.items)
+        return "[" + ", ".join(shown) + "]"
+
 
 #: An expression of a relation, argument or default value.
 Expr: TypeAlias = Path | Call | Number | Quantity

@@ -44,6 +44,8 @@ class ParseResult:
     module: ast.Module
     diagnostics: tuple[Diagnostic, ...]
     broken: frozenset[str] = field(default_factory=frozenset)
+    #: concepts kept without a member that did not parse: their other members may name it
+    incomplete: frozenset[str] = field(default_factory=frozenset)
 
     @property
     def ok(self) -> bool:
@@ -102,6 +104,9 @@ class _Tilt:
         self.span = span
 
 
+#: The byte-order mark some editors write at the start of a UTF-8 file; dropped before parsing.
+BOM = "\ufeff"
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _ESCAPE = re.compile(r"\\(.)")
 _ESCAPES = {"n": "\n", "t": "\t", "r": "\r"}
 _QUANTITY = re.compile(r"(-?[0-9.eE+-]+?)[ \t]*([A-Za-z_][A-Za-z0-9_]*)$")
@@ -485,17 +490,45 @@ class _Builder(Transformer[Token, Any]):
         number, unit = (m.group(1), m.group(2)) if m else (text, "")
         if unit not in ast.UNITS:
             unit_col = span.end_column - len(unit)
-            close = difflib.get_close_matches(unit, ast.UNITS, n=1, cutoff=0.5)
             self.report(
                 codes.UNKNOWN_UNIT,
                 f"unknown unit '{unit}' — expected {', '.join(ast.UNITS)}",
                 Span(span.file, span.end_line, unit_col, span.end_line, span.end_column),
-                f"did you mean '{close[0]}'?" if close else None,
+                _unit_hint(unit, number),
             )
         return ast.Quantity(self.finite(tok, number), unit, text, span)
 
     def string(self, ch: list[Token]) -> ast.String:
         return ast.String(_unescape(str(ch[0])), self.tspan(ch[0]))
+
+
+#: Spellings of the language's units that people write, and what to write instead.
+_UNIT_ALIASES = {
+    **dict.fromkeys(("meter", "meters", "metre", "metres", "M"), "m"),
+    **dict.fromkeys(("centimeter", "centimeters", "centimetre", "centimetres", "CM"), "cm"),
+    **dict.fromkeys(("millimeter", "millimeters", "millimetre", "millimetres", "MM"), "mm"),
+    **dict.fromkeys(("degree", "degrees", "Deg", "DEG", "grad"), "deg"),
+    **dict.fromkeys(("radian", "radians", "RAD", "Rad"), "rad"),
+    **dict.fromkeys(("pixel", "pixels", "pix", "PX"), "px"),
+}
+#: Units of length outside the metric system, in metres.
+_IMPERIAL = {"ft": 0.3048, "feet": 0.3048, "foot": 0.3048, "inch": 0.0254, "inches": 0.0254,
+             "yd": 0.9144, "yard": 0.9144, "yards": 0.9144}  # fmt: skip
+
+
+def _unit_hint(unit: str, number: str) -> str | None:
+    """What to write instead of the unknown `unit` after `number`."""
+    if unit in _UNIT_ALIASES:
+        return f"write {number} {_UNIT_ALIASES[unit]}"
+    if unit in _IMPERIAL:
+        try:
+            metres = float(number) * _IMPERIAL[unit]
+        except ValueError:
+            metres = None
+        where = f": {number} {unit} is {metres:.4g} m" if metres is not None else ""
+        return f"lengths are metric (m, cm, mm){where}"
+    close = difflib.get_close_matches(unit, ast.UNITS, n=1, cutoff=0.5)
+    return f"did you mean '{close[0]}'?" if close else None
 
 
 def _setter(cls: type, field: str) -> Any:
@@ -630,11 +663,27 @@ def _module_span(text: str, file: str) -> Span:
     return Span(file, 1, 1, text.count("\n") + 1, len(text) - last_start + 1)
 
 
+def _keyword_as_name(exc: UnexpectedInput) -> bool:
+    """Lark's ``on_error``: a keyword where a name may stand is that name (keywords are
+    contextual, docs/language.md §1). An LALR state shared by several contexts lets the
+    contextual lexer read ``weight`` as the keyword after a binding's number (where only
+    a relation could take it): retyped, the parse goes on."""
+    if not isinstance(exc, UnexpectedToken) or "NAME" not in exc.expected:
+        return False
+    tok = exc.token
+    if tok.type == "NAME" or not _NAME.fullmatch(str(tok)) or exc.interactive_parser is None:
+        return False
+    exc.interactive_parser.feed_token(Token.new_borrow_pos("NAME", str(tok), tok))
+    return True
+
+
 def _parse_locked(text: str, file: str) -> ParseResult:
     lark = _parser()
+    if text.startswith(BOM):  # a byte-order mark is no column of the first line
+        text = text[1:]
     _builder.reset(file, 0)
     try:
-        items: list[ast.Item] = lark.parse(text)  # type: ignore[assignment]
+        items: list[ast.Item] = lark.parse(text, on_error=_keyword_as_name)  # type: ignore[assignment]
     except UnexpectedInput:
         pass
     else:
@@ -669,6 +718,105 @@ def _declaration_starts(text: str) -> list[int]:
     return starts
 
 
+_MEMBER_START = re.compile(
+    r'//[^\n]*|/\*.*?(?:\*/|\Z)|"(?:[^"\\\n]|\\.)*"?'
+    r"|(?<![A-Za-z0-9_.-])(optional\s+part|part|con-of|attribute|adjacent|constraint|measure"
+    r"|frame|orient|unseen|attach)(?![A-Za-z0-9_-])",
+    re.S,
+)
+#: A concept body with more broken members than this is reported up to this many (each retry
+#: parses the declaration again).
+MAX_MEMBER_ERRORS = 50
+
+
+def _member_starts(text: str, body: int) -> list[int]:
+    """Offsets in `text` after `body` where a concept member starts (outside strings and
+    comments)."""
+    return [m.start() for m in _MEMBER_START.finditer(text, body) if m.group(1) is not None]
+
+
+def _blank(text: str, start: int, end: int) -> str:
+    """`text` with ``[start, end)`` replaced by blanks (line breaks kept: positions hold)."""
+    cut = text[start:end]
+    return text[:start] + re.sub(r"[^\n]", " ", cut) + text[end:]
+
+
+def _error_offset(exc: UnexpectedInput, text: str) -> int:
+    if isinstance(exc, UnexpectedToken):
+        if exc.token.type == "$END":
+            return len(text)
+        return exc.token.start_pos if exc.token.start_pos is not None else len(text)
+    return exc.pos_in_stream if exc.pos_in_stream is not None else len(text)
+
+
+def _parse_declaration(
+    lark: Lark, padded: str, file: str, line_index: int, last: bool, incomplete: set[str]
+) -> tuple[list[ast.Item], list[Diagnostic], bool]:
+    """Parse one declaration (`padded`: blanks before it keep its columns), member by member.
+
+    A syntax error inside a concept's body blanks the broken member (from its keyword to the
+    next member's) and parses again, so that every broken member is reported and the sound
+    ones are kept; a body that the next declaration cuts short (not `last`) is ``KB012`` and
+    closed. Returns the items, the diagnostics and whether the declaration had an error; a
+    concept kept without its broken members is added to `incomplete`.
+    """
+    diags: list[Diagnostic] = []
+    attempt = padded
+    brace = padded.find("{")
+    is_concept = _DECL_NAME.match(padded.lstrip()) is not None and (
+        padded.lstrip().startswith(("concept", "abstract"))
+    )
+    closed = False
+    for _ in range(MAX_MEMBER_ERRORS):
+        _builder.reset(file, line_index)
+        try:
+            items: list[ast.Item] = lark.parse(attempt, on_error=_keyword_as_name)  # type: ignore[assignment]
+        except UnexpectedInput as exc:
+            pos = _error_offset(exc, attempt)
+            at_end = isinstance(exc, UnexpectedToken) and exc.token.type == "$END"
+            expects_brace = isinstance(exc, UnexpectedToken) and "RBRACE" in exc.expected
+            if at_end and brace >= 0 and not closed and expects_brace:
+                # the body runs to the next declaration (or the end of the file): say so,
+                # close it, and parse its members
+                unclosed = _describe(lark, exc, attempt, file, line_index)
+                diags.append(unclosed if last else _unclosed(padded, brace, file, line_index))
+                attempt = attempt.rstrip() + " }"
+                closed = True
+                continue
+            diags.append(_describe(lark, exc, attempt, file, line_index))
+            if not is_concept or brace < 0 or pos <= brace or at_end:
+                return [], [*diags, *_builder.diagnostics], True
+            starts = _member_starts(attempt, brace + 1)
+            before = [p for p in starts if p < pos]
+            if not before:
+                return [], [*diags, *_builder.diagnostics], True
+            after = [p for p in starts if p > pos]
+            stop = after[0] if after else attempt.rfind("}")
+            if stop <= before[-1]:
+                stop = len(attempt.rstrip()) - (1 if attempt.rstrip().endswith("}") else 0)
+            attempt = _blank(attempt, before[-1], stop)
+            continue
+        if diags and is_concept:
+            incomplete.update(i.name.text for i in items if isinstance(i, ast.Concept))
+        return items, [*diags, *_builder.diagnostics], bool(diags)
+    return [], diags, True
+
+
+def _unclosed(padded: str, brace: int, file: str, line_index: int) -> Diagnostic:
+    """``KB012`` at the '{' of a declaration that the next declaration cuts short."""
+    line = padded.count("\n", 0, brace) + 1 + line_index
+    column = brace - (padded.rfind("\n", 0, brace) + 1) + 1
+    end_line = line_index + padded.rstrip().count("\n") + 2
+    name = _DECL_NAME.match(padded.lstrip())
+    what = f"the body of {name.group(0).split()[-2]} {name.group(1)}" if name else "this body"
+    return _diag(
+        codes.UNCLOSED_BODY,
+        f"'{{' of {what} is not closed before the next declaration",
+        Span(file, line, column, line, column + 1),
+        f"close it with '}}' before line {end_line}",
+    )
+
+
 def _recover(lark: Lark, text: str, file: str) -> ParseResult:
     line_starts = [0] + [i + 1 for i, ch in enumerate(text) if ch == "\n"]
     bounds = _declaration_starts(text)
@@ -678,25 +826,29 @@ def _recover(lark: Lark, text: str, file: str) -> ParseResult:
     items: list[ast.Item] = []
     diags: list[Diagnostic] = []
     broken: set[str] = set()
-    for start, end in itertools.pairwise(bounds):
+    incomplete: set[str] = set()
+    pairs = list(itertools.pairwise(bounds))
+    for index, (start, end) in enumerate(pairs):
         chunk = text[start:end]
         if not chunk.strip():
             continue
         line_index = bisect.bisect_right(line_starts, start) - 1
         column = start - line_starts[line_index] + 1
         padded = " " * (column - 1) + chunk
-        _builder.reset(file, line_index)
-        try:
-            items.extend(lark.parse(padded))  # type: ignore[arg-type]
-        except UnexpectedInput as exc:
-            diags.append(_describe(lark, exc, padded, file, line_index))
+        last = not any(text[s:e].strip() for s, e in pairs[index + 1 :])
+        found, found_diags, failed = _parse_declaration(
+            lark, padded, file, line_index, last, incomplete
+        )
+        items.extend(found)
+        diags.extend(found_diags)
+        if failed and not found:
             m = _DECL_NAME.match(chunk)
             if m:
                 broken.add(m.group(1))
-        diags.extend(_builder.diagnostics)
+    diags = list(dict.fromkeys(diags))
     diags.sort(key=Diagnostic.sort_key)
     module = ast.Module(file, tuple(items), _module_span(text, file))
-    return ParseResult(module, tuple(diags), frozenset(broken))
+    return ParseResult(module, tuple(diags), frozenset(broken), frozenset(incomplete))
 
 
 # ---- friendly messages --------------------------------------------------------------------------
@@ -847,6 +999,9 @@ def _describe_characters(exc: UnexpectedCharacters, text: str, file: str, off: i
         "#": "comments start with // or /*",
         ";": "no ';' is needed: members and declarations end by themselves",
         "'": "strings are written in double quotes",
+        "°": "write angles with the unit deg: 90 deg",
+        "′": "lengths are metric: write m, cm or mm",
+        "″": "lengths are metric: write m, cm or mm",
     }
     return _diag(
         codes.UNEXPECTED_CHARACTER,
@@ -905,6 +1060,12 @@ def _describe_token(lark: Lark, exc: UnexpectedToken, text: str, file: str, off:
         )
         if tok.type == "NAME":
             hint = "a role is declared with 'part NAME: Concept'"
+    if (
+        tok.type == "DOT"
+        and tok.end_pos is not None
+        and text[tok.end_pos : tok.end_pos + 1].isdigit()
+    ):
+        hint = f"a number starts with a digit: write 0.{text[tok.end_pos :].split()[0]}"
     if message is None and exc.interactive_parser is not None:
         message = _in_context(exc.interactive_parser.parser_state.value_stack, prev_type, expected)
     if message is None:

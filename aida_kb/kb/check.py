@@ -23,6 +23,7 @@ from aida_kb.kb.resolve import (
     Slot,
     SlotKind,
     Table,
+    chain_text,
     diag,
     did_you_mean,
 )
@@ -305,7 +306,7 @@ def check_part_cycles(table: Table) -> Iterator[Diagnostic]:
                 path.append(target)
             elif st == 1:
                 cyc = path[path.index(target) :]
-                text = " part-of ".join(reversed([*cyc, cyc[0]]))
+                text = chain_text([cyc[0], *reversed(cyc[1:])], " part-of ")
                 slot = slots[i]
                 yield diag(
                     codes.PART_CYCLE,
@@ -409,6 +410,8 @@ def check_instance(table: Table, inst: ast.Instance) -> Iterator[Diagnostic]:
             continue
         bound[role] = b
         slot = info.slots.get(role)
+        if slot is None and table.is_incomplete(cname):
+            continue  # the role may be in what did not resolve or parse
         if slot is None:
             yield diag(
                 codes.UNKNOWN_ROLE,
@@ -483,6 +486,7 @@ def _check_binding(table: Table, slot: Slot, b: ast.Binding) -> Iterator[Diagnos
                 )
             elif (
                 slot.concept is not None
+                and slot.concept in table.concepts  # an unknown one is reported at the role
                 and other.concept.text in table.concepts
                 and not table.is_a(other.concept.text, slot.concept)
             ):
@@ -519,7 +523,7 @@ def check_reachability(table: Table) -> Iterator[Diagnostic]:
                 seen.add(n)
                 todo.append(n)
     for c, info in table.concepts.items():
-        if c not in seen and info.layer is not None:
+        if c not in seen and info.layer is not None and not table.is_incomplete(c):
             yield diag(
                 codes.UNREACHABLE_CONCEPT,
                 f"concept {c} cannot be reached from any concept of layer {top}",
@@ -560,13 +564,15 @@ def check_verifiable(table: Table) -> Iterator[Diagnostic]:
             if pending[p] == 0:
                 todo.append(p)
     for c, info in table.concepts.items():
-        if c not in ok and info.layer is not None:
+        if c not in ok and info.layer is not None and not table.is_incomplete(c):
             yield diag(
                 codes.UNVERIFIABLE_CONCEPT,
                 f"concept {c} cannot be verified: no part-of/con-of path leads from it to an "
                 f"image-layer ({bottom}) concept with a measure",
                 info.node.name.span,
-                "give it (or a part) a con-of to an image concept such as a Region",
+                "give it a measure, as in 'measure position(self)'"
+                if info.layer == bottom
+                else "give it (or a part) a con-of to an image concept such as a Region",
             )
 
 

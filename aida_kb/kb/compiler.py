@@ -173,6 +173,27 @@ def _with_import_notes(
     return out
 
 
+def _inside(inner: Span, outer: Span) -> bool:
+    return (
+        inner.file == outer.file
+        and (outer.line, outer.column) <= (inner.line, inner.column)
+        and (inner.end_line, inner.end_column) <= (outer.end_line, outer.end_column)
+    )
+
+
+def _without_follow_ons(diags: list[Diagnostic]) -> list[Diagnostic]:
+    """Drop the semantic diagnostics about an expression cut short for its nesting (``KB011``
+    lies inside their span): they describe the cut, not the file."""
+    deep = [d.span for d in diags if d.code == codes.NESTED_TOO_DEEP.code]
+    if not deep:
+        return diags
+    return [
+        d
+        for d in diags
+        if d.code < "KB100" or d.code >= "KB900" or not any(_inside(s, d.span) for s in deep)
+    ]
+
+
 def _declares_layers(loaded: Loaded) -> bool:
     return any(isinstance(item, ast.Layers) for m in loaded.modules for item in m.items)
 
@@ -187,7 +208,9 @@ def _compile(loaded: Loaded, library: bool = False) -> CompileResult:
     diags = list(loaded.diagnostics)
     table: Table | None = None
     try:
-        table, found = resolve(loaded.modules, loaded.broken, library=is_library)
+        table, found = resolve(
+            loaded.modules, loaded.broken, library=is_library, incomplete=loaded.incomplete
+        )
         diags.extend(found)
         diags.extend(run_checks(table))
         diags.extend(check_expectations(table, loaded.sources))  # issue 20: fixtures
@@ -195,7 +218,7 @@ def _compile(loaded: Loaded, library: bool = False) -> CompileResult:
         diags.append(_internal(exc, loaded.modules[0].file if loaded.modules else "<string>"))
         table = None
     return CompileResult(
-        _with_import_notes(diags, loaded.imported_from),
+        _with_import_notes(_without_follow_ons(diags), loaded.imported_from),
         loaded.sources,
         None if table is None or is_library else table,
         files,

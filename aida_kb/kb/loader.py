@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
 from aida_kb.dsl import ast, parse
+from aida_kb.dsl.parser import BOM
+from aida_kb.kb.resolve import chain_text
 from aida_kb.limits import MAX_KB_BYTES, read_text_limited
 
 __all__ = ["Loaded", "load_path", "load_text"]
@@ -22,7 +24,7 @@ __all__ = ["Loaded", "load_path", "load_text"]
 class Loaded:
     """Every module of a knowledge base, in load order (root first), and what loading found."""
 
-    __slots__ = ("broken", "diagnostics", "imported_from", "modules", "sources")
+    __slots__ = ("broken", "diagnostics", "imported_from", "incomplete", "modules", "sources")
 
     def __init__(
         self,
@@ -37,6 +39,8 @@ class Loaded:
         self.broken: set[str] = set() if broken is None else broken
         #: each imported file -> (the file that first imported it, the span of its import)
         self.imported_from: dict[str, tuple[str, Span]] = {}
+        #: concepts kept without a member that did not parse
+        self.incomplete: set[str] = set()
 
 
 def _diag(code: codes.Code, message: str, span: Span, hint: str | None = None) -> Diagnostic:
@@ -85,11 +89,14 @@ class _Loader:
     def add(self, name: str, text: str, stack: list[tuple[str, str]]) -> None:
         """Parse ``text`` (the file ``name``) and load its imports; ``stack`` is the chain."""
         self.done.add(self.key(name))
+        if text.startswith(BOM):  # the parser drops it: so do the shown lines
+            text = text[1:]
         self.out.sources[name] = text
         result = parse(text, name)
         self.out.modules.append(result.module)
         self.out.diagnostics.extend(result.diagnostics)
         self.out.broken |= result.broken
+        self.out.incomplete |= result.incomplete
         chain = [*stack, (self.key(name), name)]
         for imp in result.module.imports:
             self.follow(name, imp, chain)
@@ -154,7 +161,7 @@ class _Loader:
         keys = [k for k, _ in chain]
         if key in keys:
             names = [n for _, n in chain[keys.index(key) :]]
-            cycle = " imports ".join([*names, names[0]])
+            cycle = chain_text(names, " imports ")
             self.out.diagnostics.append(
                 _diag(
                     codes.IMPORT_CYCLE,

@@ -6,6 +6,7 @@ path never pays for it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from aida_kb.kb.model import KnowledgeBase
@@ -13,7 +14,10 @@ from aida_kb.kb.model import KnowledgeBase
 if TYPE_CHECKING:
     import networkx as nx
 
-__all__ = ["build_net"]
+    from aida_kb.diagnostics.core import Diagnostic
+    from aida_kb.kb.loader import Loaded
+
+__all__ = ["build_net", "build_partial_net"]
 
 
 def build_net(kb: KnowledgeBase) -> nx.MultiDiGraph[str]:
@@ -29,7 +33,7 @@ def build_net(kb: KnowledgeBase) -> nx.MultiDiGraph[str]:
     """
     import networkx as nx
 
-    g: nx.MultiDiGraph[str] = nx.MultiDiGraph()
+    g: nx.MultiDiGraph[str] = nx.MultiDiGraph(layers=list(kb.layers))
     for name, c in kb.concepts.items():
         g.add_node(name, kind="concept", layer=c.layer, abstract=c.abstract)
     for name, c in kb.concepts.items():
@@ -49,4 +53,72 @@ def build_net(kb: KnowledgeBase) -> nx.MultiDiGraph[str]:
             for other in b.instances:
                 if other in kb.instances:
                     g.add_edge(name, other, kind=kind, role=role, min=None, max=None)
+    return g
+
+
+def _within(d: Diagnostic, file: str, line: int, end_line: int) -> bool:
+    return d.span.file == file and line <= d.span.line <= end_line
+
+
+def build_partial_net(loaded: Loaded, diagnostics: Sequence[Diagnostic]) -> nx.MultiDiGraph[str]:
+    """The net of a knowledge base with errors, as far as its declarations parsed.
+
+    Built from the declarations themselves (each concept's own links; nothing inherited), with
+    the node attributes of `build_net` and ``broken=True`` on what the errors touch: a concept
+    or instance with an error inside its declaration, and a node for each name that is linked
+    but not declared (``kind="unknown"``; a declaration that did not parse is one). The graph
+    attribute ``layers`` holds the first layers declaration's names (empty without one).
+    """
+    import networkx as nx
+
+    from aida_kb.dsl import ast
+
+    errors = [d for d in diagnostics if d.is_error]
+    layers: list[str] = []
+    g: nx.MultiDiGraph[str] = nx.MultiDiGraph(layers=layers)
+    concepts: list[tuple[str, ast.Concept]] = []
+    instances: list[tuple[str, ast.Instance]] = []
+    for module in loaded.modules:
+        for item in module.items:
+            if isinstance(item, ast.Layers) and not layers:
+                layers.extend(n.text for n in item.names)
+            elif isinstance(item, ast.Concept | ast.Instance):
+                span = item.span
+                broken = any(_within(d, module.file, span.line, span.end_line) for d in errors)
+                if isinstance(item, ast.Concept):
+                    layer = item.layer.text if item.layer is not None else None
+                    g.add_node(
+                        item.name.text,
+                        kind="concept",
+                        layer=layer,
+                        abstract=item.abstract,
+                        broken=broken,
+                    )
+                    concepts.append((item.name.text, item))
+                else:
+                    g.add_node(
+                        item.name.text, kind="instance", concept=item.concept.text, broken=broken
+                    )
+                    instances.append((item.name.text, item))
+
+    def link(source: str, target: str, **attrs: object) -> None:
+        if target not in g:
+            g.add_node(target, kind="unknown", broken=True)
+        g.add_edge(source, target, **attrs)
+
+    for name, c in concepts:
+        for p in c.parents:
+            link(name, p.text, kind="is-a")
+        for member in c.members:
+            if isinstance(member, ast.Part | ast.ConOf):
+                kind = "part-of" if isinstance(member, ast.Part) else "con-of"
+                card = member.cardinality
+                low, high = (card.min, card.max) if card is not None else (1, 1)
+                if isinstance(member, ast.Part) and member.optional:
+                    low = 0
+                roles = member.roles if isinstance(member, ast.Part) else (member.role,)
+                for role in roles:
+                    link(name, member.concept.text, kind=kind, role=role.text, min=low, max=high)
+    for name, inst in instances:
+        link(name, inst.concept.text, kind="instance-of")
     return g

@@ -23,6 +23,7 @@ from aida_kb.kb.resolve import (
     Requires,
     SlotKind,
     Table,
+    chain_text,
     diag,
     did_you_mean,
 )
@@ -687,6 +688,9 @@ class Analyzer:
     ) -> list[Prim]:
         """Bind a template's parameters to the use's arguments and expand its body."""
         params = template.params
+        if any(p.type.text not in VALUE_TYPES and p.type.text not in self.table.concepts
+               for p in params):  # fmt: skip
+            return []  # an unknown parameter type: reported once, at the template
         required, defaults = self.signature(template)
         given = len(call.args)
         if not required <= given <= len(params):
@@ -727,16 +731,20 @@ class Analyzer:
             return []
         name = template.name.text
         if name in self._expanding:
-            chain = " uses ".join([*self._expanding[self._expanding.index(name) :], name])
-            self.report(
-                diag(
-                    codes.MALFORMED_RELATION,
-                    f"template {name} uses itself: {chain}",
-                    call.func.span,
-                    "a template's body is made of primitives and other templates, without cycles",
-                ),
-                use_dependent=True,
-            )
+            cycle = self._expanding[self._expanding.index(name) :]
+            if frozenset(cycle) not in self.table.template_cycles:
+                # once per cycle, at the call in a template's body that closes it (every use
+                # of a template on the cycle runs into it: no error there)
+                self.table.template_cycles.add(frozenset(cycle))
+                self.diagnostics.append(
+                    diag(
+                        codes.MALFORMED_RELATION,
+                        f"template {name} uses itself: {chain_text(cycle, ' uses ')}",
+                        call.func.span,
+                        "a template's body is made of primitives and other templates, "
+                        "without cycles",
+                    )
+                )
             return []
         outer_site = self._site
         if self._site is None:

@@ -12,7 +12,7 @@ filler being one of them.
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from enum import StrEnum
 from typing import Any
 
@@ -67,10 +67,44 @@ def diag(
     return Diagnostic(code.code, code.severity, message, span, hint, related)
 
 
-def did_you_mean(word: str, choices: Iterable[str]) -> str | None:
-    """A "did you mean" hint for ``word`` among ``choices`` (difflib), or None."""
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+def did_you_mean(word: str, choices: Iterable[str], exclude: Iterable[str] = ()) -> str | None:
+    """A "did you mean" hint for ``word`` among ``choices`` (difflib), or None; never one of
+    ``exclude`` (a concept is offered no parent that is itself)."""
+    left = set(exclude)
+    close = difflib.get_close_matches(word, [c for c in choices if c not in left], n=1, cutoff=0.6)
     return f"did you mean '{close[0]}'?" if close else None
+
+
+#: A cycle of more links than this is written with its first and last links, the middle
+#: elided: a 1,500-concept cycle is one line and 8 notes, not 1,500.
+MAX_CYCLE_SHOWN = 8
+
+
+def chain_text(names: Sequence[str], sep: str) -> str:
+    """``A sep B sep ... sep A`` of the cycle `names` (closed back to the first), the middle
+    elided when it has more than `MAX_CYCLE_SHOWN` links."""
+    closed = [*names, names[0]]
+    if len(closed) - 1 <= MAX_CYCLE_SHOWN:
+        return sep.join(closed)
+    keep = MAX_CYCLE_SHOWN // 2
+    hidden = len(closed) - 2 * keep
+    return sep.join(closed[:keep]) + f"{sep}... {hidden} more ...{sep}" + sep.join(closed[-keep:])
+
+
+def elide_related(
+    related: Sequence[tuple[Span, str]], what: str = "links"
+) -> tuple[tuple[Span, str], ...]:
+    """The notes of a cycle's links, the middle elided beyond `MAX_CYCLE_SHOWN` (one note
+    in its place says how many)."""
+    if len(related) <= MAX_CYCLE_SHOWN:
+        return tuple(related)
+    keep = MAX_CYCLE_SHOWN // 2
+    hidden = len(related) - 2 * keep
+    return (
+        *related[:keep],
+        (related[keep][0], f"... {hidden} more {what} of the cycle ..."),
+        *related[-keep:],
+    )
 
 
 class Slot:
@@ -173,6 +207,9 @@ class Table:
         self.instances: dict[str, ast.Instance] = {}
         self.order: list[str] = []  # concepts, parents first
         self.broken: set[str] = set()
+        #: concepts known only in part: a parent is unknown, or a member did not parse. A
+        #: member missing from one of them (or from a specialisation) is no new error.
+        self.incomplete: set[str] = set()
         self._ancestors: dict[str, frozenset[str]] = {}
         self._descendants: dict[str, list[str]] = {}
         self._adjacent: dict[str, frozenset[tuple[str, str]]] = {}
@@ -184,6 +221,8 @@ class Table:
         #: (concept, id of a constraint or measure node) -> its primitives as analysed in that
         #: concept (`aida_kb.kb.relations.Prim`): kept by the checks, reused by the build
         self.expansions: dict[tuple[str, int], list[Any]] = {}
+        #: the template cycles reported (each once, however many uses run into it)
+        self.template_cycles: set[frozenset[str]] = set()
 
     # -- is-a queries
     def ancestors(self, name: str) -> frozenset[str]:
@@ -198,6 +237,10 @@ class Table:
             found = frozenset(acc)
             self._ancestors[name] = found
         return found
+
+    def is_incomplete(self, name: str) -> bool:
+        """True when the concept or an ancestor is known only in part (`incomplete`)."""
+        return bool(self.incomplete) and not self.incomplete.isdisjoint(self.ancestors(name))
 
     def is_a(self, name: str, parent: str) -> bool:
         """True when ``name`` is ``parent`` or a specialisation of it."""
@@ -287,6 +330,8 @@ class Table:
             if found is None:
                 found, cands = self._in_specialisations(cur, name.text)
                 if found is None:
+                    if self.is_incomplete(cur):
+                        return None  # the member may be in what did not resolve or parse
                     return self._unknown_role(cur, name)
                 prefix = ".".join(p.text for p in parts[:i])
                 requires.append((prefix, cands))
@@ -394,7 +439,9 @@ def _collect(
         table.layers.append(name.text)
 
 
-def _unknown_concept(table: Table, name: ast.Name, what: str) -> Diagnostic | None:
+def _unknown_concept(
+    table: Table, name: ast.Name, what: str, exclude: Iterable[str] = ()
+) -> Diagnostic | None:
     """``KB100`` for a name that is no concept (None when it is, or its declaration broke)."""
     if name.text in table.concepts or name.text in table.broken:
         return None
@@ -402,7 +449,7 @@ def _unknown_concept(table: Table, name: ast.Name, what: str) -> Diagnostic | No
         codes.UNKNOWN_CONCEPT,
         f"unknown concept '{name.text}' {what}",
         name.span,
-        did_you_mean(name.text, table.concepts),
+        did_you_mean(name.text, table.concepts, exclude),
     )
 
 
@@ -419,7 +466,9 @@ def _parents(table: Table) -> Iterator[Diagnostic]:
                 or f"the layers are: {', '.join(table.layers)}",
             )
         for p in node.parents:
-            d = _unknown_concept(table, p, f"as the parent of {cname}")
+            d = _unknown_concept(table, p, f"as the parent of {cname}", (cname,))
+            if p.text not in table.concepts:
+                table.incomplete.add(cname)
             if d is not None:
                 yield d
             elif p.text in table.concepts and p.text not in info.parents:
@@ -469,10 +518,12 @@ def _parent_name(table: Table, child: str, parent: str) -> ast.Name:
 def _cycle_diag(table: Table, cyc: list[str]) -> Diagnostic:
     """``A is-a B is-a C is-a A``, at the is-a link that closes the cycle."""
     last = cyc[-1]
-    text = " is-a ".join([*cyc, cyc[0]])
-    related = tuple(
-        (_parent_name(table, a, b).span, f"{a} is-a {b}")
-        for a, b in zip(cyc, [*cyc[1:], cyc[0]], strict=True)
+    text = chain_text(cyc, " is-a ")
+    related = elide_related(
+        [
+            (_parent_name(table, a, b).span, f"{a} is-a {b}")
+            for a, b in zip(cyc, [*cyc[1:], cyc[0]], strict=True)
+        ]
     )
     return diag(
         codes.ISA_CYCLE,
@@ -715,15 +766,21 @@ def _layers_and_members(table: Table) -> Iterator[Diagnostic]:
 
 
 def resolve(
-    modules: list[ast.Module], broken: set[str], *, library: bool = False
+    modules: list[ast.Module],
+    broken: set[str],
+    *,
+    library: bool = False,
+    incomplete: Iterable[str] = (),
 ) -> tuple[Table, list[Diagnostic]]:
     """Run the resolution passes over the loaded modules.
 
     ``library`` accepts a knowledge base without a layers declaration (a library file checked
     on its own, docs/language.md §2.3): no ``KB112`` for the missing declaration.
+    ``incomplete`` names the concepts kept without a member that did not parse.
     """
     table = Table()
     table.broken = broken
+    table.incomplete = set(incomplete)
     diags: list[Diagnostic] = []
     diags.extend(_collect(table, modules, library=library))
     diags.extend(_parents(table))

@@ -91,11 +91,44 @@ def test_graph_to_stdout(capsys: pytest.CaptureFixture[str]) -> None:
     assert capsys.readouterr().out.startswith('digraph "buildings" {')
 
 
-def test_graph_of_a_broken_kb_writes_nothing(
+def test_graph_of_a_broken_kb_writes_what_parsed_and_marks_the_broken_parts(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    out = tmp_path / "net.json"
+    broken = ROOT / "kb" / "examples" / "broken_followon.kb"
+    assert main(["graph", str(broken), "--format", "json", "-o", str(out)]) == 1
+    assert "error[KB100]" in capsys.readouterr().err
+    data = json.loads(out.read_text(encoding="utf-8"))
+    nodes = {n["id"]: n for n in data["nodes"]}
+    assert nodes["Body"]["broken"] is True  # its parent 'Boddy' is unknown
+    assert nodes["Boddy"] == {"id": "Boddy", "kind": "unknown", "broken": True}
+    assert nodes["Region"]["broken"] is False
+    assert nodes["Region"]["layer"] == "image"
+    edges = {(e["source"], e["target"], e["kind"]) for e in data["edges"]}
+    assert ("Body", "Boddy", "is-a") in edges
+    assert ("Shed", "Slabb", "part-of") in edges
+
+
+def test_graph_of_a_file_without_a_concept_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.kb"
+    bad.write_text("layers scene > world\nconcept {\n", encoding="utf-8")
     out = tmp_path / "net.dot"
-    broken = ROOT / "kb" / "examples" / "broken_syntax.kb"
-    assert main(["graph", str(broken), "-o", str(out)]) == 1
+    assert main(["graph", str(bad), "-o", str(out)]) == 1
     assert not out.exists()
-    assert "error[KB001]" in capsys.readouterr().err
+    assert "no concept parsed" in capsys.readouterr().err
+
+
+def test_dot_ranks_the_concepts_of_each_layer_in_layer_order(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["graph", str(BUILDINGS)]) == 0
+    dot = capsys.readouterr().out
+    assert '"layer scene" -> "layer world" [style=invis];' in dot
+    assert '"layer world" -> "layer image" [style=invis];' in dot
+    ranks = [line for line in dot.splitlines() if "rank=same" in line]
+    assert len(ranks) == 3
+    assert ranks[0].startswith('  { rank=same; "layer scene";')
+    assert '"House";' in ranks[0]
+    assert '"Region";' in ranks[2]

@@ -167,10 +167,13 @@ def test_recovery_reports_every_broken_declaration_and_keeps_the_rest() -> None:
         ("KB001", 5),
         ("KB001", 7),
     ]
-    assert [c.name.text for c in result.module.concepts] == ["Good", "Also", "Last"]
-    assert result.module.concepts[1].abstract
-    assert result.module.concepts[2].span.line == 8
-    assert result.broken == frozenset({"A", "B", "t", "i"})
+    # A's body lost its one broken member (member-by-member recovery): A is kept, incomplete
+    assert [c.name.text for c in result.module.concepts] == ["A", "Good", "Also", "Last"]
+    assert result.module.concepts[0].members == ()
+    assert result.module.concepts[2].abstract
+    assert result.module.concepts[3].span.line == 8
+    assert result.broken == frozenset({"B", "t", "i"})
+    assert result.incomplete == frozenset({"A"})
     assert not result.ok
 
 
@@ -182,7 +185,7 @@ def test_recovery_ignores_keywords_in_strings_and_comments() -> None:
     )
     result = parse(text, "r.kb")
     assert [(d.code, d.span.line) for d in result.diagnostics] == [("KB001", 1)]
-    assert [c.name.text for c in result.module.concepts] == ["B"]
+    assert [c.name.text for c in result.module.concepts] == ["A", "B"]  # A, its member dropped
 
 
 def test_broken_examples_give_their_diagnostics() -> None:
