@@ -26,7 +26,7 @@ from typing import Any
 
 from aida_kb.cli.main import main as cli
 from aida_kb.interpret.evaluate import evaluate
-from aida_kb.interpret.pipeline import reconstruct_scene
+from aida_kb.interpret.pipeline import UP_TO_SCALE, reconstruct_scene
 from aida_kb.io.scene import read_scene
 from aida_kb.kb import compile_path
 from aida_kb.synth.scenes import preset, render_scene, rot_y
@@ -51,6 +51,7 @@ def _figures(kb: Any, scene: Path, out: Path, truth: Any) -> dict[str, Any]:
         "view01_deg": round(cam[0].angle_deg, 3) if cam else None,
         "view01_m": round(cam[0].centre_m, 3) if cam else None,
         "units": None if interp.model is None else interp.model.units,
+        "says_up_to_scale": UP_TO_SCALE in interp.message,
         "summary": interp.message[:160],
         "s": round(seconds, 1),
     }
