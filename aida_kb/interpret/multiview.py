@@ -97,14 +97,25 @@ JOINT_MATCH_PX = 3.0
 """Segments within this distance of a projected model edge are its evidence."""
 FINAL_ROUNDS = 2
 """Adjustments of the model and every later pose at the end (each re-matches the segments at
-the adjusted poses). Still needed with the regions measured in their camera's frame: with none,
-`benchmarks/reconstruct.py` gave house seed 1 0.52 deg / 0.69 % instead of 0.17 deg / 0.26 %."""
+the adjusted poses). Still needed with the regions measured in their camera's frame: house
+seed 1 of `benchmarks/reconstruct.py` gives 0.52 deg / 0.70 % with none, 0.18 deg / 0.29 % with
+one, 0.17 deg / 0.26 % with two."""
 JOINT_RIGHT_IMAGES = False
-"""Whether the joint adjustments also use the segments of each view's right image (through a
-camera that follows the view's by the stereo calibration; registration always does). Off:
-measured with `benchmarks/reconstruct.py`, the right images turned house seed 1's inserted
-floor by 0.9 deg about the depth axis (0.91 deg / 1.03 % instead of 0.17 deg / 0.26 %): the
-floor's roll is held only by the first shape's angles (2 degrees) and wall-bottom segments."""
+"""Whether the joint adjustments also use the segments of each view's right image (through a camera
+that follows the view's by the stereo calibration; registration always does). Off: measured with
+`benchmarks/reconstruct.py`, the right images give house seed 1 0.91 deg / 1.03 % instead of
+0.17 deg / 0.26 %. Not the rig: against the true model and poses, the least-squares image shift
+of the right images' matched segments is within 0.05 px of the left images' (seeds 0, 1). They
+add short fragments (15-18 px) along the wall bottoms and a far corner that lie 1-3 px off the
+true edges: those on the floor's edges roll the inserted floor (its roll is held only by the
+first shape's angles and wall-bottom segments; the first shape's floor is 0.49 deg off, the
+right images take it to 0.94 deg), after which the one long right-wall-bottom segment of view 01
+falls outside `JOINT_MATCH_PX`. Without the right images' floor edges the angles hold (0.20 deg)
+but the back wall ends 12 cm off (3 cm with the left images only; 0.62 %). The knowledge's slope
+priors (walls at 90 deg to the ground, sigma 1 deg, as in the interpreter) lower the left-image
+angle errors (houses 0-2: 0.34 deg max instead of 0.42; L-shape 0.27 instead of 0.29) but raise
+house 0's vertex error from 0.60 % to 0.63 %, and with the right images and segments under 20 px
+dropped they give 0.17 deg but 0.68 %."""
 
 
 def _model_camera(view: str, cam: PinholeCamera) -> ModelCamera:
