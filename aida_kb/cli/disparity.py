@@ -11,10 +11,12 @@ Output: float32 .npy (H, W), disparity x_left - x_right in pixels of the left im
 NaN where there is none (flat texture, occlusion, failed left-right check).
 
 examples:
-  aida-kb disparity left.png right.png -o disparity.npy
-  aida-kb disparity left.png right.png -o disparity.npy --max-disp 64
-  aida-kb disparity im0.png im1.png -o d.npy --max-disp 128 --window 11 --certainty c.npy
-  aida-kb disparity left.png right.png -o disparity.npy --matcher sgm
+  aida-kb synth house -o out/house     # a rendered pair (its rig is rectified already)
+  aida-kb disparity out/house/views/00/left.png out/house/views/00/right.png -o d.npy
+  aida-kb disparity out/house/views/00/left.png out/house/views/00/right.png -o d.npy \
+      --max-disp 32 --window 11 --certainty c.npy
+  aida-kb disparity out/house/views/00/left.png out/house/views/00/right.png -o d.npy \
+      --matcher sgm
 """
 
 

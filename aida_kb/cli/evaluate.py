@@ -16,10 +16,10 @@ checks (aida_kb.interpret.evaluate), the first that fails is the cause:
 exit status: 0 correct, 1 not correct, 2 unreadable input.
 
 examples:
-  aida-kb synth random -o out/r7 --seed 7
-  aida-kb reconstruct kb/buildings.kb out/r7 -o out/r7-model
-  aida-kb evaluate out/r7-model out/r7
-  aida-kb evaluate out/r7-model out/r7 --json
+  aida-kb synth house -o out/house
+  aida-kb reconstruct kb/buildings.kb out/house -o out/house-model
+  aida-kb evaluate out/house-model out/house
+  aida-kb evaluate out/house-model out/house --json
 """
 
 

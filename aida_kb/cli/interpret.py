@@ -26,9 +26,11 @@ what it does:
   aida-kb lint FILE.kb --import-path KB_FOLDER.
 
 examples:
-  aida-kb interpret kb/buildings.kb out/evidence.json
-  aida-kb interpret kb/buildings.kb out/evidence.json --explain
-  aida-kb interpret kb/buildings.kb out/evidence.json -o out/interpretation.json
+  aida-kb synth house -o out/house
+  aida-kb evidence out/house -o out/house/evidence.json --debug out/house/debug
+  aida-kb interpret kb/buildings.kb out/house/evidence.json
+  aida-kb interpret kb/buildings.kb out/house/evidence.json --explain
+  aida-kb interpret kb/buildings.kb out/house/evidence.json -o out/interpretation.json
 """
 
 

@@ -23,8 +23,8 @@ exit status: 0 verified, 3 doubtful (the reasons are printed first), 4 nothing f
 examples:
   aida-kb synth house -o out/house
   aida-kb reconstruct kb/buildings.kb out/house -o out/house-model
-  aida-kb reconstruct kb/buildings.kb out/house -o out/m --views 00 --explain
-  aida-kb reconstruct kb/buildings.kb out/house -o out/m --max-disp 96
+  aida-kb reconstruct kb/buildings.kb out/house -o out/m --views 00
+  aida-kb reconstruct kb/buildings.kb out/house -o out/m --views 00 --explain --max-disp 96
 """
 
 
