@@ -59,6 +59,12 @@ class ExportFrame:
     axes: Axes
     R_export_world: FloatArray  # (3, 3), rows: the export axes in world coordinates
     t_export_world: FloatArray  # (3,), metres
+    metric: bool = True  # False: the model is known up to scale only (units unknown)
+
+    @property
+    def units(self) -> str:
+        """The unit of the exported coordinates, as file headers say it."""
+        return "metres" if self.metric else "unknown (up to scale: the scene's scale is unknown)"
 
     def apply(self, points_world: npt.ArrayLike) -> FloatArray:
         """Points (N, 3), world frame -> (N, 3), export frame."""
@@ -84,7 +90,7 @@ class ExportFrame:
         """One line for file headers: the axes and the transform from the world frame."""
         rows = "; ".join(" ".join(f"{x:.9g}" for x in row) for row in self.matrix)
         return (
-            f"frame {self.axes} (up = the estimated vertical), metres; "
+            f"frame {self.axes} (up = the estimated vertical), units {self.units}; "
             f"T_export_world (export = T·world, world = left camera of view 00, "
             f"OpenCV axes) rows: {rows}"
         )
@@ -116,7 +122,7 @@ def export_frame(model: ReconstructedModel, axes: Axes = "y-up") -> ExportFrame:
     centre = points.mean(axis=0)
     lowest = float(np.min(points @ up))
     origin = centre - (float(centre @ up) - lowest) * up
-    return ExportFrame(axes, R, -R @ origin)
+    return ExportFrame(axes, R, -R @ origin, metric=model.units == "m")
 
 
 @dataclass(frozen=True)
@@ -137,6 +143,10 @@ class Georeference:
         """`frame` (z up) followed by the turn to the map and the shift to the origin."""
         if frame.axes != "z-up":
             raise FormatError("a georeference applies to the z-up (CityJSON) frame only")
+        if not frame.metric:
+            raise FormatError(
+                "a model known up to scale only (units: unknown) cannot be put on the map"
+            )
         values = (*self.origin, self.heading_deg)
         if not all(math.isfinite(v) and abs(v) <= 1e9 for v in values):
             raise FormatError(f"georeference {values}: not finite numbers")
@@ -271,7 +281,7 @@ def obj_files(
     vertices: list[tuple[float, float, float]] = []
     index: dict[tuple[int, int, int], int] = {}
     lines = [
-        "# aida-kb reconstructed model; units: metres",
+        f"# aida-kb reconstructed model; units: {frame.units}",
         "# " + frame.describe(),
         f"mtllib {stem}.mtl",
     ]

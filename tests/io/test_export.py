@@ -224,3 +224,15 @@ def test_cityjson_georeference_turns_and_shifts_onto_the_map(
     assert "--origin '1000,x,5': expected E,N,H" in capsys.readouterr().err
     assert main([*argv, "--epsg", "28992"]) != 0
     assert "give --origin too" in capsys.readouterr().err
+
+
+def test_a_model_known_up_to_scale_claims_no_metres(tmp_path: Path) -> None:
+    model = _lshape().model_copy(update={"units": "unknown"})
+    assert "units: metres" in obj_files(_lshape())["model.obj"].decode()
+    text = obj_files(model)["model.obj"].decode()
+    assert "units: unknown (up to scale" in text
+    assert "metres" not in text.splitlines()[1]
+    doc = cityjson_document(model)
+    assert "up to scale" in doc["metadata"]["title"]
+    with pytest.raises(FormatError, match=r"up to scale only .* cannot be put on the map"):
+        cityjson_document(model, georeference=Georeference((0.0, 0.0, 0.0)))
