@@ -231,6 +231,27 @@ def _diagnostic_hover(a: Analysis, file: str, line: int, column: int) -> list[st
     return out
 
 
+def _builtin_hover(a: Analysis, line: str, column: int) -> str | None:
+    """A primitive relation or an attribute's measure under ``column`` (1-based) of ``line``."""
+    from aida_kb.kb.shape import MEASURES
+    from aida_kb.lsp.signature import PRIMITIVE_SIGNATURES
+
+    for m in NAME.finditer(line):
+        if not m.start() < column <= m.end() + 1 or not line[m.end() :].lstrip().startswith("("):
+            continue
+        word = m.group()
+        if word in a.table.templates:
+            return None
+        if word in MEASURES and re.search(r"\bis\s+$", line[: m.start()]):
+            arity, dimension = MEASURES[word]
+            args = ", ".join(["a", "b"][:arity])
+            return f"```kb\n{word}({args})\n```\n\nmeasure of an attribute: gives {dimension}"
+        if word in PRIMITIVE_SIGNATURES:
+            params, meaning = PRIMITIVE_SIGNATURES[word]
+            return f"```kb\n{word}({', '.join(params)})\n```\n\nprimitive relation: {meaning}"
+    return None
+
+
 def hover(a: Analysis, uri: str, position: types.Position) -> types.Hover | None:
     """The hover at ``position``: the symbol's declaration, doc and facts; explained codes."""
     file = a.file_of(uri)
@@ -241,6 +262,10 @@ def hover(a: Analysis, uri: str, position: types.Position) -> types.Hover | None
     parts = []
     if occ is not None:
         parts.append(_symbol_hover(a, occ.key))
+    else:
+        builtin = _builtin_hover(a, a.lines(file).line(position.line), column)
+        if builtin is not None:
+            parts.append(builtin)
     parts.extend(_diagnostic_hover(a, file, position.line + 1, column))
     if not parts:
         return None

@@ -152,6 +152,8 @@ def test_recorded_editing_session_of_buildings_kb(server: ServerClient) -> None:
     perp = hover_text(server, uri, pos(text, "corner_fl: perpendicular", 0, len("corner_fl: ")))
     assert "template perpendicular(a: Plane, b: Plane, tol: angle = 1 deg)" in perp
     assert "Two planes meet at a right angle" in perp
+    edge = hover_text(server, uri, pos(text, "measure edge(edge(front, left))", 0, 9))
+    assert edge.startswith("```kb\nedge(a, b)\n```\n\nprimitive relation: the edge where")
 
     # go to definition: 'roof' in HouseBody's roof.front, then 'front' after it
     eaves = pos(
