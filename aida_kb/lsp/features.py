@@ -83,9 +83,9 @@ def slot_text(slot: Slot) -> str:
     if isinstance(node, ast.Attribute):
         text = f"attribute {slot.name.text}: {node.type.text}"
         if node.range is not None:
-            text += f" in [{_expr(node.range.low)}, {_expr(node.range.high)}]"
+            text += f" in [{node.range.low}, {node.range.high}]"
         if node.default is not None:
-            text += f" = {_expr(node.default)}"
+            text += f" = {node.default}"
         if node.measure is not None:
             text += f" is {node.measure.call}"
         return text
@@ -94,10 +94,6 @@ def slot_text(slot: Slot) -> str:
         optional = "optional " if node.optional else ""
         return f"{optional}part {slot.name.text}: {node.concept.text}{card}"
     return f"con-of {slot.name.text}: {node.concept.text}{card}"
-
-
-def _expr(e: ast.Expr) -> str:
-    return str(e)
 
 
 def _concept_hover(a: Analysis, name: str) -> str:
@@ -123,10 +119,9 @@ def _concept_hover(a: Analysis, name: str) -> str:
     out.append(" · ".join(facts))
     if info.slots:
         rows = []
-        for key, slot in info.slots.items():
+        for slot in info.slots.values():
             where = "own" if slot.owner == name else f"inherited from **{slot.owner}**"
             rows.append(f"- `{slot_text(slot)}` — {where}")
-            del key
         out.append("members:\n" + "\n".join(rows))
     inherited_rules = [r for r in info.rules if r.owner != name]
     if inherited_rules:

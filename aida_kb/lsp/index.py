@@ -18,7 +18,7 @@ concept whose roof may be either of two specialisations). Renaming one renames t
 from __future__ import annotations
 
 import bisect
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -129,16 +129,6 @@ class Index:
             if s.line == line and s.column <= column <= s.end_column:
                 return occ
         return None
-
-    def references(self, key: SymbolKey) -> list[Occurrence]:
-        """Every occurrence of ``key``'s group, declarations included, in file order."""
-        keys = self.group(key)
-        found = {(o.span, o.key): o for o in self.occurrences if o.key in keys}
-        return sorted(found.values(), key=lambda o: o.span)
-
-    def in_file(self, file: str) -> Iterator[Occurrence]:
-        """The occurrences written in ``file``."""
-        return (o for o in self.occurrences if o.span.file == file)
 
 
 def build_index(modules: Iterable[ast.Module], table: Table) -> Index:
