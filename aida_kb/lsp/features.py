@@ -7,6 +7,7 @@ and rename, the analyses of the other open documents) and returns lsprotocol val
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Iterable, Sequence
 
@@ -32,6 +33,7 @@ __all__ = [
     "references",
     "rename",
     "slot_text",
+    "workspace_symbols",
 ]
 
 #: A name of the language (the grammar's NAME terminal).
@@ -295,8 +297,6 @@ def definition(a: Analysis, uri: str, position: types.Position) -> list[types.Lo
 
 
 def _imported(a: Analysis, importer: str, imp: ast.Import) -> str | None:
-    import os
-
     target = os.path.normpath(os.path.join(os.path.dirname(importer), imp.path.value))
     return target if target in a.sources else None
 
@@ -546,3 +546,30 @@ def imports_file(a: Analysis, uri: str) -> bool:
 
     path = path_of_uri(uri)
     return path != a.path and path in a.sources
+
+
+#: The symbol kinds a workspace search lists (roles and parameters are found from them).
+_SEARCHED = {
+    NameKind.CONCEPT: types.SymbolKind.Class,
+    NameKind.TEMPLATE: types.SymbolKind.Function,
+    NameKind.INSTANCE: types.SymbolKind.Object,
+}
+
+
+def workspace_symbols(analyses: Sequence[Analysis], query: str) -> list[types.WorkspaceSymbol]:
+    """The concepts, templates and instances whose name contains ``query`` (any case), each
+    once however many of the analyses see it, sorted by name."""
+    wanted = query.lower()
+    found: dict[Span, types.WorkspaceSymbol] = {}
+    for a in analyses:
+        for sym in a.index.symbols.values():
+            kind = _SEARCHED.get(NameKind(sym.kind))
+            if kind is None or wanted not in sym.name.lower() or sym.decl in found:
+                continue
+            found[sym.decl] = types.WorkspaceSymbol(
+                name=sym.name,
+                kind=kind,
+                location=_location(a, sym.decl),
+                container_name=os.path.basename(sym.decl.file),
+            )
+    return sorted(found.values(), key=lambda s: (s.name, s.container_name or ""))

@@ -169,6 +169,12 @@ def make_server() -> KbServer:
     ) -> list[types.DocumentSymbol]:
         return features.document_symbols(ls.analysis(params.text_document.uri))
 
+    @server.feature(types.WORKSPACE_SYMBOL)
+    def workspace_symbol(
+        ls: KbServer, params: types.WorkspaceSymbolParams
+    ) -> list[types.WorkspaceSymbol]:
+        return features.workspace_symbols(ls.others(""), params.query)  # every analysis
+
     @server.feature(
         types.TEXT_DOCUMENT_CODE_ACTION,
         types.CodeActionOptions(code_action_kinds=[types.CodeActionKind.QuickFix]),

@@ -311,6 +311,12 @@ def test_references_and_rename_reach_workspace_files_that_are_not_open(
         assert set(edit.changes) == {root, lib}
         assert "part front, side: Facade" in apply(ROOT_KB, edit.changes[root])
         assert "concept Facade is-a Plane" in apply(LIB, edit.changes[lib])
+        # workspace symbols: the open file's and those of the folder's files, each once
+        got = server.request(types.WORKSPACE_SYMBOL, types.WorkspaceSymbolParams(query="wal"))
+        assert [(s.name, s.container_name) for s in got] == [
+            ("Wall", "other.kb"),
+            ("Wall", "walls.kb"),
+        ]
         server.close(lib)
     finally:
         server.notify(
