@@ -111,6 +111,14 @@ class ServerClient:
         self._notify(lambda: self.client.text_document_did_change(params))
         return version
 
+    def save(self, uri: str) -> None:
+        """Say that a document was saved; the diagnostics published before are forgotten, so
+        that `diagnostics` waits for those the save brings (for it and what imports it)."""
+        with self._changed:
+            self._published.clear()
+        params = types.DidSaveTextDocumentParams(types.TextDocumentIdentifier(uri))
+        self._notify(lambda: self.client.text_document_did_save(params))
+
     def close(self, uri: str) -> None:
         """Close a document."""
         params = types.DidCloseTextDocumentParams(types.TextDocumentIdentifier(uri))

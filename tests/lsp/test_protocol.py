@@ -335,7 +335,14 @@ def test_an_error_in_an_imported_file_shows_at_the_import(
     errors = [d for d in shown if d.severity == types.DiagnosticSeverity.Error]
     assert [(d.code, d.range.start.line) for d in errors] == [("KB100", 1)]
     assert errors[0].message.startswith("in imported file walls.kb:3: unknown concept 'Regin'")
-    assert errors[0].related_information[0].location.uri == uri_of_path(str(tmp_path / "walls.kb"))
+    lib = uri_of_path(str(tmp_path / "walls.kb"))
+    assert errors[0].related_information[0].location.uri == lib
+    # the import is fixed and saved in the editor: the file importing it is compiled again
+    (tmp_path / "walls.kb").write_text(LIB, encoding="utf-8")
+    server.open(lib, LIB)
+    server.save(lib)
+    assert server.diagnostics(root) == []
+    server.close(lib)
     server.close(root)
 
 
