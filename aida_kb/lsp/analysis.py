@@ -1,7 +1,9 @@
 """One open document, compiled: the compiler's diagnostics and the index of its names.
 
 The diagnostics are exactly those of ``aida-kb lint`` (`aida_kb.kb.compile_text`, the open
-text as the root file, its imports read from disk). The index comes from the same front end:
+text as the root file, its imports read from disk; a file that declares no layers is a
+library, docs/language.md §2.3, which the server shows in the context of a file importing it
+when there is one, as lint does). The index comes from the same front end:
 the loader's parse (`aida_kb.kb.loader.load_text`) and the resolution pass
 (`aida_kb.kb.resolve.resolve`), whose table the compiler drops once a file has errors but
 an editor needs while the file is being written. Compiling `kb/buildings.kb` takes about
@@ -46,13 +48,18 @@ class Analysis:
         self.uri = uri
         self.path = path_of_uri(uri)
         self.search_paths = tuple(search_paths)
-        self.result: CompileResult = compile_text(text, self.path, search_paths=search_paths)
+        self.text = text
+        self.result: CompileResult = compile_text(
+            text, self.path, search_paths=search_paths, library=True
+        )
         loaded = load_text(text, self.path, tuple(search_paths))
         self.modules: list[ast.Module] = loaded.modules
         self.sources: dict[str, str] = dict(loaded.sources)
         self.sources[self.path] = text
         try:
-            self.table, _ = resolve(loaded.modules, loaded.broken)
+            self.table, _ = resolve(
+                loaded.modules, loaded.broken, library=True, incomplete=loaded.incomplete
+            )
             self.index = build_index(loaded.modules, self.table)
         except Exception:  # a bug in resolution: the compiler's KB999 says so; no index
             self.table, self.index = Table(), Index()
@@ -67,6 +74,11 @@ class Analysis:
     def diagnostics(self) -> tuple[Diagnostic, ...]:
         """The compiler's diagnostics, every file."""
         return self.result.diagnostics
+
+    @property
+    def library(self) -> bool:
+        """True when neither the document nor what it imports declares layers."""
+        return self.result.library
 
     def lines(self, file: str) -> Lines:
         """The lines of ``file`` (one of the compiled files), for converting positions."""

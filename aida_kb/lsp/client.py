@@ -89,8 +89,10 @@ class ServerClient:
 
     # -- documents
     def open(self, uri: str, text: str) -> None:
-        """Open a document (version 1)."""
+        """Open a document (version 1); what was published for it before is forgotten."""
         self.versions[uri] = 1
+        with self._changed:
+            self._published.pop(uri, None)
         item = types.TextDocumentItem(uri, "aida-kb", 1, text)
         self._notify(
             lambda: self.client.text_document_did_open(types.DidOpenTextDocumentParams(item))

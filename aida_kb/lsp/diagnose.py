@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 from lsprotocol import types
@@ -76,11 +77,21 @@ def _convert(a: Analysis, d: Diagnostic, where: types.Range, prefix: str) -> typ
     )
 
 
-def publishable(a: Analysis) -> list[types.Diagnostic]:
+def publishable(a: Analysis, context: Sequence[Analysis] = ()) -> list[types.Diagnostic]:
     """The diagnostics to show in the document ``a``: its own, and its imports' problems at the
-    import that leads to them."""
+    import that leads to them. For a library with ``context`` (compiled roots that import it,
+    from the same text), its own are those the roots find in it (each once), as lint has them.
+    """
     own = a.lines(a.path)
-    out = [_convert(a, d, own.range(d.span), "") for d in a.diagnostics if d.span.file == a.path]
+    mine = [d for d in a.diagnostics if d.span.file == a.path]
+    if context:
+        found: dict[tuple[object, ...], Diagnostic] = {}
+        for root in context:
+            for d in root.diagnostics:
+                if d.span.file == a.path:
+                    found.setdefault((d.code, d.span, d.message), d)
+        mine = sorted(found.values(), key=Diagnostic.sort_key)
+    out = [_convert(a, d, own.range(d.span), "") for d in mine]
     leads = _import_leads(a)
     for d in a.diagnostics:
         if d.span.file == a.path or d.severity is Severity.NOTE:

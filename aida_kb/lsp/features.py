@@ -540,14 +540,6 @@ def _overlaps(r: types.Range, s: types.Range) -> bool:
     return key(r.start) <= key(s.end) and key(s.start) <= key(r.end)
 
 
-def imports_file(a: Analysis, uri: str) -> bool:
-    """True when the document ``a`` compiles the file ``uri`` as one of its imports."""
-    from aida_kb.lsp.convert import path_of_uri
-
-    path = path_of_uri(uri)
-    return path != a.path and path in a.sources
-
-
 #: The symbol kinds a workspace search lists (roles and parameters are found from them).
 _SEARCHED = {
     NameKind.CONCEPT: types.SymbolKind.Class,

@@ -19,6 +19,7 @@ from pygls.exceptions import JsonRpcInvalidParams
 from pygls.lsp.server import LanguageServer
 
 from aida_kb import __version__
+from aida_kb.limits import MAX_KB_BYTES, read_text_limited
 from aida_kb.lsp import features
 from aida_kb.lsp.analysis import Analysis
 from aida_kb.lsp.complete import completions
@@ -47,10 +48,18 @@ class KbServer(LanguageServer):
         doc = self.workspace.get_text_document(uri)
         a = Analysis(uri, doc.source, self.search_paths)
         self.analyses[uri] = a
+        shown = publishable(a, self.context(a))
         self.text_document_publish_diagnostics(
-            types.PublishDiagnosticsParams(uri=uri, diagnostics=publishable(a), version=doc.version)
+            types.PublishDiagnosticsParams(uri=uri, diagnostics=shown, version=doc.version)
         )
         return a
+
+    def context(self, a: Analysis) -> list[Analysis]:
+        """For a library as it is on disk: the open documents and workspace files that declare
+        layers and import it (they read it from disk); none while it differs from the disk."""
+        if not a.library or not _same_as_disk(a):
+            return []
+        return [b for b in self.others(a.uri) if not b.library and a.path in b.sources]
 
     def analysis(self, uri: str) -> Analysis:
         """The last analysis of ``uri`` (compiled now if there is none)."""
@@ -66,6 +75,13 @@ class KbServer(LanguageServer):
         opened = [a for u, a in self.analyses.items() if u != uri]
         closed = self.files.analyses(folders, {uri, *self.analyses}, self.search_paths)
         return opened + closed
+
+
+def _same_as_disk(a: Analysis) -> bool:
+    try:
+        return read_text_limited(a.path, MAX_KB_BYTES) == a.text
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def make_server() -> KbServer:
@@ -94,8 +110,8 @@ def make_server() -> KbServer:
     def did_save(ls: KbServer, params: types.DidSaveTextDocumentParams) -> None:
         saved = params.text_document.uri
         ls.analyse(saved)
-        for uri, a in list(ls.analyses.items()):  # a saved import changes what imports it
-            if uri != saved and features.imports_file(a, saved):
+        for uri in list(ls.analyses):  # what imports it, and the libraries it is context of
+            if uri != saved:
                 ls.analyse(uri)
 
     @server.feature(types.TEXT_DOCUMENT_DID_CLOSE)

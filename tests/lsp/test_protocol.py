@@ -325,6 +325,41 @@ def test_references_and_rename_reach_workspace_files_that_are_not_open(
         )
 
 
+def test_a_library_is_shown_in_the_context_of_a_file_importing_it(
+    server: ServerClient, tmp_path: Path
+) -> None:
+    """A file without layers (a library) names a concept its importer declares: alone that is
+    an unknown concept; in the workspace of the importer, as lint has it, it is not."""
+    library = "concept Wall is-a Plane {\n    attribute tilt: angle\n}\n"
+    root_kb = ROOT_KB.replace(
+        'import "walls.kb"', 'import "walls.kb"\nabstract concept Plane in world { }'
+    )
+    (tmp_path / "walls.kb").write_text(library, encoding="utf-8")
+    (tmp_path / "house.kb").write_text(root_kb, encoding="utf-8")
+    lib = uri_of_path(str(tmp_path / "walls.kb"))
+    server.open(lib, library)
+    alone = server.diagnostics(lib)
+    assert [(d.code, d.message.split("\n")[0]) for d in alone] == [
+        ("KB100", "unknown concept 'Plane' as the parent of Wall")
+    ]
+    server.close(lib)
+    folder = types.WorkspaceFolder(uri_of_path(str(tmp_path)), "kb")
+    server.notify(
+        types.WORKSPACE_DID_CHANGE_WORKSPACE_FOLDERS,
+        types.DidChangeWorkspaceFoldersParams(types.WorkspaceFoldersChangeEvent([folder], [])),
+    )
+    try:
+        server.open(lib, library)
+        # house.kb declares Plane and imports walls.kb: what it finds in walls.kb is a warning
+        assert [d.code for d in server.diagnostics(lib)] == ["KB302"]
+        server.close(lib)
+    finally:
+        server.notify(
+            types.WORKSPACE_DID_CHANGE_WORKSPACE_FOLDERS,
+            types.DidChangeWorkspaceFoldersParams(types.WorkspaceFoldersChangeEvent([], [folder])),
+        )
+
+
 def test_an_error_in_an_imported_file_shows_at_the_import(
     server: ServerClient, tmp_path: Path
 ) -> None:
