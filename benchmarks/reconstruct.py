@@ -4,7 +4,8 @@ line of JSON.
 Each scene is rendered, then reconstructed exactly as `aida-kb reconstruct` does (evidence ->
 interpretation -> model) with the knowledge base its object is described in, and the model is
 compared with the ground truth: the largest error of the angles between adjacent parts
-(degrees) and of the vertices (percent of the object's size), whether every specialisation
+(degrees), of a part's normal (degrees, in the world frame) and of the vertices (percent of
+the object's size), whether every specialisation
 the truth names (``truth.json`` ``concepts``: the roof's kind, the wing's) was chosen, and the
 time the pipeline took (rendering excluded). Scenes:
 
@@ -76,6 +77,7 @@ class Figures:
     expected: int
     right_specialisation: int
     max_angle_error_deg: float | None
+    max_normal_error_deg: float | None
     max_vertex_error_pct: float | None
     seconds_per_scene: float
 
@@ -95,6 +97,7 @@ def main() -> None:
             kb = kbs[case.kb]
             assert kb is not None
             angles: list[float] = []
+            normals: list[float] = []
             vertices: list[float] = []
             seconds: list[float] = []
             accepted = right = 0
@@ -118,6 +121,7 @@ def main() -> None:
                 if kinds:
                     right += 1
                     angles.append(c.max_angle_error_deg)
+                    normals.append(max(c.normal_errors_deg.values(), default=0.0))
                     vertices.append(100.0 * c.max_vertex_error_rel)
                 print(
                     f"{name}: {interp.message}; specialisations "
@@ -132,6 +136,7 @@ def main() -> None:
                 len(case.seeds) if case.expect_object else 0,
                 right,
                 _rounded(angles, 4),
+                _rounded(normals, 4),
                 _rounded(vertices, 3),
                 round(sum(seconds) / len(seconds), 2),
             )
