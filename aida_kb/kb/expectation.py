@@ -354,13 +354,25 @@ def _tree_problems(table: Table, file: str, ann: Annotations) -> Iterator[Diagno
                 "delete the instances, or expect 'verified' or 'doubtful'",
             )
         return
-    bound = {
-        item.dotted
+    uses = [
+        item
         for inst in mine
         for b in inst.bindings
         for item in (b.value.items if isinstance(b.value, ast.ListExpr) else (b.value,))
         if isinstance(item, ast.Path) and item.is_simple
-    }
+    ]
+    bound = {item.dotted for item in uses}
+    first: dict[str, ast.Path] = {}
+    for item in uses:  # a tree: each instance fills one role (no sharing, no cycle)
+        if item.dotted in first:
+            yield diag(
+                codes.BAD_EXPECTATION,
+                f"instance {item.dotted} is bound twice: an expected instance fills one role",
+                item.span,
+                "declare an instance for each role it fills",
+                ((first[item.dotted].span, "first bound here"),),
+            )
+        first.setdefault(item.dotted, item)
     top = table.layers[0] if table.layers else None
     goals = [
         i
@@ -485,9 +497,12 @@ def expected_tree(kb: KnowledgeBase, file: str, text: str) -> ExpectedTree:
     goals = [n for n, i in mine.items() if n not in bound and kb.concepts[i.concept].layer == top]
     if len(goals) != 1:
         return tree
-    todo = [("", goals[0])]
+    todo, seen = [("", goals[0])], set()
     while todo:
         role, name = todo.pop()
+        if name in seen:  # shared or cyclic (KB143 for a checked file): walked once
+            continue
+        seen.add(name)
         inst = kb.instances[name]
         concept = kb.concepts[inst.concept]
         node = Node(inst.concept, inst.doc == INSERTED_DOC, span=inst.span)

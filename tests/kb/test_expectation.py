@@ -114,11 +114,13 @@ def test_the_compiler_checks_the_expected_tree() -> None:
     assert _codes("// expect: verdict nothing\ninstance w of Wall { }\n") == [("KB143", 2)]
     # a result expected: one goal instance, every instance below it
     assert _codes("// expect: verdict verified\ninstance w of Wall { }\n") == [("KB143", 1)]
-    two = "instance h of House { fronts = w }\ninstance g of House { fronts = w }\n"
-    assert _codes("// expect: verdict verified\n" + two + "instance w of Wall { }\n") == [
-        ("KB143", 3)
-    ]
+    two = "instance h of House { fronts = w }\ninstance g of House { fronts = v }\n"
+    walls = "instance w of Wall { }\ninstance v of Wall { }\n"
+    assert _codes("// expect: verdict verified\n" + two + walls) == [("KB143", 3)]
     off = "instance h of House { fronts = w }\ninstance w of Wall { }\ninstance v of Wall { }\n"
     assert _codes("// expect: verdict verified\n" + off) == [("KB143", 4)]
+    # an instance shared by two roles, or a cycle back to one above
+    shared = "instance h of House { fronts = [w, w] }\ninstance w of Wall { }\n"
+    assert _codes("// expect: verdict verified\n" + shared) == [("KB143", 2)]
     # a file without annotations is no expectation: instances are checked as always
     assert _codes("instance w of Wall { }\ninstance v of Wall { }\n") == []
