@@ -321,17 +321,21 @@ def _check_rejection(table: Table, goals: list[str], r: Rejection) -> Iterator[D
         )
 
 
-def _value_lines(table: Table, file: str) -> dict[int, str]:
+def _value_lines(table: Table, file: str) -> dict[int, str | None]:
     """Line -> the SI unit ("rad", "m", "") of the attribute value bound on it, for the
-    instances of `file`."""
-    out: dict[int, str] = {}
+    instances of `file`; None where the binding's own check failed (an unknown concept or
+    role, reported already: the tolerance after it is not judged)."""
+    out: dict[int, str | None] = {}
     for inst in table.instances.values():
-        info = table.concepts.get(inst.concept.text)
-        if inst.span.file != file or info is None:
+        if inst.span.file != file:
             continue
+        info = table.concepts.get(inst.concept.text)
         for b in inst.bindings:
-            slot = info.slots.get(b.role.text)
-            if slot is None or slot.kind != "attribute":
+            slot = info.slots.get(b.role.text) if info is not None else None
+            if slot is None:
+                out[b.value.span.line] = None
+                continue
+            if slot.kind != "attribute":
                 continue
             node = slot.node
             assert isinstance(node, ast.Attribute)
@@ -426,6 +430,8 @@ def check_expectations(table: Table, sources: Mapping[str, str]) -> list[Diagnos
         if not ann.present:
             continue
         out += ann.problems
+        if not table.layers:  # nothing resolved (an import missing): no more to say here
+            continue
         for r in ann.rejections:
             out += _check_rejection(table, goals, r)
         value_lines = _value_lines(table, file)
@@ -440,8 +446,8 @@ def check_expectations(table: Table, sources: Mapping[str, str]) -> list[Diagnos
                         "put it after a binding such as 'pitch = 38 deg'",
                     )
                 )
-            elif value_lines[line] != unit:
-                kind = {"rad": "an angle", "m": "a length", "": "a number"}[value_lines[line]]
+            elif value_lines[line] is not None and value_lines[line] != unit:
+                kind = {"rad": "an angle", "m": "a length", "": "a number"}[value_lines[line] or ""]
                 out.append(diag(codes.UNIT_MISMATCH, f"the value's tolerance must be {kind}", span))
         if ann.verdict is not None:
             out += _tree_problems(table, file, ann)

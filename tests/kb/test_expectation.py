@@ -124,3 +124,17 @@ def test_the_compiler_checks_the_expected_tree() -> None:
     assert _codes("// expect: verdict verified\n" + shared) == [("KB143", 2)]
     # a file without annotations is no expectation: instances are checked as always
     assert _codes("instance w of Wall { }\ninstance v of Wall { }\n") == []
+
+
+def test_a_missing_knowledge_base_gives_no_cascade_of_annotation_errors() -> None:
+    text = (
+        'import "nowhere.kb"\n// expect: verdict verified\n'
+        "// expect: reject body.roof of GableRoof by slopes\n"
+        "instance h of House {\n    width = 3 m  // expect: +- 1 cm\n}\n"
+        "// expect: bogus\n"
+    )
+    found = {(d.code, d.span.line) for d in compile_text(text, "t.kb").diagnostics}
+    # the import and what it would have declared; of the annotations only the unreadable one
+    assert ("KB901", 1) in found
+    assert {c for c, _ in found} <= {"KB901", "KB100", "KB112", "KB143"}
+    assert [line for c, line in found if c == "KB143"] == [7]
