@@ -20,7 +20,7 @@ what it does:
   that knowledge base and the result compared: the verdict, the instances by role path
   (specialisations, bindings, inserted parts, evidence ids), measured values within their
   tolerance, the rejections. A difference is printed at the expectation's line:
-    tests/fixtures/wing_90.expected.kb:58: expected body.wings[0] of SkewWing, got RightWing
+    tests/fixtures/wing_135.expected.kb:67: expected body.wings[0] of RightWing, got SkewWing
   exit status: 0 every fixture passed, 1 a fixture failed, 2 usage error or a bad fixture
   (an expectation with lint errors, no input beside it), 5 no fixture found.
   --update rewrites each failing expectation from the result (its annotations kept), for
@@ -28,8 +28,8 @@ what it does:
 
 examples:
   aida-kb test tests/fixtures --import-path kb
-  aida-kb test tests/fixtures/wing_90.expected.kb --import-path kb
-  aida-kb test tests/fixtures/wing_90.expected.kb --import-path kb --update
+  aida-kb test tests/fixtures/wing_135.expected.kb --import-path kb
+  aida-kb test tests/fixtures/wing_135.expected.kb --import-path kb --update
 """
 
 EXIT_OK = 0
