@@ -2,8 +2,11 @@
 
 Detection is OpenCV's line segment detector (LSD, cv2.createLineSegmentDetector with standard
 refinement), which fits each segment to a region of aligned gradients and so gives subpixel end
-points. Each segment is then sampled a few pixels to either side to find the regions it
-borders and the grey-level step across it (its contrast).
+points; `refine_segments` then moves each onto its edge (subpixel edge points across it, a
+robust line fit): on the rendered turntable the median distance of a segment from its true
+edge falls from 0.18 to 0.075 px (0.15 to 0.063 on a render not developed on). Each segment
+is then sampled a few pixels to either side to find the regions it borders and the grey-level
+step across it (its contrast).
 """
 
 from __future__ import annotations
@@ -45,8 +48,13 @@ class Segment:
         return sorted(set(ids))
 
 
-def detect_segments(grey: npt.NDArray[np.uint8], *, min_length_px: float = 15.0) -> F64:
-    """Line segments (N, 4) float64 [x1, y1, x2, y2], pixels, at least `min_length_px` long."""
+def detect_segments(
+    grey: npt.NDArray[np.uint8], *, min_length_px: float = 15.0, refine: bool = True
+) -> F64:
+    """Line segments (N, 4) float64 [x1, y1, x2, y2], pixels, at least `min_length_px` long.
+
+    With `refine` (the default) each is moved onto its edge by `refine_segments`.
+    """
     if grey.ndim != 2 or grey.dtype != np.uint8:
         raise VisionError(
             f"line detection needs an 8-bit grey image, got {grey.dtype} {grey.shape}"
@@ -57,7 +65,110 @@ def detect_segments(grey: npt.NDArray[np.uint8], *, min_length_px: float = 15.0)
         return np.zeros((0, 4), np.float64)
     seg = found.reshape(-1, 4).astype(np.float64)
     length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
-    return seg[length >= min_length_px]
+    seg = seg[length >= min_length_px]
+    return refine_segments(grey, seg) if refine else seg
+
+
+PROFILE_HALF_PX = 3.0
+"""Half length of the intensity profiles sampled across a segment, pixels."""
+PROFILE_STEP_PX = 0.5
+"""Spacing of a profile's samples (bilinear), pixels."""
+SEARCH_PX = 2.0
+"""The edge is looked for within this distance of the detected line, pixels (LSD's lines lie
+within 0.5 px of a rendered edge in the median, a few px for the worst, measured on the
+turntable renders)."""
+OUTLIER_MADS = 2.5
+"""Edge points further from the fitted line than this many mean absolute deviations (and
+`MIN_OUTLIER_PX`) are dropped before the line is fitted again."""
+MIN_OUTLIER_PX = 0.3
+"""... never fewer pixels than this (a clean edge's points scatter by a few hundredths)."""
+MIN_SUPPORT = 0.5
+"""A refined line needs edge points at this share of its samples; else the segment is kept
+as detected."""
+END_MARGIN = 0.05
+"""Samples cover the segment but this share at each end (corners blur two edges)."""
+
+
+def refine_segments(grey: npt.NDArray[np.uint8], segments: F64, *, rounds: int = 2) -> F64:
+    """Segments (N, 4) moved onto the edge they lie on, to a hundredth of a pixel or so.
+
+    LSD fits a segment to the rectangle of pixels whose gradients are aligned, which puts it
+    within a few tenths of a pixel of the edge (more where a texture meets the edge). Here,
+    every pixel along the segment, the intensity profile across it is sampled (bilinear,
+    `PROFILE_STEP_PX` apart, `PROFILE_HALF_PX` either side) and the edge point is the
+    subpixel peak (parabola through three samples) of the derivative of the segment's own
+    polarity within `SEARCH_PX`; a line is fitted to the points (weighted by the peak's
+    height: total least squares), points off it by more than `OUTLIER_MADS` mean deviations
+    dropped, `rounds` times. The end points are those of the detection projected onto the
+    line. Segments with too few edge points (`MIN_SUPPORT`) are returned unchanged.
+
+    grey : (H, W) 8-bit image; segments : (N, 4) [x1, y1, x2, y2], pixels (pixel centres at
+    integer coordinates). Returns (N, 4) float64.
+    """
+    N = len(segments)
+    if N == 0:
+        return segments.copy()
+    p1, p2 = segments[:, :2], segments[:, 2:]
+    length = np.linalg.norm(p2 - p1, axis=1)
+    t = (p2 - p1) / np.maximum(length, 1e-9)[:, None]
+    n = np.stack([-t[:, 1], t[:, 0]], axis=1)
+    # one sample per pixel of the segment's middle, all segments flattened: (Q,)
+    k = np.maximum(np.floor(length * (1.0 - 2.0 * END_MARGIN)).astype(np.intp), 1)
+    seg = np.repeat(np.arange(N), k)
+    first = np.concatenate([[0], np.cumsum(k)[:-1]])
+    j = np.arange(seg.size) - first[seg]
+    span = (1.0 - 2.0 * END_MARGIN) * length[seg]
+    s = END_MARGIN * length[seg] + (j + 0.5) * span / k[seg]
+    base = p1[seg] + s[:, None] * t[seg]
+    offs = np.arange(-PROFILE_HALF_PX, PROFILE_HALF_PX + 1e-9, PROFILE_STEP_PX)
+    pts = base[:, None, :] + offs[None, :, None] * n[seg][:, None, :]  # (Q, O, 2)
+    prof = cv2.remap(
+        grey.astype(np.float32),
+        pts[..., 0].astype(np.float32),
+        pts[..., 1].astype(np.float32),
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_REPLICATE,
+    ).astype(np.float64)
+    der = np.zeros_like(prof)
+    der[:, 1:-1] = (prof[:, 2:] - prof[:, :-2]) / (2.0 * PROFILE_STEP_PX)
+    near = np.abs(offs) <= SEARCH_PX
+    near[[0, -1]] = False
+    polarity = np.sign(np.bincount(seg, der[:, near].sum(axis=1), minlength=N))
+    g = np.where(near[None, :], der * polarity[seg][:, None], -np.inf)
+    m = np.argmax(g, axis=1)
+    rows = np.arange(m.size)
+    a, b, c = g[rows, m - 1], g[rows, m], g[rows, m + 1]
+    curv = a - 2.0 * b + c
+    ok_fit = np.isfinite(a) & np.isfinite(c) & (curv < 0.0)
+    frac = np.where(ok_fit, 0.5 * (a - c) / np.where(ok_fit, curv, -1.0), 0.0)
+    offset = offs[m] + np.clip(frac, -0.5, 0.5) * PROFILE_STEP_PX
+    weight = np.maximum(b, 0.0)
+    edge = base + offset[:, None] * n[seg]
+    keep = weight > 0.0
+    for r in range(rounds + 1):
+        w = np.where(keep, weight, 0.0)
+        sw = np.maximum(np.bincount(seg, w, N), 1e-12)
+        cx = np.bincount(seg, w * edge[:, 0], N) / sw
+        cy = np.bincount(seg, w * edge[:, 1], N) / sw
+        dx, dy = edge[:, 0] - cx[seg], edge[:, 1] - cy[seg]
+        sxx = np.bincount(seg, w * dx * dx, N)
+        sxy = np.bincount(seg, w * dx * dy, N)
+        syy = np.bincount(seg, w * dy * dy, N)
+        angle = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)  # the scatter's principal direction
+        d = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+        if r == rounds:
+            break
+        res = np.abs(dx * d[seg, 1] - dy * d[seg, 0])
+        count = np.maximum(np.bincount(seg, keep.astype(np.float64), N), 1.0)
+        mad = np.bincount(seg, np.where(keep, res, 0.0), N) / count
+        keep &= res <= np.maximum(OUTLIER_MADS * mad[seg], MIN_OUTLIER_PX)
+    support = np.bincount(seg, keep.astype(np.float64), N)
+    good = (support >= MIN_SUPPORT * k) & (support >= 3)
+    centre = np.stack([cx, cy], axis=1)
+    q1 = centre + np.einsum("ij,ij->i", p1 - centre, d)[:, None] * d
+    q2 = centre + np.einsum("ij,ij->i", p2 - centre, d)[:, None] * d
+    out: F64 = np.where(good[:, None], np.concatenate([q1, q2], axis=1), segments)
+    return out
 
 
 def attach_segments(

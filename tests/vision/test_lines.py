@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from aida_kb.vision.lines import attach_segments, detect_segments
+from aida_kb.vision.lines import attach_segments, detect_segments, refine_segments
 from aida_kb.vision.segmentation import region_contours
 
 CORNERS = np.array([[40.3, 30.6], [150.7, 42.2], [140.2, 110.4], [52.6, 100.9]])
@@ -57,6 +57,47 @@ def test_lsd_finds_the_four_edges_with_subpixel_accuracy() -> None:
         assert {s.left_region, s.right_region} == {1, 2}
         assert s.contrast > 100
         assert s.length_px >= 30
+
+
+def _textured_quad(seed: int) -> np.ndarray:
+    """The quad filled with a coarse random texture (3 px blocks, dark to bright) on a mid-grey
+    background, 8x8 supersampled: its edges change polarity along their length."""
+    h, w, s = 140, 200, 8
+    ys, xs = np.mgrid[0 : h * s, 0 : w * s].astype(float)
+    cover = _inside((xs + 0.5) / s - 0.5, (ys + 0.5) / s - 0.5).reshape(h, s, w, s).mean((1, 3))
+    rng = np.random.default_rng(seed)
+    blocks = rng.uniform(30.0, 150.0, size=(h // 3 + 1, w // 3 + 1))
+    texture = np.kron(blocks, np.ones((3, 3)))[:h, :w]
+    return np.round(cover * texture + (1.0 - cover) * 170.0).astype(np.uint8)
+
+
+def _offsets(segs: np.ndarray) -> np.ndarray:
+    """Each segment's mean distance (px) from the quad edge nearest its middle."""
+    edges = [(CORNERS[i], CORNERS[(i + 1) % 4]) for i in range(4)]
+    out = []
+    for seg in segs:
+        p1, p2 = seg[:2], seg[2:]
+        d = [_distance_to_line((p1 + p2) / 2, a, b) for a, b in edges]
+        a, b = edges[int(np.argmin(d))]
+        out.append((_distance_to_line(p1, a, b) + _distance_to_line(p2, a, b)) / 2)
+    return np.array(out)
+
+
+def test_refinement_moves_segments_onto_textured_edges() -> None:
+    raw, refined = [], []
+    for seed in range(3):
+        img = _textured_quad(seed)
+        lsd = detect_segments(img, min_length_px=15, refine=False)
+        on_edge = _offsets(lsd) < 2.0  # the quad's edges, not the texture's
+        raw.append(_offsets(lsd[on_edge]))
+        refined.append(_offsets(refine_segments(img, lsd[on_edge])))
+    before, after = np.median(np.concatenate(raw)), np.median(np.concatenate(refined))
+    assert after < 0.25
+    assert after < 0.6 * before
+    # a clean edge: within a few hundredths
+    img, _ = _quad_image()
+    segs = detect_segments(img, min_length_px=30)
+    assert float(_offsets(segs).max()) < 0.05
 
 
 def test_left_and_right_follow_the_direction() -> None:
