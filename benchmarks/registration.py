@@ -21,7 +21,8 @@ turntable axis against the truth:
   turned by 10, 15, ..., 90 degrees) up to which every registration with no initial guess
   lands within 0.1 degrees of the truth.
 * ``rendered_max_error_deg``: views 85, 195, 265 registered from the rendered images' own
-  evidence (`aida-kb evidence`: line detector on both images, stereo regions), initial turn
+  evidence (`aida-kb evidence`: line detector on both images, stereo regions; each segment
+  moved onto its edge by `refine_segments`, as `aida-kb register` does), initial turn
   10 degrees off; ``rendered_relative_errors_deg``: Table 1 from them — the error of the
   relative rotation between consecutive views (85, 110, 70 degrees), and whether all three
   are within 0.02 degrees.
@@ -46,7 +47,7 @@ import cv2
 import numpy as np
 
 from aida_kb.geometry.camera import PinholeCamera
-from aida_kb.io.scene import read_scene
+from aida_kb.io.scene import read_image, read_scene
 from aida_kb.register import (
     Rig,
     RigidModel,
@@ -112,6 +113,7 @@ def _rendered_turns(
             evidence.views[k],
             init_angle_deg=a - GUESS_OFF_DEG,
             stereo=right_segments(blind, evidence.views[k].id),
+            image=read_image(blind.view(evidence.views[k].id).left, grey=True),
         )
         turns.append(reg.angle_deg)
         print(

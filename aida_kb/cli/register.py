@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.cli.evidence import check_max_disp
     from aida_kb.errors import FormatError
     from aida_kb.io.model import read_model
-    from aida_kb.io.scene import read_scene
+    from aida_kb.io.scene import read_image, read_scene
     from aida_kb.register import RigidModel
     from aida_kb.register.evidence import (
         camera_of,
@@ -118,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
         init_angle_deg=args.init_angle,
         use_regions=not args.no_regions,
         stereo=None if args.left_only else right_segments(scene, args.view),
+        image=read_image(scene.view(args.view).left, grey=True),
     )
     cam = reg.camera
     pose = cam.pose

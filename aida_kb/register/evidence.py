@@ -55,11 +55,21 @@ class ViewMeasurements:
     regions: RegionMeasurements
 
 
-def measurements_of(view: ViewEvidence) -> ViewMeasurements:
-    """Segments and region plane fits of an evidence view, in its left camera's terms."""
+def measurements_of(
+    view: ViewEvidence, image: npt.NDArray[np.uint8] | None = None
+) -> ViewMeasurements:
+    """Segments and region plane fits of an evidence view, in its left camera's terms.
+
+    With the view's left `image` (8-bit grey, as taken: the evidence's pixels), its segments
+    are first moved onto their edges (`aida_kb.vision.lines.refine_segments`).
+    """
     K = np.array(view.left.K, dtype=np.float64)
     D = np.array(view.left.D, dtype=np.float64)
     ends = np.array([[s.p1, s.p2] for s in view.lines], dtype=np.float64).reshape(-1, 2, 2)
+    if image is not None:
+        from aida_kb.vision.lines import refine_segments
+
+        ends = refine_segments(image, ends.reshape(-1, 4)).reshape(-1, 2, 2)
     flat = undistort_pixels(ends.reshape(-1, 2), K, D).reshape(-1, 2, 2)
     R = np.array(view.left.R, dtype=np.float64)
     t = np.array(view.left.t, dtype=np.float64)
@@ -76,13 +86,14 @@ def right_segments(scene: Scene, view_id: str) -> StereoSegments:
     """The line segments of a view's right image (undistorted with D2) and the rig's camera.
 
     The evidence file holds the left image's segments only; the right image's are detected
-    here with the same detector (`aida_kb.vision.lines.detect_segments`).
+    here with the same detector (`aida_kb.vision.lines.detect_segments`), each moved onto its
+    edge (``refine``).
     """
     from aida_kb.vision.lines import detect_segments
 
     calib = scene.view(view_id).rig
     grey = read_image(scene.view(view_id).right, grey=True)
-    seg = detect_segments(grey)
+    seg = detect_segments(grey, refine=True)
     K2 = np.asarray(calib.K2, dtype=np.float64)
     D2 = np.asarray(calib.D2, dtype=np.float64).ravel()
     ends = undistort_pixels(seg.reshape(-1, 2), K2, D2).reshape(-1, 2, 2)
@@ -158,14 +169,17 @@ def register_evidence_view(
     use_regions: bool = True,
     stereo: StereoSegments | None = None,
     options: RegistrationOptions | None = None,
+    image: npt.NDArray[np.uint8] | None = None,
 ) -> Registration:
     """Register an evidence view (its segments and, if asked, its regions) against `model`.
 
     `stereo`: the segments of the view's right image (`right_segments`), used as well.
+    `image`: the view's left image (8-bit grey): its segments are moved onto their edges
+    first (`measurements_of`).
 
     Raises SolveError naming the view when it cannot be registered.
     """
-    m = measurements_of(view)
+    m = measurements_of(view, image)
     try:
         return register_view(
             model,
