@@ -112,3 +112,34 @@ def test_a_wing_closes_on_the_floor_and_an_oriel_on_the_wall() -> None:
     # nothing to close: a part already faces that way, or no attachment
     assert closing_faces("body.oriels[0]", oriel, frame, fixed, on_floor, concepts) == []
     assert closing_faces("body.wings[0]", wing, frame, fixed, None, concepts) == []
+
+
+def test_four_planes_that_miss_a_common_apex_are_refused() -> None:
+    """A pyramid on a 10 m square: four roof planes meet at the apex. Moved 1 m, one plane
+    misses the others' point by far more than rounding: the solid is refused naming the four
+    faces (before: a model part 1-2.4 m off its plane ended the run in a FormatError)."""
+    s = 1.0 / np.sqrt(2.0)
+    slopes = {
+        "r_south": np.array([0.0, -s, -s]),  # up is -y; the apex above (5, -5, 5)
+        "r_east": np.array([s, -s, 0.0]),
+        "r_north": np.array([0.0, -s, s]),
+        "r_west": np.array([-s, -s, 0.0]),
+    }
+    apex = np.array([5.0, -5.0, 5.0])
+    ring = ["r_south", "r_east", "r_north", "r_west"]
+    adjacency = [(a, b) for a, b in zip(ring, ring[1:] + ring[:1], strict=True)]
+    adjacency += [(r, "floor") for r in ring]
+
+    def faces(shift: float) -> list[tuple[str, np.ndarray, float]]:
+        out = [
+            (r, n, float(n @ apex) + (shift if r == "r_east" else 0.0)) for r, n in slopes.items()
+        ]
+        return [*out, ("floor", -UP, 0.0)]
+
+    closed = close(faces(0.0), adjacency)
+    assert np.allclose(closed["r_south"].max(axis=0)[2], 5.0)
+    # a centimetre off (rounding of a fit): the planes are moved until they meet
+    assert len(close(faces(0.01), adjacency)["r_east"]) == 3
+    with pytest.raises(GeometryError, match=r"do not meet in one point \(0\.2\d m apart\)") as err:
+        close(faces(1.0), adjacency)
+    assert all(r in str(err.value) for r in ring)  # the four faces named
