@@ -15,7 +15,9 @@ nothing_rate (nothing found), error_rate, the correct rate per kind, nothing fou
 scenes without a house, and the count of each failure cause.
 
 Run: ``.venv/bin/python benchmarks/robustness.py [--count 100] [--start 10000] [--jobs 1]``
-(about half a minute per scene on one core).
+(about half a minute per scene on one core). ``--keep DIR`` keeps every scene and result in
+DIR; ``--rejudge DIR`` judges the kept results again with the current verdict (no rendering,
+no reconstruction: seconds each) and reports the seeds of the range found there.
 """
 
 from __future__ import annotations
@@ -28,18 +30,35 @@ from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from aida_kb.interpret.robustness import SceneOutcome, run_random_scene
+from aida_kb.interpret.robustness import SceneOutcome, rejudge_scene, run_random_scene
 from aida_kb.kb import compile_path
 
 KB = Path(__file__).resolve().parents[1] / "kb" / "buildings.kb"
 
 
-def _one(args: tuple[int, int, int]) -> SceneOutcome:
-    seed, max_views, max_width = args
+def _one(args: tuple[int, int, int, str]) -> SceneOutcome:
+    seed, max_views, max_width, keep = args
     result = compile_path(KB)
     assert result.kb is not None
+    if keep:
+        return run_random_scene(result.kb, seed, keep, max_views=max_views, max_width=max_width)
     with tempfile.TemporaryDirectory(prefix="aida-robust-") as tmp:
         return run_random_scene(result.kb, seed, tmp, max_views=max_views, max_width=max_width)
+
+
+def _rejudged(folder: str, seeds: range) -> list[SceneOutcome]:
+    result = compile_path(KB)
+    assert result.kb is not None
+    rows = [rejudge_scene(result.kb, s, folder) for s in seeds]
+    return [r for r in rows if r is not None]
+
+
+def _line(r: SceneOutcome) -> str:
+    return (
+        f"seed {r.seed} {r.kind:<17} labels={int(r.labels)} views={r.views} "
+        f"{r.outcome:<8} {'correct' if r.correct else 'WRONG ' + r.cause} "
+        f"({r.seconds:.0f} s) {json.dumps(r.figures)}"
+    )
 
 
 def _rates(rows: list[SceneOutcome]) -> dict[str, object]:
@@ -77,24 +96,29 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     ap.add_argument("--max-views", type=int, default=8, help="cap on the views (default 8)")
     ap.add_argument("--max-width", type=int, default=800, help="cap on image width (800)")
+    ap.add_argument("--keep", default="", help="keep scenes and results in this folder")
+    ap.add_argument("--rejudge", default="", help="judge the results kept in this folder again")
     args = ap.parse_args()
-    seeds = [
-        (s, args.max_views, args.max_width) for s in range(args.start, args.start + args.count)
-    ]
     rows: list[SceneOutcome] = []
-    with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        for r in pool.map(_one, seeds):
-            rows.append(r)
-            print(
-                f"seed {r.seed} {r.kind:<17} labels={int(r.labels)} views={r.views} "
-                f"{r.outcome:<8} {'correct' if r.correct else 'WRONG ' + r.cause} "
-                f"({r.seconds:.0f} s) {json.dumps(r.figures)}",
-                file=sys.stderr,
-                flush=True,
-            )
+    if args.rejudge:
+        rows = _rejudged(args.rejudge, range(args.start, args.start + args.count))
+        for r in rows:
+            print(_line(r), file=sys.stderr, flush=True)
+    else:
+        if args.keep:
+            Path(args.keep).mkdir(parents=True, exist_ok=True)
+        seeds = [
+            (s, args.max_views, args.max_width, args.keep)
+            for s in range(args.start, args.start + args.count)
+        ]
+        with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            for r in pool.map(_one, seeds):
+                rows.append(r)
+                print(_line(r), file=sys.stderr, flush=True)
     summary = {
         "benchmark": "robustness",
         "seeds": f"{args.start}..{args.start + args.count - 1}",
+        "rejudged": bool(args.rejudge),
         "max_views": args.max_views,
         "max_width": args.max_width,
         "all": _rates(rows),

@@ -4,6 +4,11 @@
 exactly as `aida-kb reconstruct` does and judges the result with
 `aida_kb.interpret.evaluate.evaluate`. `benchmarks/robustness.py` aggregates many seeds;
 a test runs a few small ones so that a regression shows in `make test`.
+
+The verdict (`aida_kb.interpret.verdict.judge`) only reads the interpretation and the
+evidence, so a kept scene can be judged again without reconstructing it: `rejudge_scene`
+reads ``scene-SEED`` and ``out-SEED`` (or ``error-SEED.txt``) from the folder
+`run_random_scene` wrote them to.
 """
 
 from __future__ import annotations
@@ -16,6 +21,9 @@ from typing import TYPE_CHECKING
 from aida_kb.errors import AidaError
 from aida_kb.interpret.evaluate import evaluate
 from aida_kb.interpret.pipeline import reconstruct_scene
+from aida_kb.interpret.result import read_interpretation
+from aida_kb.interpret.verdict import judge, with_verdict
+from aida_kb.io.evidence import read_evidence
 from aida_kb.io.scene import read_scene
 from aida_kb.synth.randomised import random_scene
 from aida_kb.synth.scenes import render_scene
@@ -57,7 +65,8 @@ def run_random_scene(
     """Render seed's random scene into `workdir`, reconstruct it and judge the result.
 
     An error of the pipeline (an `AidaError`: bad evidence, a degenerate solve) is an
-    outcome of its own ('error'), with its message as the cause.
+    outcome of its own ('error'), with its message as the cause (also written to
+    ``error-SEED.txt`` in `workdir`, for `rejudge_scene`).
     """
     spec = random_scene(seed, max_views=max_views, max_width=max_width)
     scene_dir, out_dir = Path(workdir) / f"scene-{seed}", Path(workdir) / f"out-{seed}"
@@ -68,6 +77,7 @@ def run_random_scene(
         result = reconstruct_scene(kb, scene_dir, out_dir, goal=goal)
     except AidaError as exc:
         seconds = time.perf_counter() - start
+        (Path(workdir) / f"error-{seed}.txt").write_text(f"{type(exc).__name__}: {exc}\n")
         return SceneOutcome(
             seed,
             kind,
@@ -92,5 +102,52 @@ def run_random_scene(
         judged.correct,
         judged.cause,
         seconds,
+        judged.summary(),
+    )
+
+
+def rejudge_scene(kb: KnowledgeBase, seed: int, workdir: str | Path) -> SceneOutcome | None:
+    """Seed's scene as `run_random_scene` left it in `workdir`, judged again with the current
+    verdict (`judge` on the kept interpretation and evidence) and evaluated against its truth.
+
+    None when the folder holds neither a result nor an error of that seed. The kind, the
+    labels and the views are read from the scene's truth and files; seconds are 0.
+    """
+    scene_dir, out_dir = Path(workdir) / f"scene-{seed}", Path(workdir) / f"out-{seed}"
+    error = Path(workdir) / f"error-{seed}.txt"
+    if not (scene_dir / "truth.json").is_file():
+        return None
+    scene = read_scene(scene_dir)
+    truth = scene.truth
+    assert truth is not None  # checked above
+    kind = str(truth.parameters.get("kind", truth.object))
+    labels = any(v.labels is not None for v in scene.views)
+    if error.is_file():
+        name, _, message = error.read_text().strip().partition(": ")
+        return SceneOutcome(
+            seed,
+            kind,
+            labels,
+            len(scene.views),
+            "error",
+            False,
+            f"error: {name}",
+            0.0,
+            {"message": message},
+        )
+    if not (out_dir / "interpretation.json").is_file():
+        return None
+    interp = read_interpretation(out_dir / "interpretation.json")
+    interp = with_verdict(interp, judge(kb, interp, read_evidence(out_dir / "evidence.json")))
+    judged = evaluate(interp, truth)
+    return SceneOutcome(
+        seed,
+        kind,
+        labels,
+        len(scene.views),
+        judged.outcome,
+        judged.correct,
+        judged.cause,
+        0.0,
         judged.summary(),
     )
