@@ -16,22 +16,33 @@ is **verified** only when it also
     meets) or on a face at another orientation. A region in front of the model may be
     something standing before it (a tree) and counts neither way;
 (c) agrees with every registered view: the same test in each view, at the camera the
-    reconstruction gave it; a view that does not explain its evidence is named;
+    reconstruction gave it; a view that does not explain its evidence is named, and so is a
+    view where the model covers none of its regions or shows none of its edges (nothing
+    there confirms the camera: a registration 100 degrees off passes every test for want
+    of evidence);
 (d) meets the knowledge's attribute ranges: every attribute of an instantiated concept that
     stands for a geometric measure (`is slope(self)`, `height(self)`, ...; docs/language.md
     3.10) is measured on the model and must lie in its range; and every part the knowledge
     orients at a fixed slope (`orient top: upward`, 3.9) has it. "Up" is the direction of a
-    part the knowledge orients upward or downward (the floor).
+    part the knowledge orients upward or downward (the floor);
+(e) measures every part it inserted from knowledge: a region of some view lies on it, some
+    view sees one of its edges (segments along half its length), or the outline of a region
+    on the model reaches its plane inside its face. A part nothing measures is where the
+    knowledge's placement put it (a back wall mirrored about the ridge: the depth of the
+    house a guess), not where the scene has it.
 
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
-where. An interpretation that found no object is **nothing**. Everything is read from the
+where. An interpretation that found no object is **nothing**; so is one whose sizes (the
+attributes in metres) lie outside the knowledge's ranges: what was found is not the goal (a
+0.3 m box is no house), and the reasons say which sizes. Everything is read from the
 compiled knowledge base and the files: no concept or attribute of a particular .kb is named.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -40,6 +51,9 @@ from aida_kb.interpret.result import INSERTED, Instance, Interpretation
 from aida_kb.io.evidence import Evidence, ViewEvidence
 from aida_kb.io.model import ReconstructedModel
 from aida_kb.kb.model import AttributeModel, KnowledgeBase, MeasureKind
+
+if TYPE_CHECKING:
+    from aida_kb.register.model import RigidModel, VisibleEdges
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -58,6 +72,7 @@ STANDING_OUT_MAX = 0.15  # a parallel region this share of the model's size in f
 # face stands out of it (a part the model lacks), further away it may be an occluder
 ORIENTATION_TOLERANCE_DEG = 4.0  # a part the knowledge orients (a flat roof's top upward)
 # lies within 4 degrees of that slope (a shed roof of 8-25 degrees is no flat roof)
+SIZE_UNIT = "m"  # attributes of this unit are sizes: outside their ranges the object is another
 RANGE_SLACK_REL = 1e-3  # measured attributes: a range is met within this relative slack
 
 
@@ -66,6 +81,8 @@ EDGE_TOLERANCE_PX = 3.0  # a segment shows a projected model edge within 3 px (a
 EDGE_ANGLE_DEG = 4.0  # ... and within 4 degrees of its direction
 EDGE_MIN_LENGTH_PX = 25.0  # only projected edges at least this long are checked
 SEEN_EDGE_COVER_MIN = 0.4  # edges between two parts bound to the evidence: at least this share
+OUTLINE_TOLERANCE_PX = 4.0  # a region's outline reaches a plane within 4 px of it
+EDGE_SEEN_SHARE = 0.5  # an edge is seen in a view when segments lie along half its length
 EDGE_COVER_MIN = 0.25  # at least this share of the visible edges' length is seen as segments
 # (edges between faces of like brightness or under an occluder show no segment)
 
@@ -81,6 +98,8 @@ class ViewCheck:
     explained_weight: float
     contradicting: list[tuple[int, float, str]]  # (region id, weight share, why)
     edge_cover: float | None = None
+    explained_on: dict[str, float] = field(default_factory=dict)  # part role -> weight on it
+    explained_ids: tuple[int, ...] = ()  # the regions on a model face
 
     @property
     def explained_share(self) -> float:
@@ -157,15 +176,19 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
     cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
     m = len(regions)
     explained = np.zeros(m, bool)
+    on_face: dict[str, float] = {}
     nearest = np.full(m, np.inf)  # ray parameter of the first model face the ray meets
     nearest_cos = np.zeros(m)  # |cos| between the region's normal and that face's
-    for _, n, d, poly in _faces(model):
+    for role, n, d, poly in _faces(model):
         # (1) the region lies on this face
         on_plane = np.abs(centres @ n - d) <= tol
         aligned = np.abs(normals @ n) >= cos_tol
         cand = on_plane & aligned
         if cand.any():
-            explained[cand] |= _inside_polygon(centres[cand], poly, n)
+            on = np.zeros(m, bool)
+            on[cand] = _inside_polygon(centres[cand], poly, n)
+            explained |= on
+            on_face[role] = float(weights[on & keep].sum())
         # (2) where the ray through the region's centre meets this face
         denom = rays @ n
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -208,16 +231,18 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
         float(weights[counted & explained].sum()),
         contradicting,
         edge_cover(view, model),
+        on_face,
+        tuple(int(regions[i].id) for i in np.nonzero(counted & explained)[0]),
     )
 
 
-def edge_cover(
-    view: ViewEvidence, model: ReconstructedModel, between: frozenset[str] | None = None
-) -> float | None:
-    """The share of the projected length of the model edges the view's camera sees that
-    image segments lie on (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG); None: no edge to
-    check or no camera. Segments are undistorted with the view's distortion first.
-    between : only the edges both of whose parts are in this set of roles."""
+def _edge_coverage(
+    view: ViewEvidence, model: ReconstructedModel
+) -> tuple[RigidModel, VisibleEdges, FloatArray] | None:
+    """The model edges the view's camera sees (at least EDGE_MIN_LENGTH_PX long) and the
+    length of each, pixels, that image segments lie on (within EDGE_TOLERANCE_PX and
+    EDGE_ANGLE_DEG; segments undistorted with the view's distortion first). None: no camera
+    or no segments."""
     from aida_kb.register.evidence import camera_of, measurements_of
     from aida_kb.register.match import match_segments
     from aida_kb.register.model import RigidModel
@@ -227,12 +252,9 @@ def edge_cover(
         return None
     rigid = RigidModel.from_model(model)
     edges = rigid.visible_edges(camera_of(camera), min_length_px=EDGE_MIN_LENGTH_PX)
-    if between is not None:
-        names = np.array([n in between for n in rigid.names])
-        sel = names[rigid.edge_faces[edges.index]].all(axis=1)
-        edges = type(edges)(edges.index[sel], edges.a[sel], edges.b[sel], edges.length_px[sel])
+    covered = np.zeros(edges.index.size)
     if edges.index.size == 0:
-        return None
+        return rigid, edges, covered
     meas = measurements_of(view)
     matches = match_segments(
         edges.a,
@@ -243,7 +265,7 @@ def edge_cover(
         max_angle_rad=math.radians(EDGE_ANGLE_DEG),
     )
     if matches.size == 0:
-        return 0.0
+        return rigid, edges, covered
     a, b = edges.a[matches.edge], edges.b[matches.edge]
     length = edges.length_px[matches.edge]
     u = (b - a) / np.maximum(length, 1e-12)[:, None]
@@ -251,10 +273,129 @@ def edge_cover(
     t2 = np.einsum("mk,mk->m", meas.p2[matches.segment] - a, u)
     lo = np.clip(np.minimum(t1, t2), 0.0, length)
     hi = np.clip(np.maximum(t1, t2), 0.0, length)
-    covered = np.zeros(edges.index.size)
     np.add.at(covered, matches.edge, hi - lo)  # pieces of one edge rarely overlap
-    covered = np.minimum(covered, edges.length_px)
-    return float(covered.sum() / edges.length_px.sum())
+    return rigid, edges, np.minimum(covered, edges.length_px)
+
+
+def edge_cover(
+    view: ViewEvidence, model: ReconstructedModel, between: frozenset[str] | None = None
+) -> float | None:
+    """The share of the projected length of the model edges the view's camera sees that
+    image segments lie on (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG); None: no edge to
+    check or no camera. Segments are undistorted with the view's distortion first.
+    between : only the edges both of whose parts are in this set of roles."""
+    found = _edge_coverage(view, model)
+    if found is None:
+        return None
+    rigid, edges, covered = found
+    sel: npt.NDArray[np.bool_] = np.ones(edges.index.size, bool)
+    if between is not None:
+        names = np.array([n in between for n in rigid.names])
+        sel = np.asarray(names[rigid.edge_faces[edges.index]].all(axis=1), dtype=bool)
+    if not sel.any():
+        return None
+    return float(covered[sel].sum() / edges.length_px[sel].sum())
+
+
+def seen_edges(evidence: Evidence, model: ReconstructedModel) -> dict[str, int]:
+    """Part role -> how many of its edges some view sees: image segments lie along at least
+    EDGE_SEEN_SHARE of the edge's visible projected length in that view (edges of the model's
+    `RigidModel`, each counted once over all views)."""
+    seen: set[int] = set()
+    rigid = None
+    for view in evidence.views:
+        found = _edge_coverage(view, model)
+        if found is None:
+            continue
+        rigid, edges, covered = found
+        ok = covered >= EDGE_SEEN_SHARE * edges.length_px
+        seen.update(int(i) for i in edges.index[ok])
+    if rigid is None:
+        return {}
+    counts = {name: 0 for name in rigid.names}
+    for i in seen:
+        for f in rigid.edge_faces[i]:
+            counts[rigid.names[int(f)]] += 1
+    return counts
+
+
+def outline_points(
+    view: ViewEvidence, region_ids: tuple[int, ...], model: ReconstructedModel
+) -> tuple[FloatArray, FloatArray]:
+    """The outlines of the view's regions `region_ids` on their fitted planes: points (K, 3),
+    metres, world frame, and each one's tolerance (K,), metres: OUTLINE_TOLERANCE_PX at its
+    distance from the camera (outlines of segmented regions are good to a few pixels; lens
+    distortion is left out, as it moves them by less). Empty without the view's camera."""
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    wanted = set(region_ids)
+    planes = {r.id: r for r in view.regions if r.id in wanted}
+    contours = [c for c in view.contours if c.region in planes and not c.hole]
+    if camera is None or not contours:
+        return np.zeros((0, 3)), np.zeros(0)
+    K = np.asarray(view.left.K, dtype=np.float64)
+    R_cam_frame = np.asarray(view.left.R, dtype=np.float64)
+    t_cam_frame = np.asarray(view.left.t, dtype=np.float64)
+    out, tol = [], []
+    for c in contours:
+        r = planes[c.region]
+        px = np.asarray(c.points, dtype=np.float64)
+        rays = np.linalg.solve(K, np.vstack([px.T, np.ones(len(px))])).T  # (N, 3) camera frame
+        n_cam = R_cam_frame @ np.asarray(r.n_init, dtype=np.float64)
+        d_cam = float(r.d_init) + float(n_cam @ t_cam_frame)
+        denom = rays @ n_cam
+        ok = np.abs(denom) > 1e-9
+        x_cam = rays[ok] * (d_cam / denom[ok])[:, None]
+        x_frame = (x_cam - t_cam_frame) @ R_cam_frame
+        if view.frame == "camera":  # this view's own left camera -> world, as in check_view
+            R = np.asarray(camera.R, dtype=np.float64)
+            t = np.asarray(camera.t, dtype=np.float64)
+            x_frame = (x_frame - t) @ R
+        out.append(x_frame)
+        tol.append(OUTLINE_TOLERANCE_PX * x_cam[:, 2] / float(K[0, 0]))
+    return np.vstack(out), np.concatenate(tol)
+
+
+def unmeasured_parts(
+    interp: Interpretation, evidence: Evidence, checks: tuple[ViewCheck, ...]
+) -> list[str]:
+    """The parts inserted from knowledge whose place no evidence measures (reasons): no
+    region of any view lies on them, no view sees one of their edges, and no outline of a
+    region on the model reaches their plane (within its tolerance) inside their face. Such a
+    part is where the knowledge's placement put it (a back wall mirrored about the ridge, a
+    wing's end reaching into the body), not where the scene has it."""
+    model = interp.model
+    if model is None:
+        return []
+    inserted = {i.role for i in interp.instances if INSERTED in i.bindings}
+    if not inserted:
+        return []
+    by_view = {c.view: c for c in checks}
+    pts, tols = [], []
+    for view in evidence.views:
+        check = by_view.get(view.id)
+        if check is not None and check.explained_ids:
+            p, t = outline_points(view, check.explained_ids, model)
+            pts.append(p)
+            tols.append(t)
+    points = np.vstack(pts) if pts else np.zeros((0, 3))
+    tol = np.concatenate(tols) if tols else np.zeros(0)
+    edges = seen_edges(evidence, model)
+    reasons = []
+    for part in model.parts:
+        if part.role not in inserted:
+            continue
+        if sum(c.explained_on.get(part.role, 0.0) for c in checks) > 0 or edges.get(part.role):
+            continue
+        n = np.asarray(part.normal, dtype=np.float64)
+        poly = np.asarray(part.polygon, dtype=np.float64)
+        near = np.abs(points @ n - part.offset_m) <= tol
+        if near.any() and _inside_polygon(points[near], poly, n).any():
+            continue
+        reasons.append(
+            f"{part.role} is placed by the knowledge alone: no region lies on it, no view "
+            "sees its edges, no outline of a region on the model reaches it"
+        )
+    return reasons
 
 
 # ---- (d) measured attributes ------------------------------------------------------------
@@ -399,11 +540,14 @@ def measured_attributes(
 
 
 def check_attributes(
-    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel
+    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel, *, unit: str = ""
 ) -> list[str]:
-    """Check (d): every measured attribute of every instance inside its range (reasons)."""
+    """Check (d): every measured attribute of every instance inside its range (reasons).
+    unit : only the attributes of this unit ('m': the sizes); '' all."""
     reasons = []
     for inst, attr, value in measured_attributes(kb, interp, model):
+        if unit and attr.unit != unit:
+            continue
         if attr.low is None and attr.high is None:
             continue
         low = -math.inf if attr.low is None else attr.low
@@ -454,12 +598,23 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
     # (b), (c) every view's evidence explained
     checks = []
     not_explained = []
+    cameras = {c.view for c in model.cameras}
     for view in evidence.views:
         check = check_view(view, model)
         if check is None:
+            if view.id in cameras:  # a camera, but none of its regions has a plane
+                not_explained.append(view.id)
+                reasons.append(f"view {view.id}: no region of it has a plane to check the model by")
             continue
         checks.append(check)
         problems = []
+        # the model, seen by the camera the reconstruction gave this view, covers none of its
+        # regions or shows none of its edges: nothing confirms that camera (a registration
+        # 100 degrees off lands here; every check below would pass for want of evidence)
+        if check.inside_weight <= 0:
+            problems.append("covers none of its regions")
+        if check.edge_cover is None and view.lines:
+            problems.append(f"shows no edge of at least {EDGE_MIN_LENGTH_PX:g} px")
         if check.explained_share < EXPLAINED_MIN:
             problems.append(
                 f"explains {100 * check.explained_share:.0f}% of the region weight inside "
@@ -487,6 +642,13 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
             f"view {reference.id}: the edges between the parts bound to its evidence are seen "
             f"along {100 * seen:.0f}% of their length (at least {100 * SEEN_EDGE_COVER_MIN:.0f}%)"
         )
+    # an object whose sizes the knowledge's ranges exclude is not the goal at all (a 0.3 m
+    # box, a chessboard on a stand): nothing is found, and the sizes say why
+    sizes = check_attributes(kb, interp, model, unit=SIZE_UNIT)
+    if sizes:
+        return Verdict(NOTHING, tuple(sizes), tuple(not_explained), tuple(checks))
+    # (e) every part inserted from knowledge is measured by some evidence
+    reasons += unmeasured_parts(interp, evidence, tuple(checks))
     # (d) the knowledge's measured attributes
     reasons += check_attributes(kb, interp, model)
     reasons += check_orientations(kb, interp, model)
@@ -499,6 +661,8 @@ def with_verdict(interp: Interpretation, verdict: Verdict) -> Interpretation:
     message = interp.message
     if verdict.verdict == DOUBTFUL:
         message = f"{interp.goal} doubtful: {'; '.join(verdict.reasons)} (was: {message})"
+    elif verdict.verdict == NOTHING and verdict.reasons:
+        message = f"no {interp.goal} found: {'; '.join(verdict.reasons)} (was: {message})"
     return interp.model_copy(
         update={"verdict": verdict.verdict, "doubts": list(verdict.reasons), "message": message}
     )

@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 
 from aida_kb.interpret.result import Interpretation
-from aida_kb.interpret.verdict import DOUBTFUL, NOTHING, VERIFIED, judge, with_verdict
+from aida_kb.interpret.verdict import (
+    DOUBTFUL,
+    NOTHING,
+    VERIFIED,
+    judge,
+    unmeasured_parts,
+    with_verdict,
+)
 from aida_kb.io.evidence import Evidence, read_evidence
 from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 from aida_kb.kb.model import KnowledgeBase
@@ -115,17 +122,55 @@ def test_a_camera_half_a_metre_off_does_not_explain_the_edges(
     assert any("edges are seen along" in r for r in verdict.reasons)
 
 
-def test_a_doll_house_breaks_the_measured_attribute_ranges(
+def test_a_camera_turned_away_from_the_model_confirms_nothing(
     buildings_kb: KnowledgeBase, interpreted: Get
 ) -> None:
+    # a registration far off (112 deg in a random scene) leaves the model outside the view:
+    # no edge to check (and, in a view of its own frame, no region) — nothing confirms it
+    interp = interpreted("house_correct.json")
+    assert interp.model is not None
+    cam = interp.model.cameras[0]
+    c, s = np.cos(np.radians(150.0)), np.sin(np.radians(150.0))
+    R = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]) @ np.asarray(cam.R)
+    turned = cam.model_copy(update={"R": tuple(tuple(float(x) for x in row) for row in R)})
+    model = interp.model.model_copy(update={"cameras": [turned]})
+    verdict = judge(
+        buildings_kb, interp.model_copy(update={"model": model}), _evidence("house_correct.json")
+    )
+    assert verdict.verdict == DOUBTFUL
+    assert verdict.views_not_explained == ("00",)
+    assert "shows no edge of at least 25 px" in verdict.reasons[0]
+
+
+def test_a_part_no_evidence_measures_is_named(
+    buildings_kb: KnowledgeBase, interpreted: Get
+) -> None:
+    # the house's back, right wall and floor are inserted from knowledge; with the view's
+    # segments they are measured (edges seen), without them nothing says where they are
+    interp = interpreted("house_correct.json")
+    evidence = _evidence("house_correct.json")
+    assert unmeasured_parts(interp, evidence, judge(buildings_kb, interp, evidence).checks) == []
+    blind = evidence.model_copy(
+        update={"views": [evidence.views[0].model_copy(update={"lines": [], "contours": []})]}
+    )
+    verdict = judge(buildings_kb, interp, blind)
+    assert verdict.verdict == DOUBTFUL
+    named = [r.split(" ")[0] for r in verdict.reasons if "placed by the knowledge alone" in r]
+    assert named == ["body.back", "body.right", "body.floor"]
+
+
+def test_a_doll_house_is_no_house(buildings_kb: KnowledgeBase, interpreted: Get) -> None:
+    # sizes outside the knowledge's ranges: what was found is not the goal, nothing is found
     interp = interpreted("house_correct.json")
     assert interp.model is not None
     tiny = interp.model_copy(update={"model": _moved(interp.model, 0.03, (0.0, 0.0, 0.0))})
     verdict = judge(buildings_kb, tiny, _evidence("house_correct.json"))
-    assert verdict.verdict == DOUBTFUL
+    assert verdict.verdict == NOTHING
     ranges = [r for r in verdict.reasons if "outside [" in r]
-    assert ranges  # read from the compiled knowledge: the walls' measured height
-    assert any(" m outside [2, 30]" in r for r in ranges)
+    assert ranges == list(verdict.reasons)  # only the sizes, read from the compiled knowledge
+    assert any(" m outside [2, 30]" in r for r in ranges)  # the walls' measured height
+    judged = with_verdict(tiny, verdict)
+    assert judged.message.startswith("no House found: body")
 
 
 @pytest.mark.parametrize("status", [("verified", 0), ("doubtful", 3), ("nothing", 4)])
