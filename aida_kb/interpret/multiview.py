@@ -50,6 +50,7 @@ from aida_kb.errors import GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.polyhedron import Polyhedron
 from aida_kb.geometry.rig import Rig
+from aida_kb.interpret.closure import check_concurrent
 from aida_kb.interpret.result import Interpretation
 from aida_kb.interpret.run import interpret
 from aida_kb.io.evidence import Evidence
