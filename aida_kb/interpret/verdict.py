@@ -25,11 +25,13 @@ is **verified** only when it also
     3.10) is measured on the model and must lie in its range; and every part the knowledge
     orients at a fixed slope (`orient top: upward`, 3.9) has it. "Up" is the direction of a
     part the knowledge orients upward or downward (the floor);
-(e) measures every part it inserted from knowledge: a region of some view lies on it, some
-    view sees one of its edges (segments along half its length), or the outline of a region
-    on the model reaches its plane inside its face. A part nothing measures is where the
-    knowledge's placement put it (a back wall mirrored about the ridge: the depth of the
-    house a guess), not where the scene has it.
+(e) measures every part it inserted from knowledge: a region of some view lies on it, the
+    outlines of regions on the model reach its plane over an area inside its face, or two
+    of its edges are measured — seen (segments along half the edge) in two views, or in one
+    view along a neighbour a region measures. A part not measured is where the knowledge's
+    placement put it (a back wall mirrored about the ridge: the house's depth a guess; a
+    roof's hidden back as steep as its front: a shed taken for a gable; a floor square to
+    the walls), not where the scene has it.
 
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
 where. An interpretation that found no object is **nothing**; so is one whose sizes (the
@@ -56,6 +58,7 @@ if TYPE_CHECKING:
     from aida_kb.register.model import RigidModel, VisibleEdges
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 VERIFIED, DOUBTFUL, NOTHING = "verified", "doubtful", "nothing"
 
@@ -82,6 +85,8 @@ EDGE_ANGLE_DEG = 4.0  # ... and within 4 degrees of its direction
 EDGE_MIN_LENGTH_PX = 25.0  # only projected edges at least this long are checked
 SEEN_EDGE_COVER_MIN = 0.4  # edges between two parts bound to the evidence: at least this share
 OUTLINE_TOLERANCE_PX = 4.0  # a region's outline reaches a plane within 4 px of it
+OUTLINE_AREA_RATIO = 0.2  # outlines reaching a plane spread over an area, not along a line
+MEASURED_LINES = 2  # a plane through two measured lines (not one) is measured
 EDGE_SEEN_SHARE = 0.5  # an edge is seen in a view when segments lie along half its length
 EDGE_COVER_MIN = 0.25  # at least this share of the visible edges' length is seen as segments
 # (edges between faces of like brightness or under an occluder show no segment)
@@ -297,26 +302,25 @@ def edge_cover(
     return float(covered[sel].sum() / edges.length_px[sel].sum())
 
 
-def seen_edges(evidence: Evidence, model: ReconstructedModel) -> dict[str, int]:
-    """Part role -> how many of its edges some view sees: image segments lie along at least
-    EDGE_SEEN_SHARE of the edge's visible projected length in that view (edges of the model's
-    `RigidModel`, each counted once over all views)."""
-    seen: set[int] = set()
-    rigid = None
+def seen_edges(
+    evidence: Evidence, model: ReconstructedModel
+) -> tuple[tuple[str, ...], IntArray, list[set[str]]]:
+    """Which view sees which model edge: image segments lie along at least EDGE_SEEN_SHARE
+    of the edge's visible projected length in that view. Returns the part names, the
+    edges' two parts (E, 2) (indices into the names; the model's `RigidModel` edges) and,
+    per edge, the ids of the views that see it."""
+    from aida_kb.register.model import RigidModel
+
+    rigid = RigidModel.from_model(model)
+    views: list[set[str]] = [set() for _ in range(len(rigid.edge_faces))]
     for view in evidence.views:
         found = _edge_coverage(view, model)
         if found is None:
             continue
-        rigid, edges, covered = found
-        ok = covered >= EDGE_SEEN_SHARE * edges.length_px
-        seen.update(int(i) for i in edges.index[ok])
-    if rigid is None:
-        return {}
-    counts = {name: 0 for name in rigid.names}
-    for i in seen:
-        for f in rigid.edge_faces[i]:
-            counts[rigid.names[int(f)]] += 1
-    return counts
+        _, edges, covered = found
+        for i in edges.index[covered >= EDGE_SEEN_SHARE * edges.length_px]:
+            views[int(i)].add(view.id)
+    return rigid.names, np.asarray(rigid.edge_faces, dtype=np.int64), views
 
 
 def outline_points(
@@ -355,14 +359,30 @@ def outline_points(
     return np.vstack(out), np.concatenate(tol)
 
 
+def _spread(points: FloatArray) -> int:
+    """0, 1 or 2: points (K, 3) are none, spread along a line, or over an area (the second
+    principal extent at least OUTLINE_AREA_RATIO of the first)."""
+    if len(points) < 2:
+        return len(points)
+    centred = points - points.mean(axis=0)
+    sv = np.linalg.svd(centred, compute_uv=False)
+    return 2 if sv[1] >= OUTLINE_AREA_RATIO * sv[0] else 1
+
+
 def unmeasured_parts(
     interp: Interpretation, evidence: Evidence, checks: tuple[ViewCheck, ...]
 ) -> list[str]:
-    """The parts inserted from knowledge whose place no evidence measures (reasons): no
-    region of any view lies on them, no view sees one of their edges, and no outline of a
-    region on the model reaches their plane (within its tolerance) inside their face. Such a
-    part is where the knowledge's placement put it (a back wall mirrored about the ridge, a
-    wing's end reaching into the body), not where the scene has it."""
+    """The parts inserted from knowledge whose plane the evidence does not measure (reasons).
+
+    A plane has three unknowns. A region on the part (in any view) measures all three; so
+    do the outlines of regions on the model that reach the part's plane inside its face
+    over an area. Otherwise the part needs two measured edges: seen in two views
+    (triangulated), or in one view along a neighbour a region measures (the image line
+    fixes the edge on that plane). An outline reaching it along a line is the edge it
+    shares with the region's part, already counted when seen.
+    The knowledge's orientations and placements (a back wall parallel to the front and
+    mirrored about the ridge, a roof back as steep as the front, a floor square to the
+    walls) fill in the rest, and that is a guess about this scene, not a measurement."""
     model = interp.model
     if model is None:
         return []
@@ -379,21 +399,34 @@ def unmeasured_parts(
             tols.append(t)
     points = np.vstack(pts) if pts else np.zeros((0, 3))
     tol = np.concatenate(tols) if tols else np.zeros(0)
-    edges = seen_edges(evidence, model)
+    names, edge_faces, seen_by = seen_edges(evidence, model)
+    on_region = {role for role in names if sum(c.explained_on.get(role, 0.0) for c in checks) > 0}
     reasons = []
     for part in model.parts:
-        if part.role not in inserted:
-            continue
-        if sum(c.explained_on.get(part.role, 0.0) for c in checks) > 0 or edges.get(part.role):
+        if part.role not in inserted or part.role in on_region:
             continue
         n = np.asarray(part.normal, dtype=np.float64)
         poly = np.asarray(part.polygon, dtype=np.float64)
         near = np.abs(points @ n - part.offset_m) <= tol
-        if near.any() and _inside_polygon(points[near], poly, n).any():
+        touching = (
+            points[near][_inside_polygon(points[near], poly, n)] if near.any() else points[:0]
+        )
+        if _spread(touching) >= 2:
+            continue
+        me = names.index(part.role) if part.role in names else -1
+        lines = 0
+        for (f, g), views in zip(edge_faces, seen_by, strict=True):
+            if me not in (f, g) or not views:
+                continue
+            other = names[int(g if f == me else f)]
+            if len(views) >= 2 or other in on_region:
+                lines += 1
+        if lines >= MEASURED_LINES:
             continue
         reasons.append(
-            f"{part.role} is placed by the knowledge alone: no region lies on it, no view "
-            "sees its edges, no outline of a region on the model reaches it"
+            f"{part.role} is placed by the knowledge, not measured: no region lies on it and "
+            f"{lines} of its edges are measured ({MEASURED_LINES} needed: seen in two views, "
+            "or in one along a neighbour a region measures)"
         )
     return reasons
 

@@ -155,7 +155,9 @@ def test_a_part_no_evidence_measures_is_named(
     )
     verdict = judge(buildings_kb, interp, blind)
     assert verdict.verdict == DOUBTFUL
-    named = [r.split(" ")[0] for r in verdict.reasons if "placed by the knowledge alone" in r]
+    named = [
+        r.split(" ")[0] for r in verdict.reasons if "placed by the knowledge, not measured" in r
+    ]
     assert named == ["body.back", "body.right", "body.floor"]
 
 
