@@ -33,6 +33,12 @@ is **verified** only when it also
     roof's hidden back as steep as its front: a shed taken for a gable; a floor square to
     the walls), not where the scene has it.
 
+(f) lacks no surface joined to the object: a region outside the model's projection or in
+    front of it, of at least ADJOINING_MIN_SHARE of the view's region pixels, whose outline
+    meets a model face in 3-D along a quarter of the model's size, and which continues no
+    face's plane (the ground continues the floor), is a part the model lacks (a hip roof's
+    slopes above walls taken for a flat roof's); a tree before the house does not meet it.
+
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
 where. An interpretation that found no object is **nothing**; so is one whose sizes (the
 attributes in metres) lie outside the knowledge's ranges: what was found is not the goal (a
@@ -85,8 +91,17 @@ EDGE_ANGLE_DEG = 4.0  # ... and within 4 degrees of its direction
 EDGE_MIN_LENGTH_PX = 25.0  # only projected edges at least this long are checked
 SEEN_EDGE_COVER_MIN = 0.4  # edges between two parts bound to the evidence: at least this share
 OUTLINE_TOLERANCE_PX = 4.0  # a region's outline reaches a plane within 4 px of it
+OUTLINE_STEP_PX = 3.0  # region outlines are sampled every 3 px along their sides
+ADJOINING_MIN_SHARE = 0.02  # (f): a region of at least 2 % of a view's region pixels ...
+ADJOINING_SPAN = 0.25  # ... meeting a face along a quarter of the model's size is a surface
+# joined to the object (a roof slope above a wall's eave), not background touching it
 OUTLINE_AREA_RATIO = 0.2  # outlines reaching a plane spread over an area, not along a line
-MEASURED_LINES = 2  # a plane through two measured lines (not one) is measured
+MEASURING_SHARE = 0.05  # a region measures its part's plane when it carries 5 % of the
+# weight in the model's projection (a sliver's plane fit scatters by degrees)
+MEASURED_LINES = 2  # a plane through two measured lines (not one) is measured ...
+EXACT_DEG = 0.5  # ... or through one, parallel or square to a measured part within 0.5 deg
+COS_PARALLEL = math.cos(math.radians(EXACT_DEG))
+SIN_SQUARE = math.sin(math.radians(EXACT_DEG))
 EDGE_SEEN_SHARE = 0.5  # an edge is seen in a view when segments lie along half its length
 EDGE_COVER_MIN = 0.25  # at least this share of the visible edges' length is seen as segments
 # (edges between faces of like brightness or under an occluder show no segment)
@@ -105,6 +120,7 @@ class ViewCheck:
     edge_cover: float | None = None
     explained_on: dict[str, float] = field(default_factory=dict)  # part role -> weight on it
     explained_ids: tuple[int, ...] = ()  # the regions on a model face
+    free_ids: tuple[int, ...] = ()  # regions outside the projection or in front of the model
 
     @property
     def explained_share(self) -> float:
@@ -238,6 +254,7 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
         edge_cover(view, model),
         on_face,
         tuple(int(regions[i].id) for i in np.nonzero(counted & explained)[0]),
+        tuple(int(regions[i].id) for i in np.nonzero(~counted)[0]),
     )
 
 
@@ -323,6 +340,17 @@ def seen_edges(
     return rigid.names, np.asarray(rigid.edge_faces, dtype=np.int64), views
 
 
+def _densified(polygon_px: FloatArray) -> FloatArray:
+    """A closed polygon (N, 2) sampled every OUTLINE_STEP_PX along its sides (M, 2)."""
+    nxt = np.roll(polygon_px, -1, axis=0)
+    steps = np.maximum(1, (np.linalg.norm(nxt - polygon_px, axis=1) // OUTLINE_STEP_PX)).astype(int)
+    owner = np.repeat(np.arange(len(polygon_px)), steps)
+    frac = np.arange(int(steps.sum())) - np.repeat(np.cumsum(steps) - steps, steps)
+    frac = frac / steps[owner]
+    out: FloatArray = polygon_px[owner] + (nxt[owner] - polygon_px[owner]) * frac[:, None]
+    return out
+
+
 def outline_points(
     view: ViewEvidence, region_ids: tuple[int, ...], model: ReconstructedModel
 ) -> tuple[FloatArray, FloatArray]:
@@ -342,13 +370,15 @@ def outline_points(
     out, tol = [], []
     for c in contours:
         r = planes[c.region]
-        px = np.asarray(c.points, dtype=np.float64)
+        px = _densified(np.asarray(c.points, dtype=np.float64))
         rays = np.linalg.solve(K, np.vstack([px.T, np.ones(len(px))])).T  # (N, 3) camera frame
         n_cam = R_cam_frame @ np.asarray(r.n_init, dtype=np.float64)
         d_cam = float(r.d_init) + float(n_cam @ t_cam_frame)
         denom = rays @ n_cam
-        ok = np.abs(denom) > 1e-9
-        x_cam = rays[ok] * (d_cam / denom[ok])[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            depth = d_cam / denom
+        ok = np.isfinite(depth) & (depth > 0)  # on the plane in front of the camera
+        x_cam = rays[ok] * depth[ok, None]
         x_frame = (x_cam - t_cam_frame) @ R_cam_frame
         if view.frame == "camera":  # this view's own left camera -> world, as in check_view
             R = np.asarray(camera.R, dtype=np.float64)
@@ -357,6 +387,76 @@ def outline_points(
         out.append(x_frame)
         tol.append(OUTLINE_TOLERANCE_PX * x_cam[:, 2] / float(K[0, 0]))
     return np.vstack(out), np.concatenate(tol)
+
+
+def _oriented(normal: FloatArray, measured: FloatArray) -> bool:
+    """True if a plane of unit `normal` (3,) has its orientation from planes a region
+    measures (K, 3): parallel to one, or square to two that are not parallel, within
+    EXACT_DEG (a back wall parallel to the front; a floor square to the front and a side)."""
+    cos = np.abs(measured @ normal)
+    if (cos >= COS_PARALLEL).any():
+        return True
+    square = measured[cos <= SIN_SQUARE]
+    if len(square) < 2:
+        return False
+    return bool((np.abs(square @ square.T) < COS_PARALLEL).any())
+
+
+def adjoining(view: ViewEvidence, model: ReconstructedModel, check: ViewCheck) -> list[str]:
+    """Check (f) in one view (reasons): a region outside the model's projection or in front
+    of it (which (b) leaves alone: it may be something standing before the object) whose outline
+    meets a model face in 3-D (on its plane within OUTLINE_TOLERANCE_PX, inside the face)
+    along at least ADJOINING_SPAN of the model's size, and which covers at least
+    ADJOINING_MIN_SHARE of the view's region pixels, is a surface joined to the object
+    that the model does not have (a hip roof's slope above walls taken for a flat roof's).
+    A region lying in a model face's plane continues that face (the ground the floor) and
+    is not counted; nor is anything in front (its outline is nearer than the faces)."""
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    total = sum(r.pixel_count for r in view.regions)
+    big = [
+        r
+        for r in view.regions
+        if r.id in set(check.free_ids) and r.pixel_count >= ADJOINING_MIN_SHARE * total
+    ]
+    if camera is None or not big:
+        return []
+    R = np.asarray(camera.R, dtype=np.float64)
+    t = np.asarray(camera.t, dtype=np.float64)
+    faces = _faces(model)
+    size = _size(model)
+    cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
+    reasons = []
+    for r in big:
+        points, tol = outline_points(view, (r.id,), model)
+        if len(points) < 2:
+            continue
+        normal = np.asarray(r.n_init, dtype=np.float64)
+        centre = np.asarray(r.c_init, dtype=np.float64)
+        if view.frame == "camera":
+            normal, centre = normal @ R, (centre - t) @ R
+        dist = float(np.linalg.norm(centre + R.T @ t))
+        on_tol = max(DEPTH_TOLERANCE * dist, DEPTH_TOLERANCE_MIN_M)
+        if any(
+            abs(float(normal @ n)) >= cos_tol and abs(float(centre @ n) - d) <= on_tol
+            for _, n, d, _ in faces
+        ):
+            continue  # it continues a face's plane
+        best = (0.0, "")
+        for role, n, d, poly in faces:
+            near = np.abs(points @ n - d) <= tol
+            if np.count_nonzero(near) < 2:
+                continue
+            touching = points[near][_inside_polygon(points[near], poly, n)]
+            if len(touching) >= 2:
+                span = float(np.linalg.norm(touching.max(axis=0) - touching.min(axis=0)))
+                best = max(best, (span, role))
+        if best[0] >= ADJOINING_SPAN * size:
+            reasons.append(
+                f"view {view.id}: region {view.id}/{r.id} ({100 * r.pixel_count / total:.0f}% "
+                f"of its pixels) meets {best[1]} along {best[0]:.1f} m, but the model does "
+                "not explain it (a part the model lacks)"
+            )
+    return reasons
 
 
 def _spread(points: FloatArray) -> int:
@@ -400,7 +500,14 @@ def unmeasured_parts(
     points = np.vstack(pts) if pts else np.zeros((0, 3))
     tol = np.concatenate(tols) if tols else np.zeros(0)
     names, edge_faces, seen_by = seen_edges(evidence, model)
-    on_region = {role for role in names if sum(c.explained_on.get(role, 0.0) for c in checks) > 0}
+    on_region = {
+        role
+        for role in names
+        if any(c.explained_on.get(role, 0.0) >= MEASURING_SHARE * c.inside_weight for c in checks)
+    }
+    measured = np.array(
+        [p.normal for p in model.parts if p.role in on_region], dtype=np.float64
+    ).reshape(-1, 3)
     reasons = []
     for part in model.parts:
         if part.role not in inserted or part.role in on_region:
@@ -421,7 +528,7 @@ def unmeasured_parts(
             other = names[int(g if f == me else f)]
             if len(views) >= 2 or other in on_region:
                 lines += 1
-        if lines >= MEASURED_LINES:
+        if lines >= MEASURED_LINES or (lines >= 1 and _oriented(n, measured)):
             continue
         reasons.append(
             f"{part.role} is placed by the knowledge, not measured: no region lies on it and "
@@ -680,6 +787,10 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
     sizes = check_attributes(kb, interp, model, unit=SIZE_UNIT)
     if sizes:
         return Verdict(NOTHING, tuple(sizes), tuple(not_explained), tuple(checks))
+    # (f) no large surface joined to the model that the model does not explain
+    by_id = {v.id: v for v in evidence.views}
+    for check in checks:
+        reasons += adjoining(by_id[check.view], model, check)
     # (e) every part inserted from knowledge is measured by some evidence
     reasons += unmeasured_parts(interp, evidence, tuple(checks))
     # (d) the knowledge's measured attributes

@@ -17,7 +17,7 @@ from aida_kb.interpret.verdict import (
     unmeasured_parts,
     with_verdict,
 )
-from aida_kb.io.evidence import Evidence, read_evidence
+from aida_kb.io.evidence import Contour, Evidence, read_evidence
 from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 from aida_kb.kb.model import KnowledgeBase
 
@@ -159,6 +159,40 @@ def test_a_part_no_evidence_measures_is_named(
         r.split(" ")[0] for r in verdict.reasons if "placed by the knowledge, not measured" in r
     ]
     assert named == ["body.back", "body.right", "body.floor"]
+
+
+def test_a_surface_joined_to_the_model_that_it_lacks_is_named(
+    buildings_kb: KnowledgeBase, interpreted: Get
+) -> None:
+    # the regions' outlines: each bound part's face projected into the view; a model
+    # without its roof leaves the roof's regions in front of its walls (neutral for (b):
+    # they could be a tree) but their outlines meet the walls' tops in 3-D — a hip roof's
+    # slopes above a model that took it for a flat roof looked like this
+    interp = interpreted("house_correct.json")
+    evidence = _evidence("house_correct.json")
+    assert interp.model is not None
+    cam = interp.model.cameras[0]
+    K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
+    faces = {p.role: np.asarray(p.polygon) for p in interp.model.parts}
+    outlines: list[Contour] = []
+    for inst in interp.instances:
+        if inst.link == "con-of" and inst.bindings and inst.parent in faces:
+            x = (faces[inst.parent] @ R.T + t) @ K.T
+            px = x[:, :2] / x[:, 2:]
+            region = int(inst.bindings[0].split("/")[1])
+            points = [(float(u), float(v)) for u, v in px]
+            outlines.append(Contour(id=len(outlines) + 1, region=region, points=points))
+    view = evidence.views[0].model_copy(update={"contours": outlines})
+    outlined = evidence.model_copy(update={"views": [view]})
+    assert judge(buildings_kb, interp, outlined).verdict == VERIFIED
+    parts = [p for p in interp.model.parts if ".roof." not in p.role]
+    roofless = interp.model_copy(update={"model": interp.model.model_copy(update={"parts": parts})})
+    verdict = judge(buildings_kb, roofless, outlined)
+    assert verdict.verdict == DOUBTFUL
+    joined = [r for r in verdict.reasons if "the model does not explain it" in r]
+    assert joined[0].startswith(
+        "view 00: region 00/3 (26% of its pixels) meets body.front along 16"
+    )
 
 
 def test_a_doll_house_is_no_house(buildings_kb: KnowledgeBase, interpreted: Get) -> None:
