@@ -364,6 +364,7 @@ def _rebuilt(
         inside = np.isin(model.edge_faces[:, 0], faces)
         adjacency = [(model.names[a], model.names[b]) for a, b in model.edge_faces[inside]]
         poly = Polyhedron.from_adjacency(names, normals[faces], offsets[faces], adjacency)
+        check_concurrent(poly)  # planes metres apart at a vertex: no solid (the old is kept)
         moved = poly.concurrent()  # more than three planes at a vertex: made to meet there
         if moved is not poly:
             poly, normals, offsets = moved, normals.copy(), offsets.copy()
