@@ -96,7 +96,10 @@ def test_a_scene_fixture_of_a_small_house_passes_through_aida_kb_test(
 
     scene, out = tmp_path / "house", tmp_path / "out"
     render_scene(preset("house", seed=1, views=1, params=TINY), scene, supersample=1)
-    assert main(["reconstruct", str(ROOT / "kb" / "buildings.kb"), str(scene), "-o", str(out)]) == 0
+    # verified (0) or doubtful (3): from one 320 px view the roof's hidden back is the
+    # knowledge's symmetric guess (0.51 deg off here), which the verdict names
+    code = main(["reconstruct", str(ROOT / "kb" / "buildings.kb"), str(scene), "-o", str(out)])
+    assert code in (0, 3)
     written = out / "interpretation.kb"
     assert main(["lint", str(written), "--import-path", KB_DIR]) == 0
     # the one-file form: NAME.expected.kb beside the scene folder NAME/ (the same depth as the
