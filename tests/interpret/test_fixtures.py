@@ -94,7 +94,12 @@ def test_a_scene_fixture_of_a_small_house_passes_through_aida_kb_test(
 ) -> None:
     from aida_kb.synth.scenes import preset, render_scene
 
-    scene, out = tmp_path / "house", tmp_path / "out"
+    # the fixture folder and the output folder are siblings: interpretation.kb imports the
+    # knowledge base by a path relative to its own folder, which then holds for the copy too
+    # (wherever the checkout lies: under /tmp, a path one level off the output folder's
+    # resolved differently — the root only hides this when the checkout is outside /tmp)
+    fixtures, out = tmp_path / "fixtures", tmp_path / "out"
+    scene = fixtures / "house"
     render_scene(preset("house", seed=1, views=1, params=TINY), scene, supersample=1)
     # verified (0) or doubtful (3): from one 320 px view the roof's hidden back is the
     # knowledge's symmetric guess (0.51 deg off here), which the verdict names
@@ -102,13 +107,12 @@ def test_a_scene_fixture_of_a_small_house_passes_through_aida_kb_test(
     assert code in (0, 3)
     written = out / "interpretation.kb"
     assert main(["lint", str(written), "--import-path", KB_DIR]) == 0
-    # the one-file form: NAME.expected.kb beside the scene folder NAME/ (the same depth as the
-    # output folder, so the written relative import holds)
-    shutil.copy(written, tmp_path / "house.expected.kb")
+    # the one-file form: NAME.expected.kb beside the scene folder NAME/
+    shutil.copy(written, fixtures / "house.expected.kb")
     capsys.readouterr()
-    assert main(["test", str(tmp_path), "--import-path", KB_DIR]) == 0
+    assert main(["test", str(fixtures), "--import-path", KB_DIR]) == 0
     text = capsys.readouterr().out
-    assert f"{tmp_path / 'house.expected.kb'}: passed (" in text
+    assert f"{fixtures / 'house.expected.kb'}: passed (" in text
     assert text.splitlines()[-1].startswith("1 fixture: 1 passed in ")
 
 
