@@ -148,7 +148,7 @@ def test_recorded_editing_session_of_buildings_kb(server: ServerClient) -> None:
     pitch = hover_text(server, uri, pos(text, "tilted by front.pitch", 0, len("tilted by front.")))
     assert "declared in concept **RoofPlane**" in pitch
     assert "unit: rad; write deg or rad" in pitch
-    assert "range: [0 deg, 65 deg]" in pitch
+    assert "range: [0 deg, 75 deg]" in pitch
     perp = hover_text(server, uri, pos(text, "corner_fl: perpendicular", 0, len("corner_fl: ")))
     assert "template perpendicular(a: Plane, b: Plane, tol: angle = 1 deg)" in perp
     assert "Two planes meet at a right angle" in perp
