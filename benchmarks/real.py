@@ -18,7 +18,9 @@ Per scene (the ground truth only measures; the tool never reads it):
   within 0.5 m of its plane), and ``wall_largest_share``: the main wall region's share of their
   pixels (1.0 = one region covers the wall); where the scene has ``reference_labels.png``
   (label 1 = main wall), ``wall_label_coverage``: the share of that label covered by the main
-  wall region;
+  wall region, ``wall_label_share_in_both_images``: the share of the label whose point on the
+  main wall's plane the right camera sees too (stereo can measure nothing elsewhere), and
+  ``wall_label_coverage_in_both_images``: the coverage of that part;
 - ``disparity_range``, ``rectified`` (size, zoom, share of the left image kept), the
   ``warnings`` of the vision front end;
 - ``verdict``: the interpretation's message; ``evidence_s``, ``interpret_s``: wall times.
@@ -33,14 +35,17 @@ The same for aida's semi-global matcher (`aida_kb.vision.sgm`, its default param
 parameters were chosen on the top half of the image: its figures are also given per half
 (``top``: where they were chosen; ``bottom``: held out), each against SGBM on that half.
 
-Run: .venv/bin/python benchmarks/real.py [REAL_DIR | --motorcycle]   (prints ONE line of JSON
-at the end; --motorcycle: only the Motorcycle comparison)
+``peak_rss_mb``: the process's peak resident memory over the whole run, MiB.
+
+Run: .venv/bin/python benchmarks/real.py [REAL_DIR | --motorcycle | --help]   (prints ONE line
+of JSON at the end; --motorcycle: only the Motorcycle comparison)
 """
 
 from __future__ import annotations
 
 import json
 import math
+import resource
 import sys
 import time
 from pathlib import Path
@@ -58,7 +63,7 @@ from aida_kb.io.scene import read_labels, read_scene
 from aida_kb.kb import compile_path
 from aida_kb.vision.disprange import disparity_range
 from aida_kb.vision.evaluate import score_disparity
-from aida_kb.vision.evidence import VisionParams, scene_evidence
+from aida_kb.vision.evidence import VisionParams, original_rays, scene_evidence
 from aida_kb.vision.rectify import stereo_rectification
 from aida_kb.vision.sgm import sgm_disparity
 from aida_kb.vision.stereo import ncc_disparity
@@ -84,6 +89,25 @@ SGBM_PARAMS: dict[str, Any] = {
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
     c = float(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)))
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+def _seen_by_right(scene: Any, wall: Any) -> np.ndarray:
+    """(H, W) bool: left-image pixels whose ray meets the wall's plane at a point the right
+    camera also sees (inside its image, in front of it): where stereo can measure the wall."""
+    calib = scene.views[0].rig
+    rays = original_rays(calib)
+    n, c = np.asarray(wall.normal, float), np.asarray(wall.centroid_m, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (n @ c) / (rays @ n)
+    pts = rays * t[..., None]
+    right = pts @ calib.R.T + calib.T.ravel()
+    z = right[..., 2]
+    pix = right @ calib.K2.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x, y = pix[..., 0] / z, pix[..., 1] / z
+    W, H = calib.image_size
+    ok: np.ndarray = (t > 0) & (z > 0) & (x >= 0) & (x <= W - 1) & (y >= 0) & (y <= H - 1)
+    return ok
 
 
 def real_scene(path: Path, kb: Any, matcher: str = "ncc") -> dict[str, Any]:
@@ -126,8 +150,12 @@ def real_scene(path: Path, kb: Any, matcher: str = "ncc") -> dict[str, Any]:
         if labels_file.is_file():
             wall = read_labels(labels_file) == 1
             rid = int(main.id.split("/")[1])
-            out["wall_label_coverage"] = round(
-                float(np.count_nonzero(wall & (prod.regions == rid)) / wall.sum()), 3
+            covered = wall & (prod.regions == rid)
+            out["wall_label_coverage"] = round(float(np.count_nonzero(covered) / wall.sum()), 3)
+            both = wall & _seen_by_right(scene, main)
+            out["wall_label_share_in_both_images"] = round(float(both.sum() / wall.sum()), 3)
+            out["wall_label_coverage_in_both_images"] = round(
+                float(np.count_nonzero(covered & both) / max(1, both.sum())), 3
             )
     lo, num = prod.disparity_range
     out["disparity_range"] = [lo, lo + num - 1]
@@ -212,6 +240,9 @@ def motorcycle() -> dict[str, Any]:
 
 def main() -> None:
     """Run every real scene and Motorcycle; print one JSON line."""
+    if {"-h", "--help"} & set(sys.argv[1:]):
+        print(__doc__)
+        return
     only_motorcycle = sys.argv[1:] == ["--motorcycle"]
     real = Path(sys.argv[1]) if len(sys.argv) > 1 and not only_motorcycle else REAL
     kb = compile_path(str(ROOT / "kb" / "buildings.kb")).kb
@@ -229,6 +260,7 @@ def main() -> None:
         out["done_when_wall_normal_1deg"] = all(
             s.get("main_wall_tilt_err_deg", 90.0) <= 1.0 for s in scenes
         )
+    out["peak_rss_mb"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
     print(json.dumps(out))
     sys.stdout.flush()
 

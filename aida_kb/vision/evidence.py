@@ -45,6 +45,7 @@ from aida_kb.vision.planes import (
 )
 from aida_kb.vision.rectify import Rectification, remap, stereo_rectification
 from aida_kb.vision.segmentation import (
+    complete_regions,
     local_planes,
     merge_coplanar,
     region_contours,
@@ -197,8 +198,13 @@ def _plane_regions(
     to_frame: tuple[F64, F64] | None,
     labelled: bool,
     photometric: PhotometricPair | None,
+    fit_regions: I32 | None = None,
 ) -> list[Region]:
     """A plane fit per region; regions with too few depth samples are left out.
+
+    fit_regions : where given, the (H, W) map whose pixels the planes are fitted to (the
+    regions before `complete_regions` grew them over dropouts and openings); `regions` then
+    gives each region's extent (pixel count, area, bounding box).
 
     The plane comes from a robust fit to the region's disparities (away from its boundary by
     more than a correlation window), then, with `photometric`, is refined by aligning the
@@ -207,7 +213,8 @@ def _plane_regions(
     matters on narrow faces. Where the refinement fails, the disparity fit stays.
     """
     W, H = rect.rect_size
-    rect_regions = remap(regions.astype(np.float32), rect.map_left, nearest=True, border=0.0)
+    fit_map = regions if fit_regions is None else fit_regions
+    rect_regions = remap(fit_map.astype(np.float32), rect.map_left, nearest=True, border=0.0)
     rect_regions = np.nan_to_num(rect_regions, nan=0.0).astype(np.int32)
     f, cx, cy, B = rect.focal_px, float(rect.P1[0, 2]), float(rect.P1[1, 2]), rect.baseline_m
     vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
@@ -265,7 +272,7 @@ def _plane_regions(
         mask_o = regions == rid
         areas = pixel_areas_m2(rays[mask_o], n_cam, D, fx, fy)
         area = float(np.nansum(np.where(areas > 0, areas, 0.0)))
-        w_c = float(depth.certainty[mask_o].sum())
+        w_c = float(depth.certainty[fit_map == rid].sum())
         n_out, d_out, c_out = n_cam, D, c_cam
         if to_frame is not None:  # camera -> world: x_w = R^T (x_cam - t)
             R, t = to_frame
@@ -344,6 +351,49 @@ def _merge_coplanar(
         merged, disp, depth, rect, rays, calib, p.window, to_frame, False, photometric
     )
     return merged, refit
+
+
+def _complete(
+    regions: I32,
+    plane_regions: list[Region],
+    pose: tuple[F64, F64],
+    disp: DisparityMap,
+    depth: DepthMap,
+    rect: Rectification,
+    rays: F64,
+    calib: StereoCalib,
+    p: VisionParams,
+    to_frame: tuple[F64, F64] | None,
+    photometric: PhotometricPair | None,
+) -> tuple[I32, list[Region]]:
+    """Regions grown over the pixels their planes explain (`segmentation.complete_regions`);
+    the planes stay fitted to the measured pixels, the extents (pixel count, area, box) grow.
+
+    pose : (R_cam_world, t_cam_world) of the frame the regions' planes are given in.
+    """
+    R_w, t_w = pose
+    ids = np.array([r.id for r in plane_regions], np.int64)
+    normals = np.array([R_w @ np.array(r.n_init) for r in plane_regions])
+    centroids = np.array([R_w @ np.array(r.c_init) + t_w for r in plane_regions])
+    offsets = np.einsum("ij,ij->i", normals, centroids)
+    rms = np.array([r.rms_m for r in plane_regions])
+    grown = complete_regions(
+        regions,
+        depth.points,
+        ids,
+        normals,
+        offsets,
+        rms,
+        np.abs(centroids[:, 2]),
+        rect.focal_px,
+        rect.baseline_m,
+    )
+    if np.array_equal(grown, regions):
+        return regions, plane_regions
+    refit = _plane_regions(
+        grown, disp, depth, rect, rays, calib, p.window, to_frame, False, photometric, regions
+    )
+    return grown, refit
 
 
 def process_view(
@@ -436,6 +486,20 @@ def process_view(
         )
     kept = {r.id for r in plane_regions}
     regions = np.where(np.isin(regions, list(kept)), regions, 0).astype(np.int32)
+    if used == "orientation" and plane_regions:
+        regions, plane_regions = _complete(
+            regions,
+            plane_regions,
+            (R_w, t_w),
+            disp,
+            depth,
+            rect,
+            rays,
+            calib,
+            p,
+            to_frame,
+            photometric,
+        )
     tick("lines")
     segments = attach_segments(detect_segments(left, min_length_px=p.min_line_px), left, regions)
     lines = [

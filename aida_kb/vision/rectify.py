@@ -258,7 +258,7 @@ def stereo_rectification(calib: StereoCalib) -> Rectification:
     baseline_x = float(P2_cv[0, 3] / P2_cv[0, 0])  # (R2·T)_x, metres, negative
     W, H = size
     f = float(calib.K1[0, 0])
-    rays = _border_rays(calib, size) @ R1.T  # rectified left frame
+    rays = _border_rays(calib.K1, calib.D1, size) @ R1.T  # rectified left frame
     forward = math.degrees(math.asin(min(1.0, abs(float(calib.T[2])) / calib.baseline_m)))
     angle = np.degrees(np.arccos(np.clip(rays[:, 2] / np.linalg.norm(rays, axis=1), -1, 1)))
     if float(angle.max()) > MAX_RAY_ANGLE_DEG:
@@ -273,6 +273,17 @@ def stereo_rectification(calib: StereoCalib) -> Rectification:
     Wr = math.ceil(f * float(hi[0] - lo[0])) + 1
     Hr = math.ceil(f * float(hi[1] - lo[1])) + 1
     factor = Wr * Hr / (W * H)
+    # the right image may reach further left than the left one (a toed-in rig): the grid starts
+    # where it starts, so that the left image's left part keeps its partners (x_r = x_l - d);
+    # else a wall's left part has no depth (castle: 12 % of the main wall)
+    right_rays = _border_rays(calib.K2, calib.D2, size) @ R2.T
+    right_ok = right_rays[:, 2] > 1e-6
+    if np.any(right_ok):
+        right_lo = float(np.min(right_rays[right_ok, 0] / right_rays[right_ok, 2]))
+        extra = max(0, math.ceil(f * (float(lo[0]) - right_lo)))
+        extra = min(extra, max(0, int(MAX_SIZE_FACTOR * W * H / Hr) - Wr))
+        lo = lo - np.array([extra / f, 0.0])
+        Wr += extra
     if factor > MAX_SIZE_FACTOR:
         raise VisionError(
             f"the pair cannot be rectified sanely: keeping the left image at its resolution "
@@ -345,14 +356,14 @@ def _kept(calib: StereoCalib, R1: F64, K_rect: F64, size: tuple[int, int]) -> fl
     return float(np.mean(_inside(xy.reshape(-1, 2), size)))
 
 
-def _border_rays(calib: StereoCalib, size: tuple[int, int]) -> F64:
-    """Viewing rays (N, 3) (x, y, 1) of points along the left image's border, original frame."""
+def _border_rays(K: F64, D: F64, size: tuple[int, int]) -> F64:
+    """Viewing rays (N, 3) (x, y, 1) of points along an image's border, its camera's frame."""
     W, H = size
     t = np.linspace(0.0, 1.0, BORDER_SAMPLES)
     xs = np.concatenate([t * (W - 1), np.full_like(t, W - 1.0), t * (W - 1), np.zeros_like(t)])
     ys = np.concatenate([np.zeros_like(t), t * (H - 1), np.full_like(t, H - 1.0), t * (H - 1)])
     pts = np.stack([xs, ys], axis=1).reshape(-1, 1, 2)
     crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-8)
-    norm = np.asarray(cv2.undistortPoints(pts, calib.K1, calib.D1, criteria=crit), np.float64)
+    norm = np.asarray(cv2.undistortPoints(pts, K, D, criteria=crit), np.float64)
     norm = norm.reshape(-1, 2)
     return np.hstack([norm, np.ones((len(norm), 1))])

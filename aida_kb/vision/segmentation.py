@@ -262,3 +262,79 @@ def merge_coplanar(regions: I32, ids: npt.NDArray[np.int64], normals: F64, centr
     lut[ids] = first[comp]
     merged: I32 = lut[regions].astype(np.int32)
     return merged
+
+
+# Completing plane regions over the pixels stereo could not measure. A facade's region is only
+# where the matcher found depth: plaster, glass and the rims of window recesses leave half of
+# a real wall without depth (castle courtyard: 50 %), so its region is a lace of pieces
+# although one plane explains all of it. `complete_regions` grows each plane region, largest
+# first, over the 3-D points: a free pixel joins when its point lies on the plane within the
+# tolerance, or it has no depth and lies in a gap of at most COMPLETE_GAP_M between the
+# region's pixels (at the region's distance); then the holes the region encloses (window
+# openings, dropouts) join unless their points lie in front of the plane (something else
+# stands there: a lamp, a tractor). COMPLETE_GAP_M is metric: in a scene of unknown scale the
+# gap is in its units, kept within COMPLETE_GAP_PX.
+# The tolerance is in metres, tied to the depth uncertainty: COMPLETE_SIGMAS times the larger
+# of the region's own fit RMS (which includes its relief) and the stereo depth noise
+# sigma_Z = Z²·DISPARITY_SIGMA_PX / (f·B) at the pixel's depth.
+COMPLETE_GAP_M = 1.5  # widest dropout bridged without enclosure: a window's width, metres
+COMPLETE_GAP_PX = (2, 64)  # that gap's half in pixels kept within these (speed, tiny regions)
+COMPLETE_SIGMAS = 3.0  # a point within 3 sigma of the plane is on it (0.3 % of noise beyond)
+DISPARITY_SIGMA_PX = 0.25  # sub-pixel NCC noise on real texture, pixels (1-sigma)
+
+
+def complete_regions(
+    regions: I32,
+    points: F32,
+    ids: npt.NDArray[np.int64],
+    normals: F64,
+    offsets: F64,
+    rms_m: F64,
+    distances: F64,
+    focal_px: float,
+    baseline_m: float,
+) -> I32:
+    """The region map (H, W) with each plane region grown over the pixels its plane explains.
+
+    regions : (H, W) int32 ids, 0 = none. points : (H, W, 3) float32 metres, the camera frame
+    of the planes, NaN = no depth. ids : (R,) the regions with a plane; normals : (R, 3) unit,
+    towards the camera, and offsets : (R,) metres (n·x = d); rms_m : (R,) each plane fit's RMS,
+    metres. focal_px, baseline_m : of the rectified pair (for the depth noise). Only pixels of
+    no region are claimed; regions without a plane are left as they are. See COMPLETE_GAP_PX,
+    COMPLETE_SIGMAS, DISPARITY_SIGMA_PX. distances : (R,) metres, each region's depth (z of
+    its centroid), which turns COMPLETE_GAP_M into pixels.
+    """
+    from scipy.ndimage import binary_fill_holes
+
+    out = regions.copy()
+    if len(ids) == 0:
+        return out
+    has = ~np.isnan(points[..., 2])
+    pts = np.where(has[..., None], points, 0.0).astype(np.float64)
+    z = pts[..., 2]
+    sigma_z = z * z * DISPARITY_SIGMA_PX / max(focal_px * baseline_m, 1e-12)
+    size = np.array([np.count_nonzero(regions == i) for i in ids])
+    for k in np.argsort(-size, kind="stable"):
+        rid = int(ids[k])
+        mask = out == rid
+        if not mask.any():
+            continue
+        free = out == 0
+        signed = pts @ normals[k] - offsets[k]  # > 0: in front of the plane (towards the camera)
+        tol = COMPLETE_SIGMAS * np.maximum(rms_m[k], sigma_z)
+        on = has & (np.abs(signed) <= tol)
+        front = has & (signed > tol)
+        allowed = mask | (free & (on | ~has))
+        half = focal_px * COMPLETE_GAP_M / (2.0 * max(float(distances[k]), 1e-9))
+        r = int(np.clip(np.ceil(half), *COMPLETE_GAP_PX))
+        disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        grow = mask | (free & on)
+        closed = cv2.morphologyEx(grow.astype(np.uint8), cv2.MORPH_CLOSE, disc).astype(bool)
+        n, comp = cv2.connectedComponents((closed & allowed).astype(np.uint8), connectivity=8)
+        touching = np.zeros(n, bool)
+        touching[comp[mask]] = True
+        touching[0] = False
+        grown = touching[comp]
+        filled = binary_fill_holes(grown) & free & ~front
+        out[grown | filled] = rid
+    return out

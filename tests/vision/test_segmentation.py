@@ -78,3 +78,46 @@ def test_coplanar_regions_merge_across_a_window_hole() -> None:
     far[:, 60:110] = 0
     far[:, 90:110] = 5
     assert set(np.unique(merge_coplanar(far, ids, normals, centroids)).tolist()) == {0, 3, 5, 7, 9}
+
+
+def test_complete_regions_grows_a_wall_over_dropouts_and_openings() -> None:
+    """A wall 20 m away measured on a lace of pixels: its region grows over the dropouts
+    between them and the window it encloses (glass 0.4 m behind), not over a pole 2 m in front
+    of it, nor over the sky beyond its outline; a second plane's region keeps its pixels."""
+    from aida_kb.vision.segmentation import complete_regions
+
+    H, W, f, B = 120, 200, 200.0, 4.0  # depth noise 0.125 m at 20 m: tolerance 0.375 m
+    vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
+    rays = np.stack([(us - W / 2) / f, (vs - H / 2) / f, np.ones_like(us)], axis=-1)
+    z = np.full((H, W), 20.0)
+    wall = (us >= 20) & (us < 180) & (vs >= 20) & (vs < 110)
+    window = (us >= 80) & (us < 100) & (vs >= 40) & (vs < 70)
+    pole = (us >= 140) & (us < 146) & (vs >= 20) & (vs < 110)
+    z[window] = 20.4
+    z[pole] = 18.0
+    points = (rays * z[..., None]).astype(np.float32)
+    measured = wall & ((us.astype(int) // 6 + vs.astype(int) // 6) % 3 != 0)  # 1/3 dropouts
+    measured &= ~((us >= 40) & (us < 52))  # a dropout band 12 px wide across the wall
+    measured |= pole | window
+    points[~measured] = np.nan
+    regions = np.zeros((H, W), np.int32)
+    regions[wall & measured & ~window & ~pole] = 4
+    regions[:10, :10] = 9  # another plane's region, far away
+    n = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
+    out = complete_regions(
+        regions,
+        points,
+        np.array([4, 9]),
+        n,
+        np.array([-20.0, -5.0]),
+        np.array([0.01, 0.01]),
+        np.array([20.0, 5.0]),
+        f,
+        B,
+    )
+    target = wall & ~pole
+    assert np.count_nonzero(out[target] == 4) / np.count_nonzero(target) > 0.97
+    assert np.all(out[window] == 4)  # the opening it encloses
+    assert not np.any(out[pole] == 4)  # what stands in front stays out
+    assert not np.any(out[~wall] == 4)  # nothing beyond the outline
+    assert np.all(out[:10, :10] == 9)
