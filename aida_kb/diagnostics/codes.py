@@ -163,6 +163,12 @@ BAD_PLACEMENT = register(
 BAD_ATTACHMENT = register(
     "KB154", _E, "an attachment names no composite part, or planes that are no planar parts"
 )
+BAD_CONDITION = register(
+    "KB155",
+    _E,
+    "a 'when' block names no part, a concept that cannot fill it, a member that is no "
+    "relation, or a relation that never holds under its condition",
+)
 # instances
 ABSTRACT_INSTANCE = register("KB140", _E, "an instance is declared of an abstract concept")
 MISSING_ROLE = register("KB141", _E, "an instance leaves an obligatory role unbound")

@@ -235,6 +235,7 @@ class Adjacency:
     kind: AdjacencyKind
     groups: tuple[tuple[Path, ...], ...]
     span: Span
+    condition: Condition | None = None
 
     @property
     def edges(self) -> tuple[tuple[Path, Path], ...]:
@@ -254,6 +255,7 @@ class Constraint:
     label: Name | None
     relation: Relation
     span: Span
+    condition: Condition | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -262,6 +264,7 @@ class Measure:
 
     relation: Relation
     span: Span
+    condition: Condition | None = None
 
 
 #: The six directions of a composite's frame, as written in ``orient`` and ``attach``.
@@ -313,6 +316,7 @@ class Unseen:
     parts: tuple[Path, ...]
     placement: Placement
     span: Span
+    condition: Condition | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -329,7 +333,42 @@ class Attach:
 
 
 Geometry: TypeAlias = Frame | Orient | Unseen | Attach
-Member: TypeAlias = Part | ConOf | Attribute | Adjacency | Constraint | Measure | Geometry
+
+
+@dataclass(frozen=True, slots=True)
+class Condition:
+    """``when roof is HipRoof, GableRoof``: the relations of a ``when`` block hold only when the
+    role at ``role`` is filled by one of ``concepts`` (or a specialisation of one)."""
+
+    role: Path
+    concepts: tuple[Name, ...]
+    span: Span  # from 'when' to the last concept name
+
+
+#: The members a ``when`` block may hold: relations, which carry the block's condition.
+Conditional: TypeAlias = Adjacency | Constraint | Measure | Unseen
+
+
+@dataclass(frozen=True, slots=True)
+class When:
+    """``when ROLE is C1, C2 { members }``: relations that hold only for those fillers.
+
+    ``members`` are as written (any member parses; the compiler accepts only `Conditional`
+    ones, ``KB155``); the conditional ones carry ``condition``.
+    """
+
+    condition: Condition
+    members: tuple[Member, ...]
+    span: Span
+
+    @property
+    def relations(self) -> tuple[Conditional, ...]:
+        """The members that may be conditional, in order."""
+        kinds = Adjacency | Constraint | Measure | Unseen
+        return tuple(m for m in self.members if isinstance(m, kinds))
+
+
+Member: TypeAlias = Part | ConOf | Attribute | Adjacency | Constraint | Measure | Geometry | When
 
 
 # ---- declarations --------------------------------------------------------------------------------
@@ -383,6 +422,23 @@ class Concept:
     span: Span
 
     @property
+    def flat_members(self) -> tuple[Member, ...]:
+        """The members in order, each ``when`` block replaced by its relations (which carry
+        the block's condition); other members inside a block are left out (``KB155``)."""
+        out: list[Member] = []
+        for m in self.members:
+            if isinstance(m, When):
+                out.extend(m.relations)
+            else:
+                out.append(m)
+        return tuple(out)
+
+    @property
+    def whens(self) -> tuple[When, ...]:
+        """The ``when`` blocks, in order."""
+        return tuple(m for m in self.members if isinstance(m, When))
+
+    @property
     def parts(self) -> tuple[Part, ...]:
         """The ``part`` declarations, in order."""
         return tuple(m for m in self.members if isinstance(m, Part))
@@ -400,22 +456,24 @@ class Concept:
     @property
     def adjacencies(self) -> tuple[Adjacency, ...]:
         """The ``adjacent`` declarations, in order."""
-        return tuple(m for m in self.members if isinstance(m, Adjacency))
+        return tuple(m for m in self.flat_members if isinstance(m, Adjacency))
 
     @property
     def constraints(self) -> tuple[Constraint, ...]:
         """The ``constraint`` declarations, in order."""
-        return tuple(m for m in self.members if isinstance(m, Constraint))
+        return tuple(m for m in self.flat_members if isinstance(m, Constraint))
 
     @property
     def measures(self) -> tuple[Measure, ...]:
         """The ``measure`` declarations, in order."""
-        return tuple(m for m in self.members if isinstance(m, Measure))
+        return tuple(m for m in self.flat_members if isinstance(m, Measure))
 
     @property
     def geometry(self) -> tuple[Geometry, ...]:
         """The ``frame``, ``orient``, ``unseen`` and ``attach`` declarations, in order."""
-        return tuple(m for m in self.members if isinstance(m, Frame | Orient | Unseen | Attach))
+        return tuple(
+            m for m in self.flat_members if isinstance(m, Frame | Orient | Unseen | Attach)
+        )
 
 
 @dataclass(frozen=True, slots=True)

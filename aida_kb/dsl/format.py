@@ -180,8 +180,7 @@ def _units(tree: Tree[Token]) -> list[tuple[Token, int, bool]]:
                 if child.data == "doc":
                     out.extend((tok, 1, True) for tok in _leaves(child))
                     continue
-                for i, tok in enumerate(_leaves(child)):
-                    out.append((tok, 1, i == 0))
+                out.extend(_member_units(child, 1))
                 continue
             for tok in _leaves(child):
                 if first:
@@ -192,6 +191,29 @@ def _units(tree: Tree[Token]) -> list[tuple[Token, int, bool]]:
                 if tok.type == "LBRACE":
                     in_body = True
     return out
+
+
+def _member_units(member: Tree[Token], depth: int) -> Iterator[tuple[Token, int, bool]]:
+    """The units of one member at ``depth``: one line, or for a ``when`` block its head line,
+    each member inside one level deeper, and its closing brace on a line of its own."""
+    if member.data != "when":
+        for i, tok in enumerate(_leaves(member)):
+            yield tok, depth, i == 0
+        return
+    first = True
+    in_block = False
+    for child in member.children:
+        if child is None:
+            continue
+        if in_block and isinstance(child, Tree):
+            yield from _member_units(child, depth + 1)
+            continue
+        for tok in _leaves(child):
+            closing = in_block and tok.type == "RBRACE"
+            yield tok, depth, first or closing
+            first = False
+            if tok.type == "LBRACE":
+                in_block = True
 
 
 # ---- spacing ----------------------------------------------------------------------------------
@@ -230,7 +252,7 @@ class _Printer:
         self.last_was_token = False
         self.unit_depth = 0  # indentation of the current line unit
         self.mid_unit = False  # the last token is not the last one of its line unit
-        self.body_open = False  # between a declaration's braces
+        self.braces = 0  # how many braces are open (a declaration's body, a 'when' block)
         self.last_token = ""  # the text of the last token written
         self.own_line_comment = False  # the last item written is a comment on its own line
 
@@ -267,7 +289,7 @@ class _Printer:
             if self.mid_unit:  # a comment on its own line amid a member
                 depth = self.unit_depth + _CONTINUATION
             else:
-                depth = 1 if self.body_open else 0
+                depth = self.braces
                 if self.gap_before(line):
                     self.blank()
             self.start_line(depth, text)
@@ -283,11 +305,11 @@ class _Printer:
         if tok.type == "RBRACE" and self.prev == "{" and self.last_was_token:
             self.line += text  # an empty body: {}
             self.prev = text
-            self.body_open = False
+            self.braces -= 1
         elif starts:
             self.unit_depth = max(depth, 0)
             if tok.type == "RBRACE":
-                self.body_open = False
+                self.braces -= 1
             elif (
                 self.last_token
                 and not self.own_line_comment
@@ -303,7 +325,7 @@ class _Printer:
             self.line += _space(self.prev, text) + text
             self.prev = text
         if tok.type == "LBRACE":
-            self.body_open = True
+            self.braces += 1
         self.mid_unit = not ends
         self.last_token = text
         self.own_line_comment = False

@@ -12,6 +12,7 @@ piece on its own, so one run reports every broken declaration and keeps every so
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import difflib
 import gc
 import itertools
@@ -385,6 +386,22 @@ class _Builder(Transformer[Token, Any]):
     def contact(self, ch: list[Token]) -> ast.Name:
         return self.name(ch[0])
 
+    def when(self, ch: list[Any]) -> ast.When:
+        # "when" path "is" NAME ("," NAME)* "{" _member* "}"
+        role = next(c for c in ch if isinstance(c, ast.Path))
+        brace = next(i for i, c in enumerate(ch) if isinstance(c, Token) and c.type == "LBRACE")
+        names = [c for c in ch[:brace] if isinstance(c, Token) and c.type == "NAME"]
+        head = self.span(ch[:brace])
+        condition = ast.Condition(role, tuple(self.name(t) for t in names), head)
+        members = tuple(
+            dataclasses.replace(c, condition=condition)
+            if isinstance(c, ast.Adjacency | ast.Constraint | ast.Measure | ast.Unseen)
+            else c
+            for c in ch[brace + 1 :]
+            if c is not None and not isinstance(c, Token)
+        )
+        return ast.When(condition, members, self.span(ch))
+
     def attr_range(self, ch: list[Any]) -> ast.Range:
         return ast.Range(ch[1], ch[3], self.span(ch))
 
@@ -721,7 +738,7 @@ def _declaration_starts(text: str) -> list[int]:
 _MEMBER_START = re.compile(
     r'//[^\n]*|/\*.*?(?:\*/|\Z)|"(?:[^"\\\n]|\\.)*"?'
     r"|(?<![A-Za-z0-9_.-])(optional\s+part|part|con-of|attribute|adjacent|constraint|measure"
-    r"|frame|orient|unseen|attach)(?![A-Za-z0-9_-])",
+    r"|frame|orient|unseen|attach|when)(?![A-Za-z0-9_-])",
     re.S,
 )
 #: A concept body with more broken members than this is reported up to this many (each retry
@@ -893,6 +910,7 @@ _AFTER_KEYWORD: dict[str, str] = {
     "FROM": "expected a part after 'from'",
     "IS": "expected a measure after 'is', such as slope(self) or height(self)",
     "AS": "expected a name for the face after 'as'",
+    "WHEN": "expected a role after 'when', as in 'when roof is HipRoof { ... }'",
 }
 _TERMINAL_WORDS: dict[str, str] = {
     "NAME": "a name",
@@ -913,6 +931,7 @@ _MEMBER_KEYWORDS = {
     "ORIENT",
     "UNSEEN",
     "ATTACH",
+    "WHEN",
 }
 
 
@@ -1056,7 +1075,7 @@ def _describe_token(lark: Lark, exc: UnexpectedToken, text: str, file: str, off:
     elif expected & _MEMBER_KEYWORDS:
         message = (
             "expected a member (part, optional part, con-of, attribute, adjacent, constraint, "
-            "measure, frame, orient, unseen, attach) or '}'"
+            "measure, frame, orient, unseen, attach, when) or '}'"
         )
         if tok.type == "NAME":
             hint = "a role is declared with 'part NAME: Concept'"

@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.constraints import kind_of
+from aida_kb.interpret.closure import ClosingFace, settle_unseen
 from aida_kb.interpret.context import Context
 from aida_kb.interpret.edges import EdgeMatch, match_segments
 from aida_kb.interpret.hypotheses import Frame
@@ -135,6 +136,7 @@ def adjust(
             replace(p, normal=current[p.role][0], offset_m=current[p.role][1]) for p in planes
         ]
     assert last is not None
+    last = (_settled(last[0], structure, closing, initial.inserted), last[1])
     matched = {m.segment.id for m in matches}
     bordering = [
         s
@@ -150,6 +152,23 @@ def adjust(
         loose / total if total > 0 else 0.0,
         initial.visible,
     )
+
+
+def _settled(
+    outcome: Outcome, structure: Structure, closing: list[ClosingFace], inserted: tuple[str, ...]
+) -> Outcome:
+    """The outcome with its inserted planes moved to meet the others where more than three
+    faces meet (`closure.settle_unseen`; a hip roof's hidden eaves corner)."""
+    faces = [(leaf.role, *outcome.planes[leaf.role]) for leaf in structure.leaves]
+    faces += [(c.role, c.normal, c.offset_m) for c in closing]
+    pairs = [*structure.adjacency, *((c.role, n) for c in closing for n in c.neighbours)]
+    offsets = settle_unseen(faces, pairs, inserted)
+    if not offsets:
+        return outcome
+    planes = dict(outcome.planes)
+    for role, d in offsets.items():
+        planes[role] = (planes[role][0], d)
+    return replace(outcome, planes=planes)
 
 
 def _matches(

@@ -171,6 +171,71 @@ def close(
     return solid.concurrent().polygons()
 
 
+# a plane placed by the knowledge weighs this little against a measured one where more than
+# three faces meet: the common point is the measured planes', the placed plane moves to it
+UNSEEN_WEIGHT = 1e-3
+# rounds of settling placed planes (each: common points, then the placed planes' offsets);
+# stops earlier when no offset moves by more than SETTLE_TOLERANCE_M
+MAX_SETTLE_ROUNDS = 200
+SETTLE_TOLERANCE_M = 1e-6
+
+
+def settle_unseen(
+    faces: Sequence[tuple[str, FloatArray, float]],
+    adjacency: Iterable[tuple[str, str]],
+    unseen: Iterable[str],
+) -> dict[str, float]:
+    """Offsets that make the planes no view shows meet the others where more than three faces
+    meet (the eaves corners of a hip roof, a pyramid's apex): role path -> offset, metres.
+
+    The planes the knowledge placed (``unseen``: their normals from the knowledge, their
+    offsets from `unseen` placements) have no evidence of their own, so where four faces meet
+    their common point is the measured planes' (weighted least squares, the placed planes
+    weighing `UNSEEN_WEIGHT`) and each placed plane is moved along its normal to the mean of
+    its vertices, until no offset changes by `SETTLE_TOLERANCE_M`. Normals are kept. Where only
+    three faces meet, the vertex lies on all three at any offset: nothing moves. Returns
+    the given offsets when the faces do not close a solid (`close` then says why).
+    """
+    names = [r for r, _, _ in faces]
+    known = set(names)
+    movable = [i for i, r in enumerate(names) if r in set(unseen)]
+    offsets = np.array([d for _, _, d in faces], dtype=np.float64)
+    if not movable:
+        return {}
+    pairs = {(min(a, b), max(a, b)) for a, b in adjacency if a in known and b in known}
+    normals = np.array([n for _, n, _ in faces], dtype=np.float64)
+    try:
+        solid = Polyhedron.from_adjacency(names, normals, offsets, sorted(pairs))
+    except GeometryError:
+        return {names[i]: float(offsets[i]) for i in movable}
+    if all(len(v) <= 3 for v in solid.vertex_faces):
+        return {names[i]: float(offsets[i]) for i in movable}
+    weight = np.ones(len(names))
+    weight[movable] = UNSEEN_WEIGHT
+    # incidences (vertex, face), and each face's vertices
+    vi = np.array([v for v, fs in enumerate(solid.vertex_faces) for _ in fs], dtype=np.intp)
+    fi = np.array([f for fs in solid.vertex_faces for f in fs], dtype=np.intp)
+    w = weight[fi]
+    nn = normals[fi][:, :, None] * normals[fi][:, None, :] * w[:, None, None]  # (I, 3, 3)
+    A = np.zeros((len(solid.vertex_faces), 3, 3))
+    np.add.at(A, vi, nn)
+    mask = np.isin(fi, movable)
+    counts = np.bincount(fi[mask], minlength=len(names)).astype(np.float64)
+    for _ in range(MAX_SETTLE_ROUNDS):
+        b = np.zeros((len(solid.vertex_faces), 3))
+        np.add.at(b, vi, normals[fi] * (w * offsets[fi])[:, None])
+        x = np.linalg.solve(A, b[:, :, None])[:, :, 0]  # (V, 3) common points
+        along = np.einsum("ij,ij->i", normals[fi[mask]], x[vi[mask]])
+        sums = np.bincount(fi[mask], weights=along, minlength=len(names))
+        new = offsets.copy()
+        new[movable] = sums[movable] / np.maximum(counts[movable], 1.0)
+        moved = float(np.max(np.abs(new - offsets)))
+        offsets = new
+        if moved < SETTLE_TOLERANCE_M:
+            break
+    return {names[i]: float(offsets[i]) for i in movable}
+
+
 def check_concurrent(solid: Polyhedron) -> None:
     """Raise GeometryError naming the faces of the worst vertex where more than three faces
     meet whose planes miss a common point by more than `CONCURRENT_MAX_REL` of the solid's

@@ -155,11 +155,14 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
             attributes[key] = _attribute(table, info, key, s.node, s.owner)
     adjacencies: list[AdjacencyModel] = []
     for adj, owner in info.adjacency:
+        when = table.condition_requires(cname, adj.condition)
+        if when is None:
+            continue  # a 'when' block that cannot hold here (or did not resolve)
         for a, b in adj.edges:
             ra, rb = table.resolve_path(cname, a), table.resolve_path(cname, b)
             if not (isinstance(ra, PathRes) and isinstance(rb, PathRes)):
                 continue  # a conditional pair that a narrowed role rules out
-            req = ra.requires + rb.requires
+            req = tuple(dict.fromkeys(ra.requires + rb.requires + when))
             adjacencies.append(
                 _make(
                     AdjacencyModel,

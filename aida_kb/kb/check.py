@@ -195,7 +195,7 @@ def check_adjacency(table: Table, info: CInfo) -> Iterator[Diagnostic]:
     a ring or paired with itself, a ring entry whose part has several fillers.
     """
     cname = info.node.name.text
-    for m in info.node.members:
+    for m in info.node.flat_members:
         if not isinstance(m, ast.Adjacency):
             continue
         for group in m.groups:
@@ -277,6 +277,125 @@ def check_rules(table: Table, info: CInfo, used: set[str]) -> Iterator[Diagnosti
             expansions[(cname, id(rule.node))] = prims
     used |= az.used
     yield from az.diagnostics
+
+
+def check_conditions(table: Table, info: CInfo) -> Iterator[Diagnostic]:
+    """``when`` blocks (``KB155``): the role is a part, each concept named a specialisation of
+    its concept (or the concept itself), the block holds only relations, and no relation in it
+    names a member that the named concepts cannot have (it would never hold).
+
+    Runs after `check_rules` (reads the rules' primitives from ``Table.expansions``).
+    """
+    cname = info.node.name.text
+    for w in info.node.whens:
+        cond = w.condition
+        yield from _condition_head(table, cname, cond)
+        for m in w.members:
+            if not isinstance(m, ast.Adjacency | ast.Constraint | ast.Measure | ast.Unseen):
+                word = _MEMBER_WORDS.get(type(m).__name__, "this member")
+                yield diag(
+                    codes.BAD_CONDITION,
+                    f"a 'when' block holds relations (adjacent, constraint, measure, unseen), "
+                    f"not {word}",
+                    m.span,
+                    "declare it in the concept (a part or attribute in the specialisation "
+                    "that has it)",
+                )
+        when = table.condition_requires(cname, cond)
+        if not when:
+            continue
+        for m in w.relations:
+            requires = list(when)
+            if isinstance(m, ast.Adjacency):
+                paths = [p for g in m.groups for p in g]
+            elif isinstance(m, ast.Unseen):
+                pl = m.placement
+                paths = [*m.parts, *([pl.ref] if pl.ref is not None else [])]
+                if pl.line is not None:
+                    paths += [a for a in pl.line.args if isinstance(a, ast.Path)]
+            else:
+                paths = []
+                for prim in table.expansions.get((cname, id(m)), []):
+                    requires += prim.requires
+            for path in paths:
+                res = table.resolve_path(cname, path)
+                if isinstance(res, PathRes):
+                    requires += res.requires
+            clash = table.never_holds(tuple(requires))
+            if clash is not None:
+                role, block, members = clash
+                yield diag(
+                    codes.BAD_CONDITION,
+                    f"this relation never holds: it names members of '{role}' that only "
+                    f"{' and '.join(members)} declare{'s' if len(members) == 1 else ''}, but its "
+                    f"block is for "
+                    f"{' or '.join(block)}",
+                    m.span,
+                    "move it to the 'when' block of the concepts that have those members",
+                    ((cond.span, "the block's condition"),),
+                )
+
+
+_MEMBER_WORDS = {
+    "Part": "a part",
+    "ConOf": "a con-of",
+    "Attribute": "an attribute",
+    "Frame": "a frame",
+    "Orient": "an orientation",
+    "Attach": "an attachment",
+    "When": "another 'when' block",
+}
+
+
+def _condition_head(table: Table, cname: str, cond: ast.Condition) -> Iterator[Diagnostic]:
+    """The role of a ``when`` block and the concepts it names."""
+    res = table.resolve_path(cname, cond.role)
+    if isinstance(res, Diagnostic):
+        yield res
+        return
+    if res is None:
+        return
+    if res.slot is None or res.slot.kind is SlotKind.ATTRIBUTE or res.concept is None:
+        what = "an attribute" if res.slot is not None else "the concept itself"
+        yield diag(
+            codes.BAD_CONDITION,
+            f"'{cond.role.dotted}' is {what}: a 'when' block is conditional on the concept "
+            "filling a part",
+            cond.role.span,
+        )
+        return
+    role_concept = res.concept
+    seen: dict[str, ast.Name] = {}
+    for name in cond.concepts:
+        if name.text in seen:
+            yield diag(
+                codes.DUPLICATE_MEMBER,
+                f"'{name.text}' is named twice in this condition",
+                name.span,
+                related=((seen[name.text].span, "first named here"),),
+            )
+            continue
+        seen[name.text] = name
+        if name.text not in table.concepts:
+            if name.text not in table.broken:
+                yield diag(
+                    codes.UNKNOWN_CONCEPT,
+                    f"unknown concept '{name.text}' in the condition on '{cond.role.dotted}'",
+                    name.span,
+                    did_you_mean(name.text, [role_concept, *table.descendants(role_concept)]),
+                )
+            continue
+        if role_concept not in table.concepts:
+            continue
+        if not (table.is_a(name.text, role_concept) or table.is_a(role_concept, name.text)):
+            kinds = table.descendants(role_concept)
+            yield diag(
+                codes.BAD_CONDITION,
+                f"{name.text} is no specialisation of {role_concept}, the concept of "
+                f"'{cond.role.dotted}': the condition can never hold",
+                name.span,
+                f"name one of {', '.join([role_concept, *kinds])}" if kinds else None,
+            )
 
 
 # ---- over the net -----------------------------------------------------------------------------
@@ -589,6 +708,8 @@ def run_checks(table: Table) -> list[Diagnostic]:
             out.extend(check_shape(table, info))
         if info.rules:
             out.extend(check_rules(table, info, used))
+        if info.node.whens:
+            out.extend(check_conditions(table, info))
     out.extend(check_part_cycles(table))
     for t in table.templates.values():
         t_az = list(check_template(table, t))

@@ -223,11 +223,20 @@ class Analyzer:
         ``roof.front`` in a specialisation that narrows ``roof`` to a ``FlatRoof``) does not
         apply to this concept: it gives no primitive and no error.
         """
+        assert self.owner is not None
+        when = self.table.condition_requires(self.owner, node.condition)
+        if when is None and inherited:
+            return []  # a 'when' block that cannot hold in this specialisation
         mark = len(self.diagnostics)
         prims = self.relation(node.relation, {})
         if inherited and any(d.code == codes.UNKNOWN_ROLE.code for d in self.diagnostics[mark:]):
             del self.diagnostics[mark:]
             return []
+        if when is None:
+            return []  # its condition is in error (reported by the checks): no primitive
+        if when:
+            for p in prims:
+                p.requires = tuple(dict.fromkeys(p.requires + when))
         measuring = isinstance(node, ast.Measure)
         for p in prims:
             if p.measurement != measuring:

@@ -277,6 +277,50 @@ class Table:
             self._adjacent[name] = found
         return found
 
+    # -- conditions ('when' blocks)
+    def condition_requires(self, owner: str, cond: ast.Condition | None) -> Requires | None:
+        """The conditions a ``when`` block puts on its relations in concept ``owner``.
+
+        ``()`` without a block; None when the block cannot hold in ``owner``: its role does not
+        resolve to a part, or the role's concept there (narrowed by a specialisation) is related
+        by is-a to none of the named concepts. Otherwise the role's own conditions (a role
+        reached through an abstract role) and ``(role, named concepts related to it)``; the
+        latter is left out when the role's concept is itself one of the named (or below one).
+        """
+        if cond is None:
+            return ()
+        res = self.resolve_path(owner, cond.role)
+        if not isinstance(res, PathRes) or res.slot is None or res.concept is None:
+            return None
+        if res.slot.kind is SlotKind.ATTRIBUTE or res.concept not in self.concepts:
+            return None
+        live = tuple(
+            n.text
+            for n in cond.concepts
+            if n.text in self.concepts
+            and (self.is_a(n.text, res.concept) or self.is_a(res.concept, n.text))
+        )
+        if not live:
+            return None
+        if any(self.is_a(res.concept, n) for n in live):
+            return res.requires  # every filler of the (narrowed) role is one of them
+        return (*res.requires, (res.dotted, live))
+
+    def never_holds(
+        self, requires: Requires
+    ) -> tuple[str, tuple[str, ...], tuple[str, ...]] | None:
+        """Two conditions on one role path that no concept meets at once (no concept of one is
+        related by is-a to a concept of the other): (role path, one, other), else None."""
+        by_path: dict[str, tuple[str, ...]] = {}
+        for path, allowed in requires:
+            prev = by_path.get(path)
+            if prev is not None and not any(
+                self.is_a(a, b) or self.is_a(b, a) for a in prev for b in allowed
+            ):
+                return path, prev, allowed
+            by_path[path] = allowed if prev is None else prev
+        return None
+
     # -- role paths
     def resolve_path(self, owner: str, path: ast.Path) -> PathRes | Diagnostic | None:
         """Resolve a role path relative to the concept ``owner``.
@@ -596,7 +640,7 @@ def _own_members(table: Table, cname: str, info: CInfo) -> Iterator[Diagnostic]:
     own: dict[str, ast.Name] = {}
     own_labels: dict[str, ast.Name] = {}
     inherited = info.slots
-    for m in info.node.members:
+    for m in info.node.flat_members:
         if isinstance(m, ast.Part | ast.ConOf | ast.Attribute):
             names = (
                 m.roles

@@ -456,7 +456,10 @@ def build_shape(table: Table, cname: str, info: CInfo) -> dict[str, Any]:
 def _placements(table: Table, cname: str, g: ast.Unseen, owner: str) -> list[dict[str, Any]]:
     p = g.placement
     ref = line = None
-    requires: Requires = ()
+    when = table.condition_requires(cname, g.condition)
+    if when is None:
+        return []  # a 'when' block that cannot hold here (or did not resolve)
+    requires: Requires = when
     if p.ref is not None:
         r = table.resolve_path(cname, p.ref)
         if not isinstance(r, PathRes):

@@ -446,6 +446,8 @@ def _member_symbols(a: Analysis, m: ast.Member) -> list[types.DocumentSymbol]:
         return [_symbol(a, m.name.text, K.Property, m.span, m.name.span, m.type.text)]
     if isinstance(m, ast.Constraint) and m.label is not None:
         return [_symbol(a, m.label.text, K.Event, m.span, m.label.span, "constraint")]
+    if isinstance(m, ast.When):  # its labelled constraints are the concept's members
+        return [s for x in m.members for s in _member_symbols(a, x)]
     return []
 
 

@@ -259,6 +259,12 @@ class _Walker:
             self.path(m.part)
             for path in m.planes:
                 self.path(path)
+        elif isinstance(m, ast.When):
+            self.path(m.condition.role)
+            for name in m.condition.concepts:
+                self.concept_ref(name)
+            for inner in m.members:
+                self.member(inner)
 
     def relation(self, r: ast.Relation) -> None:
         body = r.body

@@ -9,7 +9,7 @@ import pytest
 
 from aida_kb.diagnostics.core import Span
 from aida_kb.errors import GeometryError
-from aida_kb.interpret.closure import close, closing_faces
+from aida_kb.interpret.closure import close, closing_faces, settle_unseen
 from aida_kb.interpret.hypotheses import Frame, PlanarPart
 from aida_kb.kb.model import AttachmentModel
 
@@ -143,3 +143,28 @@ def test_four_planes_that_miss_a_common_apex_are_refused() -> None:
     with pytest.raises(GeometryError, match=r"do not meet in one point \(0\.2\d m apart\)") as err:
         close(faces(1.0), adjacency)
     assert all(r in str(err.value) for r in ring)  # the four faces named
+
+
+def test_a_plane_no_view_shows_is_settled_at_the_apex_of_the_measured_ones() -> None:
+    """The pyramid again, its east slope placed by the knowledge 1 m off: settling moves that
+    plane (and only it, normal kept) through the apex of the three measured slopes, and the
+    solid closes; with all four measured nothing may move it (close refuses, as above)."""
+    s = 1.0 / np.sqrt(2.0)
+    slopes = {
+        "r_south": np.array([0.0, -s, -s]),
+        "r_east": np.array([s, -s, 0.0]),
+        "r_north": np.array([0.0, -s, s]),
+        "r_west": np.array([-s, -s, 0.0]),
+    }
+    apex = np.array([5.0, -5.0, 5.0])
+    ring = list(slopes)
+    adjacency = [(a, b) for a, b in zip(ring, ring[1:] + ring[:1], strict=True)]
+    adjacency += [(r, "floor") for r in ring]
+    faces = [(r, n, float(n @ apex) + (1.0 if r == "r_east" else 0.0)) for r, n in slopes.items()]
+    faces.append(("floor", -UP, 0.0))
+    settled = settle_unseen(faces, adjacency, ["r_east"])
+    assert set(settled) == {"r_east"}
+    assert settled["r_east"] == pytest.approx(float(slopes["r_east"] @ apex), abs=1e-4)
+    moved = [(r, n, settled.get(r, d)) for r, n, d in faces]
+    assert np.allclose(close(moved, adjacency)["r_south"].max(axis=0)[2], 5.0, atol=1e-3)
+    assert settle_unseen(faces, adjacency, []) == {}

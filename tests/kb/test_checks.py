@@ -441,6 +441,21 @@ CASES = [
         4,
         9,
     ),
+    (
+        "when-unrelated",
+        H + "concept W in world { }\nconcept A in world { part f, b: W\n when b is A { } }",
+        "KB155",
+        4,
+        12,
+    ),
+    (
+        "when-member",
+        H + "concept W in world { }\nconcept A in world { part f, b: W\n"
+        " when b is W { part c: W } }",
+        "KB155",
+        4,
+        16,
+    ),
     ("unreachable", H + "concept H in scene { }\nconcept W in world { }", "KB301", 3, 9),
     (
         "unverifiable",
