@@ -27,7 +27,7 @@ def test_interpret_prints_tree_and_writes_json(
     assert "└── body: HouseBody  [con-of]" in text
     assert "back: Wall  <- inserted from knowledge" in text
     assert "rejected hypotheses:" in text
-    assert "[body.roof=HipRoof; front=00/1]" in text
+    assert "[body.roof=HipRoof; front=00/2]" in text
     interp = read_interpretation(out)
     assert interp.accepted
     assert interp.model is not None
