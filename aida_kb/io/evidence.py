@@ -240,7 +240,12 @@ class Evidence(_Frozen):
 
     format: Literal["aida-kb-evidence"] = EVIDENCE_FORMAT
     version: Literal[1] = EVIDENCE_VERSION
-    units: Literal["m"] = "m"
+    units: Literal["m", "unknown"] = Field(
+        default="m",
+        description="m: lengths are metres; unknown: the scene's scale is unknown (structure "
+        "from motion) and every length is in its calibration's arbitrary units (up to scale): "
+        "a knowledge range in metres does not apply to them",
+    )
     scene: str = Field(default="", description="scene name (scene.yaml), free text")
     world: str = "left camera of view 00; OpenCV axes (x right, y down, z forward)"
     views: list[ViewEvidence] = Field(min_length=1)

@@ -625,5 +625,9 @@ def scene_evidence(
                 stage=tick,
             )
         )
-    evidence = Evidence(scene=scene.name, views=[p.evidence for p in products])
+    evidence = Evidence(
+        scene=scene.name,
+        units="m" if scene.metric else "unknown",
+        views=[p.evidence for p in products],
+    )
     return evidence, products

@@ -10,7 +10,7 @@ import pytest
 
 from aida_kb.cli.main import main
 from aida_kb.errors import VisionError
-from aida_kb.io.evidence import ViewEvidence, read_evidence
+from aida_kb.io.evidence import Evidence, ViewEvidence, read_evidence
 from aida_kb.io.scene import read_labels, read_scene
 from aida_kb.synth.scenes import preset, render_scene
 from aida_kb.vision.evaluate import angle_deg, truth_planes_camera
@@ -194,3 +194,16 @@ def test_evidence_with_the_semi_global_matcher(
     sgm = read_evidence(out).views[0]
     assert len(_check_faces(small_house, sgm, 0.02, 2.0)) >= 3
     assert sgm.disparity_density > 0.5
+
+
+def test_evidence_carries_the_scale(small_house: Path, tmp_path: Path) -> None:
+    """A scene of unknown scale gives evidence whose units say so (no metres claimed)."""
+    root = tmp_path / "house"
+    shutil.copytree(small_house, root)
+    metric, _ = scene_evidence(read_scene(root), views=["00"], segmentation="labels")
+    assert metric.units == "m"
+    index = root / "scene.yaml"
+    index.write_text(index.read_text().replace("scale: metres", "scale: unknown"))
+    unknown, _ = scene_evidence(read_scene(root), views=["00"], segmentation="labels")
+    assert unknown.units == "unknown"
+    assert Evidence.model_validate_json(unknown.model_dump_json()).units == "unknown"
