@@ -26,7 +26,7 @@ import math
 import os
 import sys
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from tokenize import TokenError
 from typing import Any, Literal
@@ -46,14 +46,16 @@ from aida_kb.io.jsonio import (
 )
 from aida_kb.io.model import Finite, Mat3, Vec3, ViewId, check_camera
 from aida_kb.limits import (
+    BYTES_PER_PIXEL,
     MAX_CALIB_BYTES,
     MAX_IMAGE_BYTES,
     MAX_NESTING,
     MAX_VIEWS,
     MAX_YAML_BYTES,
+    MEMORY_BUDGET_ENV,
     image_header_size,
     image_size_problem,
-    memory_problem,
+    memory_budget,
     nesting_problem,
     read_limited,
 )
@@ -298,6 +300,66 @@ class StereoCalib:
     def baseline_m(self) -> float:
         """Distance between the two camera centres, metres."""
         return float(np.linalg.norm(self.T))
+
+
+# Photos of 12-24 megapixels are matched at a working resolution of at most this many pixels
+# (about 1730x1150 at 3:2): dense matching costs pixels x disparities, i.e. grows with the
+# 1.5th power of the pixels (a 24 MP pair at full size: about 60 times the work and 7 GB of
+# cost volumes), while the evidence needs plane normals, which come from thousands of pixels
+# per face even at this size (the real scenes' walls within 0.7 deg at 0.7 MP). Line segments
+# are still found on the full image, whose pixels the evidence is given in.
+WORKING_MAX_PIXELS = 2_000_000
+
+
+def working_scale(width: int, height: int) -> float:
+    """The factor (<= 1) that takes a `width` x `height` image to the working resolution."""
+    pixels = width * height
+    return 1.0 if pixels <= WORKING_MAX_PIXELS else math.sqrt(WORKING_MAX_PIXELS / pixels)
+
+
+def working_size(width: int, height: int) -> tuple[int, int]:
+    """(width, height) of a `width` x `height` image at the working resolution."""
+    s = working_scale(width, height)
+    return (width, height) if s == 1.0 else (max(1, round(width * s)), max(1, round(height * s)))
+
+
+# Peak memory per pixel of the FULL images beyond the working resolution's BYTES_PER_PIXEL
+# (aida_kb.limits): the images themselves, the line segments found on them and the depth and
+# region maps given back in their pixels. benchmarks/real.py measured a 17.5-megapixel pair
+# (working 1732x1155) at a peak of 1.47 GB: 0.6 GB for the working size, 50 bytes a full pixel.
+FULL_BYTES_PER_PIXEL = 60
+
+
+def memory_problem(width: int, height: int) -> str | None:
+    """Why a scene of `width` x `height` images is over the memory budget of a run, or None
+    (the working resolution's cost and the full images', see FULL_BYTES_PER_PIXEL)."""
+    ww, wh = working_size(width, height)
+    need = BYTES_PER_PIXEL * ww * wh + FULL_BYTES_PER_PIXEL * width * height
+    budget = memory_budget()
+    if need <= budget:
+        return None
+    return (
+        f"images of {width}x{height} pixels need about {need / 2**30:.1f} GiB "
+        f"(matched at {ww}x{wh}), more than the memory budget of "
+        f"{budget / 2**30:.1f} GiB (set {MEMORY_BUDGET_ENV} to change it)"
+    )
+
+
+def scaled_calib(calib: StereoCalib, size: tuple[int, int]) -> StereoCalib:
+    """`calib` for its images resampled to `size` (width, height): K rows scaled about pixel
+    centres at integer coordinates (c' = (c + 0.5)·s - 0.5), distortion and pose unchanged."""
+    W, H = calib.image_size
+    sx, sy = size[0] / W, size[1] / H
+
+    def scale(K: FloatArray) -> FloatArray:
+        out = np.array(K, dtype=np.float64)
+        out[0, :] *= sx
+        out[1, :] *= sy
+        out[0, 2] += 0.5 * sx - 0.5
+        out[1, 2] += 0.5 * sy - 0.5
+        return out
+
+    return replace(calib, K1=scale(calib.K1), K2=scale(calib.K2), image_size=size)
 
 
 def write_calib(path: str | os.PathLike[str], calib: StereoCalib) -> None:

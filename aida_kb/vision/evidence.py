@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import Any, Literal
 
 import cv2
 import numpy as np
@@ -31,9 +31,24 @@ from aida_kb.io.evidence import (
     ViewEvidence,
 )
 from aida_kb.io.model import Cahv
-from aida_kb.io.scene import Scene, SceneView, StereoCalib, read_image, read_labels
+from aida_kb.io.scene import (
+    Scene,
+    SceneView,
+    StereoCalib,
+    read_image,
+    read_labels,
+    scaled_calib,
+    working_size,
+)
 from aida_kb.vision.depth import DepthMap, depth_map
-from aida_kb.vision.disprange import disparity_range, saturation_warnings, sparse_disparities
+from aida_kb.vision.disprange import (
+    MAX_NUM_DISP,
+    RANGE_MARGIN_FRACTION,
+    RANGE_MARGIN_PX,
+    disparity_range,
+    saturation_warnings,
+    sparse_disparities,
+)
 from aida_kb.vision.lines import Segment, attach_segments, detect_segments
 from aida_kb.vision.planes import (
     PhotometricPair,
@@ -63,6 +78,13 @@ SegmentationMode = Literal["auto", "labels", "orientation"]
 
 STAGES = ("rectify", "disparity", "depth", "segmentation", "planes", "lines", "contours")
 MIN_FIT_SAMPLES = 30
+# Where the feature matches span more disparities than the matcher searches at once
+# (MAX_NUM_DISP: near tractor and far wall of a high-resolution photo), the pair is matched at
+# a working size whose span fits, with RANGE_FIT to spare (the margins of disparity_range are
+# rounded up) -- rather than losing the far surfaces; but no smaller than MIN_WORKING_SIDE_PX a
+# side (below that a facade's windows are a few pixels: the far end is given up instead).
+RANGE_FIT = 0.95
+MIN_WORKING_SIDE_PX = 480
 DEFAULT_WINDOW = 11  # the block matcher's window, pixels (see VisionParams.window)
 FALLBACK_NUM_DISP = 128  # disparities searched when neither given nor found from features
 # A disparity below this many pixels gives no depth worth the name: stereo noise of ~0.2 px
@@ -173,12 +195,13 @@ def _region_map(
     W, H = rect.size
     if mode != "orientation" and view.labels is not None:
         labels = read_labels(view.labels)
-        if labels.shape != (H, W):
+        W0, H0 = view.rig.image_size
+        if labels.shape != (H0, W0):
             raise VisionError(
                 f"{view.labels}: label image is {labels.shape[1]}x{labels.shape[0]}, "
-                f"the calibration says {W}x{H}"
+                f"the calibration says {W0}x{H0}"
             )
-        return labels.astype(np.int32), "labels"
+        return _resampled(labels.astype(np.int32), (W, H)), "labels"
     if mode == "labels":
         raise VisionError(f"view {view.id}: segmentation 'labels' asked for, but no labels.png")
     planes = local_planes(disp.disparity, disp.certainty)
@@ -396,6 +419,63 @@ def _complete(
     return grown, refit
 
 
+def working_rig(calib: StereoCalib) -> StereoCalib:
+    """`calib` itself, or for images above WORKING_MAX_PIXELS (aida_kb.io.scene) the same rig
+    at the working resolution: the pair is matched, segmented and fitted there, the evidence is
+    given in the full images' pixels."""
+    size = working_size(*calib.image_size)
+    return calib if size == calib.image_size else scaled_calib(calib, size)
+
+
+def _resampled(values: npt.NDArray[Any], size: tuple[int, int]) -> npt.NDArray[Any]:
+    """A per-pixel map (H, W) or (H, W, C) resampled to `size` (width, height) by the nearest
+    pixel centre (no value invented: ids and NaN dropouts stay as they are)."""
+    H, W = values.shape[:2]
+    W2, H2 = size
+    rows = np.minimum(((np.arange(H2) + 0.5) * (H / H2)).astype(np.intp), H - 1)
+    cols = np.minimum(((np.arange(W2) + 0.5) * (W / W2)).astype(np.intp), W - 1)
+    return np.ascontiguousarray(values[rows][:, cols])
+
+
+def _lifted(regions: list[Region], region_map: I32, depth: DepthMap) -> list[Region]:
+    """Regions measured at the working resolution, their pixel figures counted again on the
+    full image's `region_map` and `depth` (the plane, area and RMS are the same)."""
+    size = int(max([int(region_map.max()), *(r.id for r in regions)])) + 1
+    counts = np.bincount(region_map.ravel(), minlength=size)
+    has = ~np.isnan(depth.depth_m)
+    with_depth = np.bincount(region_map[has].ravel(), minlength=size)
+    ys, xs = np.nonzero(region_map)
+    ids = region_map[ys, xs]
+    big = np.iinfo(np.int64).max
+    x0, y0 = np.full(size, big), np.full(size, big)
+    x1, y1 = np.full(size, -1), np.full(size, -1)
+    np.minimum.at(x0, ids, xs)
+    np.minimum.at(y0, ids, ys)
+    np.maximum.at(x1, ids, xs)
+    np.maximum.at(y1, ids, ys)
+    out = []
+    for r in regions:
+        n = int(counts[r.id])
+        if n == 0:
+            continue
+        ratio = n / r.pixel_count
+        n_depth = int(with_depth[r.id])
+        w_c = min(float(n), r.w_c * ratio)
+        out.append(
+            r.model_copy(
+                update={
+                    "pixel_count": n,
+                    "depth_pixel_count": n_depth,
+                    "inlier_count": min(n_depth, round(r.inlier_count * ratio)),
+                    "w_c": w_c,
+                    "mean_certainty": min(1.0, w_c / n),
+                    "bbox": (int(x0[r.id]), int(y0[r.id]), int(x1[r.id]), int(y1[r.id])),
+                }
+            )
+        )
+    return out
+
+
 def process_view(
     scene: Scene,
     view_id: str,
@@ -421,14 +501,35 @@ def process_view(
     except KeyError:
         raise VisionError(f"{scene.root}: no view {view_id!r}") from None
     tick: Stage = stage or (lambda _name: None)
-    calib = view.rig
+    full = view.rig  # the images' own calibration: the evidence is given in its pixels
+    calib = working_rig(full)  # the calibration of the working resolution (see working_rig)
     if pose is None and view.pose is not None:  # the scene gives the view's pose
         pose = view.pose
     tick("rectify")
-    left, right = _read_pair(view, calib)
+    left, right = _read_pair(view, full)
+    left_w, right_w = left, right
+    if calib is not full:
+        left_w = cv2.resize(left, calib.image_size, interpolation=cv2.INTER_AREA)
+        right_w = cv2.resize(right, calib.image_size, interpolation=cv2.INTER_AREA)
     rect = rect or stereo_rectification(calib)
     rays = rays if rays is not None else original_rays(calib)
-    left_r, right_r = rect.rectify(left, right)
+    left_r, right_r = rect.rectify(left_w, right_w)
+    if p.num_disp is None:  # a span the matcher cannot search at once: a coarser working size
+        found = disparity_range(left_r, right_r)
+        if found is not None and found.clipped:
+            need = (1.0 + 2.0 * RANGE_MARGIN_FRACTION) * (found.high_px - found.low_px)
+            shrink = RANGE_FIT * MAX_NUM_DISP / (need + 2.0 * RANGE_MARGIN_PX)
+            W_w, H_w = calib.image_size
+            size = (max(1, round(W_w * shrink)), max(1, round(H_w * shrink)))
+            if min(size) >= MIN_WORKING_SIDE_PX:
+                calib = scaled_calib(full, size)
+                left_w = np.asarray(cv2.resize(left, size, interpolation=cv2.INTER_AREA), np.uint8)
+                right_w = np.asarray(
+                    cv2.resize(right, size, interpolation=cv2.INTER_AREA), np.uint8
+                )
+                rect = stereo_rectification(calib)
+                rays = original_rays(calib)
+                left_r, right_r = rect.rectify(left_w, right_w)
     tick("disparity")
     min_disp, num_disp, warnings = _search_range(left_r, right_r, p)
     if p.matcher == "sgm":
@@ -500,8 +601,28 @@ def process_view(
             to_frame,
             photometric,
         )
+    kept = {r.id for r in plane_regions}
+    regions = np.where(np.isin(regions, list(kept)), regions, 0).astype(np.int32)
+    work_size = calib.image_size
+    if calib is not full:  # back to the images' own pixels
+        W0, H0 = full.image_size
+        if used == "labels":
+            assert view.labels is not None
+            labels = read_labels(view.labels).astype(np.int32)
+            regions = np.where(np.isin(labels, list(kept)), labels, 0).astype(np.int32)
+        else:
+            regions = _resampled(regions, (W0, H0))
+        depth = DepthMap(
+            depth_m=_resampled(depth.depth_m, (W0, H0)),
+            points=_resampled(depth.points, (W0, H0)),
+            certainty=_resampled(depth.certainty, (W0, H0)),
+        )
+        plane_regions = _lifted(plane_regions, regions, depth)
     tick("lines")
-    segments = attach_segments(detect_segments(left, min_length_px=p.min_line_px), left, regions)
+    # on the full image (its pixels are the evidence's); the shortest segment kept is as long
+    # at the object as at the working resolution
+    min_line = p.min_line_px * full.image_size[0] / calib.image_size[0]
+    segments = attach_segments(detect_segments(left, min_length_px=min_line), left, regions)
     lines = [
         LineSegment(
             id=i + 1,
@@ -525,6 +646,13 @@ def process_view(
         )
         for i, (rid, hole, poly) in enumerate(region_contours(regions))
     ]
+    working_note = ""
+    if work_size != full.image_size:
+        working_note = (
+            f"; matched at {work_size[0]}x{work_size[1]} (working resolution) of "
+            f"{full.image_size[0]}x{full.image_size[1]}"
+        )
+    calib = full
     R_r = calib.R @ R_w
     t_r = calib.R @ t_w + calib.T
     evidence = ViewEvidence(
@@ -549,7 +677,7 @@ def process_view(
         left=left,
         left_rectified=left_r,
         disparity_range=(min_disp, num_disp),
-        rectified=rect.summary(),
+        rectified=rect.summary() + working_note,
         warnings=tuple(f"view {view.id}: {w}" for w in warnings),
     )
 
@@ -606,7 +734,8 @@ def scene_evidence(
     for vid in ids:
         rig = scene.view(vid).rig
         if id(rig) not in rigs:
-            rigs[id(rig)] = (stereo_rectification(rig), original_rays(rig))
+            work = working_rig(rig)
+            rigs[id(rig)] = (stereo_rectification(work), original_rays(work))
         rect, rays = rigs[id(rig)]
 
         def tick(name: str, vid: str = vid) -> None:

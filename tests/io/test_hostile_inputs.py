@@ -187,22 +187,25 @@ def test_a_fifo_in_the_scene_is_refused(tmp_path: Path) -> None:
     assert "not a regular file" in _one_line(exc, scene / "scene.yaml")
 
 
-def test_an_8000x6000_scene_is_refused_with_the_figure_before_any_image(
+def test_a_10000x6500_scene_is_refused_with_the_figure_before_any_image(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """Matched at the working resolution, a 65-megapixel scene still needs more than the
+    budget for its full images; a 48-megapixel one (8000x6000) fits."""
     from aida_kb.cli.main import main
-    from aida_kb.io.scene import write_calib
+    from aida_kb.io.scene import memory_problem, write_calib
 
+    assert memory_problem(8000, 6000) is None
     scene = _scene(tmp_path)
-    K = np.array([[6000.0, 0.0, 3999.5], [0.0, 6000.0, 2999.5], [0.0, 0.0, 1.0]])
+    K = np.array([[6000.0, 0.0, 4999.5], [0.0, 6000.0, 3249.5], [0.0, 0.0, 1.0]])
     big = StereoCalib(
-        K, np.zeros(5), K, np.zeros(5), np.eye(3), np.array([-0.3, 0, 0]), (8000, 6000)
+        K, np.zeros(5), K, np.zeros(5), np.eye(3), np.array([-0.3, 0, 0]), (10000, 6500)
     )
     write_calib(scene / "calib.yaml", big)
     with pytest.raises(FormatError) as exc:
         read_scene(scene)
     message = _one_line(exc, scene / "calib.yaml")
-    assert "images of 8000x6000 pixels need about 13.4 GiB" in message
+    assert "images of 10000x6500 pixels need about 4.2 GiB (matched at 1754x1140)" in message
     assert "more than the memory budget of 4.0 GiB" in message
     assert main(["evidence", str(scene), "-o", str(tmp_path / "ev.json"), "--quiet"]) == 2
     assert "memory budget" in capsys.readouterr().err

@@ -207,3 +207,25 @@ def test_evidence_carries_the_scale(small_house: Path, tmp_path: Path) -> None:
     unknown, _ = scene_evidence(read_scene(root), views=["00"], segmentation="labels")
     assert unknown.units == "unknown"
     assert Evidence.model_validate_json(unknown.model_dump_json()).units == "unknown"
+
+
+def test_a_large_pair_is_matched_at_the_working_resolution(
+    house_640: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With a working resolution of 400x300 the 640x480 house is matched there, and its
+    evidence is given in the full image: cameras, sizes, boxes and lines of 640x480 pixels,
+    the large faces' normals still within 3 degrees, the products at full size."""
+    import aida_kb.io.scene as scene_io
+
+    monkeypatch.setattr(scene_io, "WORKING_MAX_PIXELS", 120_000)
+    scene = read_scene(house_640)
+    evidence, products = scene_evidence(scene, views=["00"])
+    view = evidence.views[0]
+    assert (view.image_width, view.image_height) == (640, 480)
+    np.testing.assert_allclose(view.left.K, scene.views[0].rig.K1)
+    assert "matched at 400x300 (working resolution) of 640x480" in products[0].rectified
+    assert products[0].regions.shape == products[0].depth.depth_m.shape == (480, 640)
+    assert products[0].disparity.disparity.shape[1] < 640  # matched on the small pair
+    assert max(r.bbox[2] for r in view.regions) > 400  # boxes in full-image pixels
+    assert max(max(ln.p1[0], ln.p2[0]) for ln in view.lines) > 400
+    assert len(_check_faces(house_640, view, 0.05, 3.0)) >= 3
