@@ -28,10 +28,13 @@ is **verified** only when it also
 (e) measures every part it inserted from knowledge: a region of some view lies on it, the
     outlines of regions on the model reach its plane over an area inside its face, or two
     of its edges are measured — seen (segments along half the edge) in two views, or in one
-    view along a neighbour a region measures. A part not measured is where the knowledge's
-    placement put it (a back wall mirrored about the ridge: the house's depth a guess; a
-    roof's hidden back as steep as its front: a shed taken for a gable; a floor square to
-    the walls), not where the scene has it.
+    view along a neighbour a region measures; one such edge suffices when the knowledge
+    orients the part parallel or square to parts regions measure — unless that orientation
+    is the choice among alternatives the evidence has not told apart (a flat roof's level
+    top through its front eave: a shed's sloping top has that eave too). A part not
+    measured is where the knowledge's placement put it (a back wall mirrored about the
+    ridge: the house's depth a guess; a roof's hidden back as steep as its front: a shed
+    taken for a gable; a floor square to the walls), not where the scene has it.
 
 (f) lacks no surface joined to the object: a region outside the model's projection or in
     front of it, of at least ADJOINING_MIN_SHARE of the view's region pixels, whose outline
@@ -469,8 +472,45 @@ def _spread(points: FloatArray) -> int:
     return 2 if sv[1] >= OUTLINE_AREA_RATIO * sv[0] else 1
 
 
+def contested(kb: KnowledgeBase, interp: Interpretation, role: str) -> str | None:
+    """The alternative that orients part `role` otherwise, or None.
+
+    The part's whole (the instance at the role's parent path) was chosen among the
+    specialisations of an abstract concept (a roof among gable, hip, flat and shed); when a
+    sibling specialisation orients a part of that name another way or has no such part (a
+    shed's top is tilted by its pitch, a flat roof's is level), the orientation the
+    knowledge gives the part is the choice itself, not evidence for it."""
+    if "." not in role:
+        return None
+    owner, name = role.rsplit(".", 1)
+    inst = next((i for i in interp.instances if i.role == owner), None)
+    concept = kb.concepts.get(inst.concept) if inst is not None else None
+    if concept is None:
+        return None
+    mine = concept.orientations.get(name)
+    key = None if mine is None else (mine.direction, mine.tilt_rad, mine.tilt_from)
+    lacking = None  # an alternative without such a part: its planes lie elsewhere
+    for parent in concept.parents:
+        general = kb.concepts.get(parent)
+        for sibling in general.specialisations if general is not None else ():
+            other = kb.concepts.get(sibling)
+            if other is None or sibling == concept.name or other.abstract:
+                continue
+            theirs = other.orientations.get(name)
+            if theirs is None and name not in other.parts:
+                lacking = lacking or sibling
+            elif (
+                theirs is not None and (theirs.direction, theirs.tilt_rad, theirs.tilt_from) != key
+            ):
+                return sibling  # the alternative has the part, oriented otherwise
+    return lacking
+
+
 def unmeasured_parts(
-    interp: Interpretation, evidence: Evidence, checks: tuple[ViewCheck, ...]
+    interp: Interpretation,
+    evidence: Evidence,
+    checks: tuple[ViewCheck, ...],
+    kb: KnowledgeBase | None = None,
 ) -> list[str]:
     """The parts inserted from knowledge whose plane the evidence does not measure (reasons).
 
@@ -482,7 +522,11 @@ def unmeasured_parts(
     shares with the region's part, already counted when seen.
     The knowledge's orientations and placements (a back wall parallel to the front and
     mirrored about the ridge, a roof back as steep as the front, a floor square to the
-    walls) fill in the rest, and that is a guess about this scene, not a measurement."""
+    walls) fill in the rest, and that is a guess about this scene, not a measurement.
+    One measured edge and an orientation the knowledge fixes (parallel or square to parts a
+    region measures) measure the part too, unless that orientation is the choice among
+    alternatives (`contested`, with `kb`): one edge of a level top — its front eave — lies
+    on a shed's sloping top as well, so it cannot tell a flat roof from a shed."""
     model = interp.model
     if model is None:
         return []
@@ -528,7 +572,19 @@ def unmeasured_parts(
             other = names[int(g if f == me else f)]
             if len(views) >= 2 or other in on_region:
                 lines += 1
-        if lines >= MEASURED_LINES or (lines >= 1 and _oriented(n, measured)):
+        if lines >= MEASURED_LINES:
+            continue
+        if lines >= 1 and _oriented(n, measured):
+            rival = contested(kb, interp, part.role) if kb is not None else None
+            if rival is None:
+                continue
+            owner = part.role.rsplit(".", 1)[0]
+            chosen = next((i.concept for i in interp.instances if i.role == owner), "")
+            reasons.append(
+                f"{part.role} is oriented by the knowledge of {chosen}, not measured: no region "
+                f"lies on it and {lines} of its edges are measured, which {rival} would fit as "
+                f"well ({MEASURED_LINES} needed to tell them apart)"
+            )
             continue
         reasons.append(
             f"{part.role} is placed by the knowledge, not measured: no region lies on it and "
@@ -792,7 +848,7 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
     for check in checks:
         reasons += adjoining(by_id[check.view], model, check)
     # (e) every part inserted from knowledge is measured by some evidence
-    reasons += unmeasured_parts(interp, evidence, tuple(checks))
+    reasons += unmeasured_parts(interp, evidence, tuple(checks), kb)
     # (d) the knowledge's measured attributes
     reasons += check_attributes(kb, interp, model)
     reasons += check_orientations(kb, interp, model)

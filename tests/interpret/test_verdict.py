@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.result import Instance, Interpretation
 from aida_kb.interpret.verdict import (
     DOUBTFUL,
     NOTHING,
     VERIFIED,
+    contested,
     judge,
     unmeasured_parts,
     with_verdict,
@@ -159,6 +160,33 @@ def test_a_part_no_evidence_measures_is_named(
         r.split(" ")[0] for r in verdict.reasons if "placed by the knowledge, not measured" in r
     ]
     assert named == ["body.back", "body.right", "body.floor"]
+
+
+def test_an_orientation_that_is_the_choice_itself_is_contested(
+    buildings_kb: KnowledgeBase, interpreted: Get
+) -> None:
+    # a flat roof's level top is the knowledge of FlatRoof: a shed's top through the same
+    # front eave slopes (30044 of the held-out seeds was verified so); a back wall parallel
+    # to the front is every house body's, a wing's back every wing's
+    base = interpreted("house_correct.json")
+
+    def with_concepts(**concepts: str) -> Interpretation:
+        extra = [
+            Instance(
+                role=r.replace("_", "."), concept=c, instance_of=c, parent="body", link="part-of"
+            )
+            for r, c in concepts.items()
+        ]
+        kept = [i for i in base.instances if i.role.replace(".", "_") not in concepts]
+        return base.model_copy(update={"instances": kept + extra})
+
+    flat = with_concepts(body_roof="FlatRoof", body_wings_0="RightWing")
+    assert contested(buildings_kb, flat, "body.roof.top") == "ShedRoof"
+    assert contested(buildings_kb, flat, "body.back") is None
+    assert contested(buildings_kb, flat, "body.floor") is None
+    skew = with_concepts(body_roof="GableRoof", **{"body_wings[0]": "SkewWing"})
+    assert contested(buildings_kb, skew, "body.wings[0].back") is None
+    assert contested(buildings_kb, skew, "body.roof.front") == "FlatRoof"
 
 
 def test_a_surface_joined_to_the_model_that_it_lacks_is_named(
