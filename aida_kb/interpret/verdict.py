@@ -19,13 +19,17 @@ is **verified** only when it also
     reconstruction gave it; a view that does not explain its evidence is named, and so is a
     view where the model covers none of its regions or shows none of its edges (nothing
     there confirms the camera: a registration 100 degrees off passes every test for want
-    of evidence);
+    of evidence), and a registered view (not the first, which sets the world frame) whose
+    camera its segments on the model's edges fix only to more than
+    CAMERA_ANGLE_SD_MAX_DEG or CAMERA_CENTRE_SD_MAX of its distance (`camera_sd`: the
+    pose's covariance from those segments, the model held, at the scatter they show);
 (d) meets the knowledge's attribute ranges: every attribute of an instantiated concept that
     stands for a geometric measure (`is slope(self)`, `height(self)`, ...; docs/language.md
     3.10) is measured on the model and must lie in its range; and every part the knowledge
     orients at a fixed slope (`orient top: upward`, 3.9) has it. "Up" is the direction of a
     part the knowledge orients upward or downward (the floor);
-(e) measures every part it inserted from knowledge: a region of some view lies on it, the
+(e) measures every part (inserted from knowledge, or bound to regions none of which lies
+    on it): a region of some view lies on it, the
     outlines of regions on the model reach its plane over an area inside its face, or two
     of its edges are measured — seen (segments along half the edge) in two views, or in one
     view along a neighbour a region measures; one such edge suffices when the knowledge
@@ -34,13 +38,21 @@ is **verified** only when it also
     top through its front eave: a shed's sloping top has that eave too). A part not
     measured is where the knowledge's placement put it (a back wall mirrored about the
     ridge: the house's depth a guess; a roof's hidden back as steep as its front: a shed
-    taken for a gable; a floor square to the walls), not where the scene has it.
+    taken for a gable; a floor square to the walls), not where the scene has it. A part
+    placed by its edges is placed to POSITION_TOLERANCE of the model's size (one standard
+    deviation of its offset, from how far a pixel across each edge moves it in the views
+    that see it: a wing's end from one edge seen at a grazing angle is not);
 
 (f) lacks no surface joined to the object: a region outside the model's projection or in
     front of it, of at least ADJOINING_MIN_SHARE of the view's region pixels, whose outline
     meets a model face in 3-D along a quarter of the model's size, and which continues no
     face's plane (the ground continues the floor), is a part the model lacks (a hip roof's
-    slopes above walls taken for a flat roof's); a tree before the house does not meet it.
+    slopes above walls taken for a flat roof's); a tree before the house does not meet it;
+(g) explains the surfaces near it: of the weight of the regions on the model and of those
+    outside its projection or in front of it whose centres lie within NEAR_MARGIN of its
+    size of its bounding box (and continue no face's plane), the model explains at least
+    NEAR_EXPLAINED_MIN (an L-shaped house taken for its body leaves the wing's walls and
+    roof there; an occluder covers at most a third of an object).
 
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
 where. An interpretation that found no object is **nothing**; so is one whose sizes (the
@@ -60,7 +72,7 @@ import numpy.typing as npt
 
 from aida_kb.interpret.result import INSERTED, Instance, Interpretation
 from aida_kb.io.evidence import Evidence, ViewEvidence
-from aida_kb.io.model import ReconstructedModel
+from aida_kb.io.model import ModelCamera, ReconstructedModel
 from aida_kb.kb.model import AttributeModel, KnowledgeBase, MeasureKind
 
 if TYPE_CHECKING:
@@ -98,6 +110,13 @@ OUTLINE_STEP_PX = 3.0  # region outlines are sampled every 3 px along their side
 ADJOINING_MIN_SHARE = 0.02  # (f): a region of at least 2 % of a view's region pixels ...
 ADJOINING_SPAN = 0.25  # ... meeting a face along a quarter of the model's size is a surface
 # joined to the object (a roof slope above a wall's eave), not background touching it
+NEAR_MARGIN = 0.25  # (g): a region whose centre lies within a quarter of the model's size of
+# its bounding box is near the object (an occluder standing further off is not)
+NEAR_EXPLAINED_MIN = 0.6  # ... and the model explains at least 60 % of the weight of the
+# regions on it and near it (occluders cover up to 30 % of an object: their regions weigh
+# less than half of what the model explains; a missing wing weighs more)
+POSITION_TOLERANCE = 0.02  # (e): a part placed by its edges alone is placed to 2 % of the
+# model's size (one standard deviation; the accuracy asked of its vertices)
 OUTLINE_AREA_RATIO = 0.2  # outlines reaching a plane spread over an area, not along a line
 MEASURING_SHARE = 0.05  # a region measures its part's plane when it carries 5 % of the
 # weight in the model's projection (a sliver's plane fit scatters by degrees)
@@ -105,6 +124,12 @@ MEASURED_LINES = 2  # a plane through two measured lines (not one) is measured .
 EXACT_DEG = 0.5  # ... or through one, parallel or square to a measured part within 0.5 deg
 COS_PARALLEL = math.cos(math.radians(EXACT_DEG))
 SIN_SQUARE = math.sin(math.radians(EXACT_DEG))
+EDGE_SIGMA_PX = 1.0  # an image line's ends scatter by a pixel across it (the knowledge's
+# `measure edge(...) +- 1 px`); how far that moves a plane through the edge is its uncertainty
+CAMERA_ANGLE_SD_MAX_DEG = 0.1  # (c): a registered view's camera is fixed by its segments to
+# 0.1 degree (one standard deviation; the accuracy asked of it, the paper's Table 1) ...
+CAMERA_CENTRE_SD_MAX = 0.01  # ... and its centre to 1 % of its distance from the model
+SEGMENT_SIGMA_FLOOR_PX = 0.2  # segment ends are never taken as better than a fifth of a pixel
 EDGE_SEEN_SHARE = 0.5  # an edge is seen in a view when segments lie along half its length
 EDGE_COVER_MIN = 0.25  # at least this share of the visible edges' length is seen as segments
 # (edges between faces of like brightness or under an occluder show no segment)
@@ -322,6 +347,69 @@ def edge_cover(
     return float(covered[sel].sum() / edges.length_px[sel].sum())
 
 
+def _skew(w: FloatArray) -> FloatArray:
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def camera_sd(view: ViewEvidence, model: ReconstructedModel) -> tuple[float, float, int]:
+    """How well the view's segments fix its camera, the model held: the standard deviation
+    of its rotation (degrees, the root of the three angles' variances) and of its centre
+    (a fraction of its distance from the model's centre), and the number of segments on
+    model edges (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG). Each segment's two ends lie
+    across its edge's projected line with the scatter the matches show (at least
+    SEGMENT_SIGMA_FLOOR_PX); fewer than four segments leave the pose unfixed (inf)."""
+    from aida_kb.register.evidence import measurements_of
+    from aida_kb.register.match import match_segments
+
+    found = _edge_coverage(view, model)
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    if found is None or camera is None:
+        return math.inf, math.inf, 0
+    rigid, edges, _ = found
+    meas = measurements_of(view)
+    m = match_segments(
+        edges.a,
+        edges.b,
+        meas.p1,
+        meas.p2,
+        max_distance_px=EDGE_TOLERANCE_PX,
+        max_angle_rad=math.radians(EDGE_ANGLE_DEG),
+    )
+    if m.size < 4:
+        return math.inf, math.inf, int(m.size)
+    ends = rigid.edge_ends[edges.index[m.edge]]  # (M, 2, 3) world frame
+    px = np.concatenate([meas.p1[m.segment], meas.p2[m.segment]])  # (2M, 2)
+    K = np.asarray(camera.K, dtype=np.float64)
+    R = np.asarray(camera.R, dtype=np.float64)
+    C = -R.T @ np.asarray(camera.t, dtype=np.float64)
+
+    def across(x: FloatArray) -> FloatArray:
+        """Signed distances (2M,) of the segment ends from the edges' lines at pose step x
+        (rotation vector, radians; centre step, metres)."""
+        Rx = (np.eye(3) + _skew(x[:3])) @ R
+        tx = -Rx @ (C + x[3:])
+        y = (ends.reshape(-1, 3) @ Rx.T + tx) @ K.T
+        uv = (y[:, :2] / y[:, 2:3]).reshape(-1, 2, 2)
+        d = uv[:, 1] - uv[:, 0]
+        n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1)[:, None]
+        a2, n2 = np.concatenate([uv[:, 0], uv[:, 0]]), np.concatenate([n, n])
+        out: FloatArray = np.einsum("ij,ij->i", px - a2, n2)
+        return out
+
+    r0 = across(np.zeros(6))
+    h = 1e-6
+    J = np.stack([(across(h * e) - r0) / h for e in np.eye(6)], axis=1)  # (2M, 6)
+    sigma = max(math.sqrt(float(r0 @ r0) / (len(r0) - 6)), SEGMENT_SIGMA_FLOOR_PX)
+    info = J.T @ J
+    if np.linalg.cond(info) > 1e12:
+        return math.inf, math.inf, int(m.size)
+    cov = sigma**2 * np.linalg.inv(info)
+    distance = float(np.linalg.norm(C - rigid.edge_ends.reshape(-1, 3).mean(axis=0)))
+    angle = math.degrees(math.sqrt(float(np.trace(cov[:3, :3]))))
+    centre = math.sqrt(float(np.trace(cov[3:, 3:]))) / max(distance, 1e-9)
+    return angle, centre, int(m.size)
+
+
 def seen_edges(
     evidence: Evidence, model: ReconstructedModel
 ) -> tuple[tuple[str, ...], IntArray, list[set[str]]]:
@@ -462,6 +550,62 @@ def adjoining(view: ViewEvidence, model: ReconstructedModel, check: ViewCheck) -
     return reasons
 
 
+def _continues_face(
+    normal: FloatArray,
+    centre: FloatArray,
+    tol: float,
+    faces: list[tuple[str, FloatArray, float, FloatArray]],
+) -> bool:
+    """A plane (unit normal (3,), a point (3,), world frame) lies in a face's plane within
+    NORMAL_TOLERANCE_DEG and `tol` metres (the ground continues the floor)."""
+    cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
+    return any(
+        abs(float(normal @ n)) >= cos_tol and abs(float(centre @ n) - d) <= tol
+        for _, n, d, _ in faces
+    )
+
+
+def unexplained_near(
+    view: ViewEvidence, model: ReconstructedModel, check: ViewCheck
+) -> tuple[float, list[int]]:
+    """Check (g) in one view: the share of the weight of the regions on the model and near
+    it that the model explains, and the ids of the near regions it leaves (heaviest first).
+    Near: a region outside the model's projection or in front of it (which (b) leaves
+    alone), at least MIN_WEIGHT_SHARE of the view's weight, whose centre lies within
+    NEAR_MARGIN of the model's size of its bounding box, and which continues no face's
+    plane. An L-shaped house taken for its body leaves the wing's walls there."""
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    if camera is None:
+        return 1.0, []
+    R = np.asarray(camera.R, dtype=np.float64)
+    t = np.asarray(camera.t, dtype=np.float64)
+    corners = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
+    grow = NEAR_MARGIN * _size(model)
+    low, high = corners.min(axis=0) - grow, corners.max(axis=0) + grow
+    faces = _faces(model)
+    total = sum(r.w_c for r in view.regions)
+    free = set(check.free_ids)
+    near: list[tuple[float, int]] = []
+    for r in view.regions:
+        if r.id not in free or r.depth_pixel_count == 0 or r.w_c < MIN_WEIGHT_SHARE * total:
+            continue
+        normal = np.asarray(r.n_init, dtype=np.float64)
+        centre = np.asarray(r.c_init, dtype=np.float64)
+        if view.frame == "camera":
+            normal, centre = normal @ R, (centre - t) @ R
+        dist = float(np.linalg.norm(centre + R.T @ t))
+        if _continues_face(
+            normal, centre, max(DEPTH_TOLERANCE * dist, DEPTH_TOLERANCE_MIN_M), faces
+        ):
+            continue
+        if bool(np.all(centre >= low)) and bool(np.all(centre <= high)):
+            near.append((float(r.w_c), int(r.id)))
+    left = sum(w for w, _ in near)
+    explained = check.explained_weight
+    share = explained / (explained + left) if explained + left > 0 else 1.0
+    return share, [i for _, i in sorted(near, reverse=True)]
+
+
 def _spread(points: FloatArray) -> int:
     """0, 1 or 2: points (K, 3) are none, spread along a line, or over an area (the second
     principal extent at least OUTLINE_AREA_RATIO of the first)."""
@@ -488,6 +632,8 @@ def contested(kb: KnowledgeBase, interp: Interpretation, role: str) -> str | Non
     if concept is None:
         return None
     mine = concept.orientations.get(name)
+    if mine is None and name not in concept.parts:
+        return None  # not the concept's own part (a wing's floor, attached by its whole)
     key = None if mine is None else (mine.direction, mine.tilt_rad, mine.tilt_from)
     lacking = None  # an alternative without such a part: its planes lie elsewhere
     for parent in concept.parents:
@@ -506,13 +652,63 @@ def contested(kb: KnowledgeBase, interp: Interpretation, role: str) -> str | Non
     return lacking
 
 
+def _project(camera: ModelCamera, points: FloatArray) -> FloatArray:
+    """Pixels (N, 2) of world points (N, 3) in a model camera (pinhole; distortion left out)."""
+    x = points @ np.asarray(camera.R, dtype=np.float64).T + np.asarray(camera.t, dtype=np.float64)
+    x = x @ np.asarray(camera.K, dtype=np.float64).T
+    out: FloatArray = x[:, :2] / x[:, 2:3]
+    return out
+
+
+def line_offset_sd(
+    ends: FloatArray, normal: FloatArray, within: FloatArray | None, cameras: list[ModelCamera]
+) -> float:
+    """How well image lines of a 3-D edge fix a plane through it: the standard deviation,
+    metres, of the plane's offset along its unit `normal` (3,), when the edge (ends (2, 3),
+    world frame) is seen in `cameras` with its two ends good to EDGE_SIGMA_PX across the
+    line. The edge may move square to itself: within the plane of unit normal `within`
+    (a neighbour a region measures) or, None, freely (triangulated from the views). inf
+    when the views leave a direction unmeasured (one view, no neighbour; a line along the
+    baseline)."""
+    u = ends[1] - ends[0]
+    u = u / max(float(np.linalg.norm(u)), 1e-12)
+    if within is not None:
+        w = np.cross(within, u)
+        basis = (w / max(float(np.linalg.norm(w)), 1e-12))[None, :]
+    else:
+        a = np.cross(u, [1.0, 0.0, 0.0])
+        if np.linalg.norm(a) < 0.1:
+            a = np.cross(u, [0.0, 1.0, 0.0])
+        a = a / np.linalg.norm(a)
+        basis = np.stack([a, np.cross(u, a)])
+    info = np.zeros((len(basis), len(basis)))
+    h = 1e-3 * max(float(np.linalg.norm(ends[1] - ends[0])), 1e-3)  # metres
+    for camera in cameras:
+        px = _project(camera, ends)  # (2, 2)
+        along = px[1] - px[0]
+        length = float(np.linalg.norm(along))
+        if length < 1e-9:
+            continue
+        across = np.array([-along[1], along[0]]) / length
+        rows = [((_project(camera, ends + h * b) - px) @ across) / h for b in basis]  # px / m
+        J = np.stack(rows, axis=1)  # (2 ends, k)
+        info += J.T @ J / EDGE_SIGMA_PX**2
+    if abs(float(np.linalg.det(info))) < 1e-12:
+        return math.inf
+    cov = np.linalg.inv(info)
+    proj = basis @ normal  # (k,): how far the plane moves per metre along each direction
+    return math.sqrt(max(float(proj @ cov @ proj), 0.0))
+
+
 def unmeasured_parts(
     interp: Interpretation,
     evidence: Evidence,
     checks: tuple[ViewCheck, ...],
     kb: KnowledgeBase | None = None,
 ) -> list[str]:
-    """The parts inserted from knowledge whose plane the evidence does not measure (reasons).
+    """The parts whose plane the evidence does not measure (reasons): inserted from
+    knowledge, or bound to regions none of which lies on the part (a region bound but left
+    off the face by the adjustment measures nothing).
 
     A plane has three unknowns. A region on the part (in any view) measures all three; so
     do the outlines of regions on the model that reach the part's plane inside its face
@@ -526,13 +722,20 @@ def unmeasured_parts(
     One measured edge and an orientation the knowledge fixes (parallel or square to parts a
     region measures) measure the part too, unless that orientation is the choice among
     alternatives (`contested`, with `kb`): one edge of a level top — its front eave — lies
-    on a shed's sloping top as well, so it cannot tell a flat roof from a shed."""
+    on a shed's sloping top as well, so it cannot tell a flat roof from a shed.
+    A part its edges measure must be placed by them to POSITION_TOLERANCE of the model's
+    size: each edge, its ends good to EDGE_SIGMA_PX across it in each view that sees it,
+    fixes the part's offset to `line_offset_sd` (an edge seen at a grazing angle, or along
+    the baseline of the two views that see it, hardly does)."""
     model = interp.model
     if model is None:
         return []
     inserted = {i.role for i in interp.instances if INSERTED in i.bindings}
-    if not inserted:
-        return []
+    bound = {  # parts whose realisation (a con-of region) is bound to evidence
+        i.parent
+        for i in interp.instances
+        if i.link == "con-of" and i.parent is not None and i.bindings and INSERTED not in i.bindings
+    }
     by_view = {c.view: c for c in checks}
     pts, tols = [], []
     for view in evidence.views:
@@ -543,7 +746,13 @@ def unmeasured_parts(
             tols.append(t)
     points = np.vstack(pts) if pts else np.zeros((0, 3))
     tol = np.concatenate(tols) if tols else np.zeros(0)
+    from aida_kb.register.model import RigidModel
+
     names, edge_faces, seen_by = seen_edges(evidence, model)
+    ends = RigidModel.from_model(model).edge_ends  # (E, 2, 3), the edges of `edge_faces`
+    normals = {p.role: np.asarray(p.normal, dtype=np.float64) for p in model.parts}
+    cameras = {c.view: c for c in model.cameras}
+    size = _size(model)
     on_region = {
         role
         for role in names
@@ -554,7 +763,7 @@ def unmeasured_parts(
     ).reshape(-1, 3)
     reasons = []
     for part in model.parts:
-        if part.role not in inserted or part.role in on_region:
+        if part.role not in inserted | bound or part.role in on_region:
             continue
         n = np.asarray(part.normal, dtype=np.float64)
         poly = np.asarray(part.polygon, dtype=np.float64)
@@ -566,28 +775,42 @@ def unmeasured_parts(
             continue
         me = names.index(part.role) if part.role in names else -1
         lines = 0
-        for (f, g), views in zip(edge_faces, seen_by, strict=True):
+        information = 0.0  # 1 / m², of the part's offset from its measured edges
+        for k, ((f, g), views) in enumerate(zip(edge_faces, seen_by, strict=True)):
             if me not in (f, g) or not views:
                 continue
             other = names[int(g if f == me else f)]
             if len(views) >= 2 or other in on_region:
                 lines += 1
-        if lines >= MEASURED_LINES:
-            continue
-        if lines >= 1 and _oriented(n, measured):
+                within = normals[other] if other in on_region else None
+                sd = line_offset_sd(ends[k], n, within, [cameras[v] for v in sorted(views)])
+                information += 1.0 / sd**2 if 0.0 < sd < math.inf else 0.0
+        placed = lines >= MEASURED_LINES
+        if not placed and lines >= 1 and _oriented(n, measured):
             rival = contested(kb, interp, part.role) if kb is not None else None
-            if rival is None:
+            placed = rival is None
+            if not placed:
+                owner = part.role.rsplit(".", 1)[0]
+                chosen = next((i.concept for i in interp.instances if i.role == owner), "")
+                reasons.append(
+                    f"{part.role} is oriented by the knowledge of {chosen}, not measured: no "
+                    f"region lies on it and {lines} of its edges are measured, which {rival} "
+                    f"would fit as well ({MEASURED_LINES} needed to tell them apart)"
+                )
                 continue
-            owner = part.role.rsplit(".", 1)[0]
-            chosen = next((i.concept for i in interp.instances if i.role == owner), "")
-            reasons.append(
-                f"{part.role} is oriented by the knowledge of {chosen}, not measured: no region "
-                f"lies on it and {lines} of its edges are measured, which {rival} would fit as "
-                f"well ({MEASURED_LINES} needed to tell them apart)"
-            )
+        if placed:
+            sd = 1.0 / math.sqrt(information) if information > 0 else math.inf
+            if sd > POSITION_TOLERANCE * size:
+                reasons.append(
+                    f"{part.role} is placed by {lines} edge{'s' if lines != 1 else ''} only "
+                    f"to +-{sd:.2f} m, more than "
+                    f"{100 * POSITION_TOLERANCE:.0f}% of the model's size ({size:.1f} m; an "
+                    f"edge's ends good to {EDGE_SIGMA_PX:g} px in the views that see it)"
+                )
             continue
+        how = "placed by the knowledge" if part.role in inserted else "bound to no region on it"
         reasons.append(
-            f"{part.role} is placed by the knowledge, not measured: no region lies on it and "
+            f"{part.role} is {how}, not measured: no region lies on it and "
             f"{lines} of its edges are measured ({MEASURED_LINES} needed: seen in two views, "
             "or in one along a neighbour a region measures)"
         )
@@ -821,6 +1044,15 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
                 f"edges are seen along {100 * check.edge_cover:.0f}% of their length "
                 f"(at least {100 * EDGE_COVER_MIN:.0f}% within {EDGE_TOLERANCE_PX:g} px)"
             )
+        if view.id != evidence.views[0].id and check.inside_weight > 0:
+            # a registered view: its camera is fixed by its segments to what is asked of it
+            angle, centre, count = camera_sd(view, model)
+            if angle > CAMERA_ANGLE_SD_MAX_DEG or centre > CAMERA_CENTRE_SD_MAX:
+                problems.append(
+                    f"camera is fixed by its {count} segments on model edges only to "
+                    f"+-{angle:.2f} deg and +-{100 * centre:.1f}% of its distance (at most "
+                    f"{CAMERA_ANGLE_SD_MAX_DEG:g} deg and {100 * CAMERA_CENTRE_SD_MAX:g}%)"
+                )
         worst = check.contradicting[0] if check.contradicting else None
         if worst is not None and worst[1] > CONTRADICTION_MAX:
             problems.append(
@@ -847,6 +1079,16 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
     by_id = {v.id: v for v in evidence.views}
     for check in checks:
         reasons += adjoining(by_id[check.view], model, check)
+    # (g) the surfaces on the model and near it are mostly the model's
+    for check in checks:
+        share, left = unexplained_near(by_id[check.view], model, check)
+        if share < NEAR_EXPLAINED_MIN:
+            shown = ", ".join(f"{check.view}/{i}" for i in left[:3])
+            reasons.append(
+                f"view {check.view}: the model explains {100 * share:.0f}% of the region "
+                f"weight on it and near it (at least {100 * NEAR_EXPLAINED_MIN:.0f}%): "
+                f"regions {shown} near it are not its surfaces"
+            )
     # (e) every part inserted from knowledge is measured by some evidence
     reasons += unmeasured_parts(interp, evidence, tuple(checks), kb)
     # (d) the knowledge's measured attributes

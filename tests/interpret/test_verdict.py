@@ -13,8 +13,11 @@ from aida_kb.interpret.verdict import (
     DOUBTFUL,
     NOTHING,
     VERIFIED,
+    camera_sd,
     contested,
     judge,
+    line_offset_sd,
+    unexplained_near,
     unmeasured_parts,
     with_verdict,
 )
@@ -187,6 +190,66 @@ def test_an_orientation_that_is_the_choice_itself_is_contested(
     skew = with_concepts(body_roof="GableRoof", **{"body_wings[0]": "SkewWing"})
     assert contested(buildings_kb, skew, "body.wings[0].back") is None
     assert contested(buildings_kb, skew, "body.roof.front") == "FlatRoof"
+    # a wing's floor is attached by its whole, not a part any wing declares
+    assert contested(buildings_kb, skew, "body.wings[0].floor") is None
+
+
+def _camera(K: list[list[float]], R: np.ndarray, t: tuple[float, float, float]) -> ModelCamera:
+    return ModelCamera(
+        view="00",
+        K=K,
+        R=R.tolist(),
+        t=t,
+        image_width=1000,
+        image_height=1000,  # type: ignore[arg-type]
+    )
+
+
+def test_an_edge_fixes_a_plane_through_it_as_far_as_its_pixels_move() -> None:
+    # a vertical edge 20 m before a camera of focal length 500 px, on a wall facing the
+    # camera: a metre along the wall moves its image 25 px, so its two ends good to 1 px fix
+    # the side wall through it to 1/sqrt(2 * 25**2) m; the wall seen at 60 degrees to the
+    # view halves that; one view alone and no wall measured leave the depth free
+    K = [[500.0, 0.0, 500.0], [0.0, 500.0, 500.0], [0.0, 0.0, 1.0]]
+    cam = _camera(K, np.eye(3), (0.0, 0.0, 0.0))
+    ends = np.array([[0.0, -5.0, 20.0], [0.0, 5.0, 20.0]])
+    side = np.array([1.0, 0.0, 0.0])
+    facing = np.array([0.0, 0.0, -1.0])
+    assert line_offset_sd(ends, side, facing, [cam]) == pytest.approx(1 / (25 * 2**0.5), rel=1e-3)
+    c, s = np.cos(np.radians(60.0)), np.sin(np.radians(60.0))
+    slanted = np.array([s, 0.0, -c])  # the wall turned 60 degrees away from facing the camera
+    along = np.cross(slanted, [0.0, 1.0, 0.0])
+    side_of_slanted = along / np.linalg.norm(along)
+    sd = line_offset_sd(ends, side_of_slanted, slanted, [cam])
+    assert sd == pytest.approx(2 / (25 * 2**0.5), rel=0.02)
+    assert line_offset_sd(ends, side, None, [cam]) == float("inf")
+
+
+def test_a_registered_camera_is_fixed_by_its_segments(
+    buildings_kb: KnowledgeBase, interpreted: Get
+) -> None:
+    # the house's one view: 11 segments lie on its model edges, fixing the camera to
+    # better than 0.1 degree; its first four segments fix it only to a few tenths, three
+    # not at all, and the same view registered as a second one is then doubtful
+    interp = interpreted("house_correct.json")
+    evidence = _evidence("house_correct.json")
+    assert interp.model is not None
+    view = evidence.views[0]
+    angle, centre, count = camera_sd(view, interp.model)
+    assert count == 11
+    assert 0.0 < angle < 0.1
+    assert 0.0 < centre < 0.01
+    few = view.model_copy(update={"lines": view.lines[:4]})
+    assert 0.1 < camera_sd(few, interp.model)[0] < 1.0
+    three = view.model_copy(update={"lines": view.lines[:3]})
+    assert camera_sd(three, interp.model) == (float("inf"), float("inf"), 3)
+    second = few.model_copy(update={"id": "01"})
+    cameras = [*interp.model.cameras, interp.model.cameras[0].model_copy(update={"view": "01"})]
+    model = interp.model.model_copy(update={"cameras": cameras})
+    two = interp.model_copy(update={"model": model})
+    verdict = judge(buildings_kb, two, evidence.model_copy(update={"views": [view, second]}))
+    assert verdict.verdict == DOUBTFUL
+    assert any(r.startswith("view 01: the model camera is fixed by its") for r in verdict.reasons)
 
 
 def test_a_surface_joined_to_the_model_that_it_lacks_is_named(
@@ -217,6 +280,14 @@ def test_a_surface_joined_to_the_model_that_it_lacks_is_named(
     roofless = interp.model_copy(update={"model": interp.model.model_copy(update={"parts": parts})})
     verdict = judge(buildings_kb, roofless, outlined)
     assert verdict.verdict == DOUBTFUL
+    # (g) the roof's regions stand in front of the roofless model, near it: not its surfaces
+    assert (
+        unexplained_near(view, interp.model, judge(buildings_kb, interp, outlined).checks[0])[0]
+        == 1.0
+    )
+    near = [r for r in verdict.reasons if "near it are not its surfaces" in r]
+    assert near
+    assert near[0].startswith("view 00: the model explains")
     joined = [r for r in verdict.reasons if "the model does not explain it" in r]
     assert joined[0].startswith(
         "view 00: region 00/3 (26% of its pixels) meets body.front along 16"
