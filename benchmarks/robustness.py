@@ -10,7 +10,7 @@ every camera within 0.1 deg and 1 % of its distance.
 
 Scenes with labels.png and without are reported apart. The seeds reported by default
 (10000 ...) were never looked at while the code was developed (development used seeds below
-1000). Figures: correct_rate, wrong_accepted_rate (verified but not correct), doubtful_rate,
+3000). Figures: correct_rate, wrong_accepted_rate (verified but not correct), doubtful_rate,
 nothing_rate (nothing found), error_rate, the correct rate per kind, nothing found in the
 scenes without a house, and the count of each failure cause.
 
@@ -32,24 +32,33 @@ from pathlib import Path
 
 from aida_kb.interpret.robustness import SceneOutcome, rejudge_scene, run_random_scene
 from aida_kb.kb import compile_path
+from aida_kb.kb.model import KnowledgeBase
 
 KB = Path(__file__).resolve().parents[1] / "kb" / "buildings.kb"
 
 
+def _knowledge() -> KnowledgeBase:
+    """kb/buildings.kb compiled; a clear one-line message (and exit 1) when it does not
+    compile (edited while a long run goes on)."""
+    result = compile_path(KB)
+    if result.kb is None:
+        first = next((str(d) for d in result.diagnostics), "no diagnostics")
+        raise SystemExit(f"{KB}: does not compile: {first}")
+    return result.kb
+
+
 def _one(args: tuple[int, int, int, str]) -> SceneOutcome:
     seed, max_views, max_width, keep = args
-    result = compile_path(KB)
-    assert result.kb is not None
+    kb = _knowledge()
     if keep:
-        return run_random_scene(result.kb, seed, keep, max_views=max_views, max_width=max_width)
+        return run_random_scene(kb, seed, keep, max_views=max_views, max_width=max_width)
     with tempfile.TemporaryDirectory(prefix="aida-robust-") as tmp:
-        return run_random_scene(result.kb, seed, tmp, max_views=max_views, max_width=max_width)
+        return run_random_scene(kb, seed, tmp, max_views=max_views, max_width=max_width)
 
 
 def _rejudged(folder: str, seeds: range) -> list[SceneOutcome]:
-    result = compile_path(KB)
-    assert result.kb is not None
-    rows = [rejudge_scene(result.kb, s, folder) for s in seeds]
+    kb = _knowledge()
+    rows = [rejudge_scene(kb, s, folder) for s in seeds]
     return [r for r in rows if r is not None]
 
 
