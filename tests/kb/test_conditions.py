@@ -91,3 +91,25 @@ def test_format_lays_out_a_block_one_level_deeper() -> None:
         "}\n"
     )
     assert not format_source(out).changed
+
+
+def test_the_editor_follows_names_inside_a_block() -> None:
+    from lsprotocol import types
+
+    from aida_kb.lsp import features
+    from aida_kb.lsp.analysis import Analysis
+    from aida_kb.lsp.convert import uri_of_path
+
+    path = ROOT / "kb" / "buildings.kb"
+    uri = uri_of_path(str(path))
+    a = Analysis(uri, BUILDINGS)
+    lines = BUILDINGS.split("\n")
+    row = next(i for i, line in enumerate(lines) if "adjacent pairs((left, roof.left)" in line)
+    column = lines[row].index("roof.left") + len("roof.")
+    (found,) = features.definition(a, uri, types.Position(row, column))
+    declared = lines[found.range.start.line]
+    assert "part front, back, left, right: RoofPlane" in declared  # HipRoof's part
+    head = next(i for i, line in enumerate(lines) if line.strip() == "when roof is HipRoof {")
+    column = lines[head].index("HipRoof")
+    (found,) = features.definition(a, uri, types.Position(head, column))
+    assert lines[found.range.start.line].startswith("concept HipRoof is-a Roof")
