@@ -21,6 +21,10 @@ Per scene (the ground truth only measures; the tool never reads it):
   wall region, ``wall_label_share_in_both_images``: the share of the label whose point on the
   main wall's plane the right camera sees too (stereo can measure nothing elsewhere), and
   ``wall_label_coverage_in_both_images``: the coverage of that part;
+- ``lines``: the evidence's line segments by kind (structural, texture, unknown); with
+  reference labels, ``label_boundary_lines`` (the kinds of the lines between two labels:
+  structural or unknown is right, texture wrong) and ``wall_interior_lines`` (the kinds of the
+  lines inside the main wall's label: mostly texture);
 - ``disparity_range``, ``rectified`` (size, zoom, share of the left image kept), the
   ``warnings`` of the vision front end;
 - ``verdict``: the interpretation's message; ``evidence_s``, ``interpret_s``: wall times.
@@ -114,6 +118,39 @@ def _seen_by_right(scene: Any, wall: Any) -> np.ndarray:
     return ok
 
 
+LINE_SIDE_PX = 8.0  # a line's sides are looked up this far away on the reference labels
+
+
+def _line_kinds_against_labels(lines: Any, labels: np.ndarray) -> dict[str, Any]:
+    """The lines' kinds against the hand-drawn labels: the kinds of the lines whose two sides
+    lie in two different labels (wall / roof / ground: they should be structural or unknown,
+    never texture), and of those with both sides on the main wall (label 1; masonry joints and
+    decoration should be texture, window frames and relief may be either). Sides sampled
+    LINE_SIDE_PX away at a third and two thirds of the line's length, both agreeing."""
+    H, W = labels.shape
+    boundary: dict[str, int] = {"structural": 0, "texture": 0, "unknown": 0}
+    inside = dict(boundary)
+    for line in lines:
+        p1, p2 = np.array(line.p1), np.array(line.p2)
+        t = (p2 - p1) / max(float(np.linalg.norm(p2 - p1)), 1e-9)
+        across = np.array([t[1], -t[0]])
+        sides = []
+        for sign in (1.0, -1.0):
+            got = set()
+            for f in (1 / 3, 2 / 3):
+                x, y = p1 + f * (p2 - p1) + sign * LINE_SIDE_PX * across
+                row, col = min(max(round(float(y)), 0), H - 1), min(max(round(float(x)), 0), W - 1)
+                got.add(int(labels[row, col]))
+            sides.append(got.pop() if len(got) == 1 else -1)
+        a, b = sides
+        kind = line.kind or "unknown"
+        if a > 0 and b > 0 and a != b:
+            boundary[kind] += 1
+        elif a == b == 1:
+            inside[kind] += 1
+    return {"label_boundary_lines": boundary, "wall_interior_lines": inside}
+
+
 def real_scene(
     path: Path, kb: Any, matcher: str = "ncc", *, both_images: bool = True
 ) -> dict[str, Any]:
@@ -137,6 +174,7 @@ def real_scene(
     R_world_cam = np.array(truth["left_world"]["R_cam_to_world"], float)
     up_true = R_world_cam.T @ np.array([0.0, 0.0, -1.0])  # world +z is down; world = camera
     walls = [r for r in regions if abs(slope_deg(r.normal, up) - 90.0) < WALL_WINDOW_DEG]
+    labels_file = path / "reference_labels.png"
     out: dict[str, Any] = {
         "vertical_err_deg": round(_angle(up, up_true), 3),
         "density": round(evidence.views[0].disparity_density, 3),
@@ -153,7 +191,6 @@ def real_scene(
         ]
         out["wall_regions"] = len(same)
         out["wall_largest_share"] = round(main.area_px / sum(r.area_px for r in same), 3)
-        labels_file = path / "reference_labels.png"
         if labels_file.is_file():
             wall = read_labels(labels_file) == 1
             rid = int(main.id.split("/")[1])
@@ -166,6 +203,14 @@ def real_scene(
                 out["wall_label_coverage_in_both_images"] = round(
                     float(np.count_nonzero(covered & both) / max(1, both.sum())), 3
                 )
+    kinds = [line.kind for line in evidence.views[0].lines]
+    out["lines"] = {
+        "structural": kinds.count("structural"),
+        "texture": kinds.count("texture"),
+        "unknown": kinds.count(None),
+    }
+    if labels_file.is_file():
+        out |= _line_kinds_against_labels(evidence.views[0].lines, read_labels(labels_file))
     lo, num = prod.disparity_range
     out["disparity_range"] = [lo, lo + num - 1]
     out["rectified"] = prod.rectified

@@ -129,6 +129,12 @@ class LineSegment(_Frozen):
         default=None, description="region on the left of p1->p2 (image axes), if any"
     )
     right_region: Int | None = Field(default=None, description="region on the right, if any")
+    kind: Literal["structural", "texture"] | None = Field(
+        default=None,
+        description="structural: the surface changes across it (two regions, an outline, or "
+        "a depth step beyond the plane's tolerance); texture: both sides on one plane "
+        "(masonry, paint, shadow); null: not known (no plane or no depth on a side)",
+    )
 
     @model_validator(mode="after")
     def _check(self) -> LineSegment:

@@ -60,7 +60,11 @@ from aida_kb.vision.planes import (
 )
 from aida_kb.vision.rectify import Rectification, remap, stereo_rectification
 from aida_kb.vision.segmentation import (
+    COMPLETE_SIGMAS,
+    DISPARITY_SIGMA_PX,
+    LINE_SIDE_PX,
     complete_regions,
+    line_kinds,
     local_planes,
     merge_coplanar,
     region_contours,
@@ -419,6 +423,53 @@ def _complete(
     return grown, refit
 
 
+def _plane_tolerances(
+    plane_regions: list[Region], pose: tuple[F64, F64], rect: Rectification
+) -> tuple[npt.NDArray[np.int64], F64, F64, F64]:
+    """(ids, normals, offsets, tolerances) of the regions' planes in the camera frame: unit
+    normals (R, 3), offsets (R,) metres (n·x = d), and the distance from the plane within
+    which a point lies on it, metres (COMPLETE_SIGMAS times the larger of the fit's RMS and
+    the depth noise at the region's distance, as `complete_regions` uses it)."""
+    R_w, t_w = pose
+    ids = np.array([r.id for r in plane_regions], np.int64)
+    normals = np.array([R_w @ np.array(r.n_init) for r in plane_regions]).reshape(-1, 3)
+    centroids = np.array([R_w @ np.array(r.c_init) + t_w for r in plane_regions]).reshape(-1, 3)
+    offsets = np.einsum("ij,ij->i", normals, centroids)
+    z = np.abs(centroids[:, 2])
+    sigma_z = z * z * DISPARITY_SIGMA_PX / max(rect.focal_px * rect.baseline_m, 1e-12)
+    rms = np.array([r.rms_m for r in plane_regions])
+    return ids, normals, offsets, COMPLETE_SIGMAS * np.maximum(rms, sigma_z)
+
+
+def _line_kinds(
+    segments: list[Segment],
+    regions: I32,
+    depth: DepthMap,
+    plane_regions: list[Region],
+    pose: tuple[F64, F64],
+    rect: Rectification,
+    scale: float,
+) -> list[Literal["structural", "texture"] | None]:
+    """Each segment structural, texture or unknown (`segmentation.line_kinds`); `scale`: the
+    image's pixels per working pixel (the sides are sampled as far at the object)."""
+    if not segments:
+        return []
+    if not plane_regions:
+        return [None] * len(segments)
+    ids, normals, offsets, tolerances = _plane_tolerances(plane_regions, pose, rect)
+    segs = np.array([[*s.p1, *s.p2] for s in segments], np.float64)
+    return line_kinds(
+        segs,
+        regions,
+        depth.points,
+        ids,
+        normals,
+        offsets,
+        tolerances,
+        side_px=LINE_SIDE_PX * scale,
+    )
+
+
 def working_rig(calib: StereoCalib) -> StereoCalib:
     """`calib` itself, or for images above WORKING_MAX_PIXELS (aida_kb.io.scene) the same rig
     at the working resolution: the pair is matched, segmented and fitted there, the evidence is
@@ -623,6 +674,9 @@ def process_view(
     # at the object as at the working resolution
     min_line = p.min_line_px * full.image_size[0] / calib.image_size[0]
     segments = attach_segments(detect_segments(left, min_length_px=min_line), left, regions)
+    kinds = _line_kinds(
+        segments, regions, depth, plane_regions, (R_w, t_w), rect, full.image_size[0] / work_size[0]
+    )
     lines = [
         LineSegment(
             id=i + 1,
@@ -633,8 +687,9 @@ def process_view(
             regions=s.regions,
             left_region=s.left_region,
             right_region=s.right_region,
+            kind=kind,
         )
-        for i, s in enumerate(segments)
+        for i, (s, kind) in enumerate(zip(segments, kinds, strict=True))
     ]
     tick("contours")
     contours = [

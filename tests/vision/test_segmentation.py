@@ -121,3 +121,43 @@ def test_complete_regions_grows_a_wall_over_dropouts_and_openings() -> None:
     assert not np.any(out[pole] == 4)  # what stands in front stays out
     assert not np.any(out[~wall] == 4)  # nothing beyond the outline
     assert np.all(out[:10, :10] == 9)
+
+
+def test_line_kinds_tell_structural_from_texture() -> None:
+    """On a wall 20 m away (region 1) with a recess 0.5 m deep in its middle, beside a side
+    wall (region 2): a joint on the flat wall is texture, the recess's edge and the corner
+    between the walls are structural, the wall's outline against the sky is structural, and a
+    line in the sky is unknown."""
+    from aida_kb.vision.segmentation import line_kinds
+
+    H, W, f = 120, 200, 200.0
+    vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
+    rays = np.stack([(us - W / 2) / f, (vs - H / 2) / f, np.ones_like(us)], axis=-1)
+    z = np.full((H, W), 20.0)
+    z[40:80, 60:100] = 20.5  # the recess
+    points = (rays * z[..., None]).astype(np.float32)
+    regions = np.zeros((H, W), np.int32)
+    regions[20:, :140] = 1
+    regions[20:, 140:] = 2
+    points[:20] = np.nan  # the sky
+    segments = np.array(
+        [
+            [20.0, 100.0, 50.0, 100.0],  # a joint on the flat wall
+            [60.0, 45.0, 60.0, 75.0],  # the recess's left edge
+            [140.0, 30.0, 140.0, 110.0],  # the corner between the walls
+            [20.0, 20.0, 120.0, 20.0],  # the wall's top outline
+            [20.0, 5.0, 120.0, 5.0],  # in the sky
+        ]
+    )
+    normals = np.array([[0.0, 0.0, -1.0], [-0.6, 0.0, -0.8]])
+    kinds = line_kinds(
+        segments,
+        regions,
+        points,
+        np.array([1, 2]),
+        normals,
+        np.array([-20.0, -20.0]),
+        np.array([0.2, 0.2]),
+        side_px=5.0,
+    )
+    assert kinds == ["texture", "structural", "structural", "structural", None]
