@@ -18,8 +18,11 @@ Per scene (the ground truth only measures; the tool never reads it):
   within 0.5 m of its plane), and ``wall_largest_share``: the main wall region's share of their
   pixels (1.0 = one region covers the wall); where the scene has ``reference_labels.png``
   (label 1 = main wall), ``wall_label_coverage``: the share of that label covered by the main
-  wall region, ``wall_label_share_in_both_images``: the share of the label whose point on the
-  main wall's plane the right camera sees too (stereo can measure nothing elsewhere), and
+  wall region (``done_when_wall_one_region_0p8_labelled``: at least 0.8 on every labelled
+  scene), ``wall_region_outside_label``: the share of that region outside the label (what it
+  claims that is not the main wall), ``wall_label_share_in_both_images``: the share of the
+  label whose point on the main wall's plane the right camera sees too (stereo can measure
+  nothing elsewhere), and
   ``wall_label_coverage_in_both_images``: the coverage of that part;
 - ``lines``: the evidence's line segments by kind (structural, texture, unknown); with
   reference labels, ``label_boundary_lines`` (the kinds of the lines between two labels:
@@ -81,6 +84,7 @@ REAL = Path("/work/shared/real")
 WALL_WINDOW_DEG = 30.0  # a wall candidate's normal within this of horizontal (estimated up)
 COPLANAR_DEG = 5.0  # regions of the main wall: normals within this ...
 COPLANAR_M = 0.5  # ... and centroids within this of its plane
+WALL_COVERAGE_DONE = 0.8  # issue 15: the main wall one region covering 80 % of its area
 MOTORCYCLE_WINDOW = 11
 SGBM_PARAMS: dict[str, Any] = {
     "blockSize": 5,
@@ -194,8 +198,12 @@ def real_scene(
         if labels_file.is_file():
             wall = read_labels(labels_file) == 1
             rid = int(main.id.split("/")[1])
-            covered = wall & (prod.regions == rid)
+            mine = prod.regions == rid
+            covered = wall & mine
             out["wall_label_coverage"] = round(float(np.count_nonzero(covered) / wall.sum()), 3)
+            out["wall_region_outside_label"] = round(
+                float(np.count_nonzero(mine & ~wall) / max(1, np.count_nonzero(mine))), 3
+            )
             if both_images:
                 both = wall & _seen_by_right(scene, main)
                 share = float(both.sum() / wall.sum())
@@ -373,6 +381,11 @@ def main() -> None:
         out["done_when_wall_normal_1deg"] = all(
             s.get("main_wall_tilt_err_deg", 90.0) <= 1.0 for s in scenes
         )
+        labelled_scenes = [s for s in scenes if "wall_label_coverage" in s]
+        if labelled_scenes:  # one region covering 80 % of the wall (only labels can tell)
+            out["done_when_wall_one_region_0p8_labelled"] = all(
+                s["wall_label_coverage"] >= WALL_COVERAGE_DONE for s in labelled_scenes
+            )
     out["peak_rss_mb"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
     print(json.dumps(out))
     sys.stdout.flush()
