@@ -13,6 +13,10 @@ presets:
   oriel       gable house with box oriels on the front wall
   tower       square tower with a pyramid roof (kb/tower.kb)
   chessboard  chessboard poses for cv2.calibrateCamera / cv2.stereoCalibrate
+  street      2-5 free-standing houses of different roofs in a row (--set houses=N;
+              kb/street.kb, goal Street)
+  terrace     2-5 touching gable houses sharing party walls (--set houses=N)
+  occluded    a house half hidden behind another
   random      a randomised scene of --seed (aida_kb.synth.randomised): any of the above
               with random sizes, materials, cameras, light, occluders, 1-8 views, or no
               building at all; --set kind=NAME forces the kind (gable, hip, flat, shed,
@@ -24,6 +28,7 @@ examples:
   aida-kb synth turntable -o out/box --seed 2
   aida-kb synth lshape -o out/l135 --set meeting_deg=135 --chessboard
   aida-kb synth random -o out/r7 --seed 7 --views 2
+  aida-kb synth street -o out/street --set houses=2 --set image_width=480 --set image_height=360
 """
 
 
@@ -45,7 +50,18 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "preset",
-        choices=("house", "turntable", "lshape", "oriel", "tower", "chessboard", "random"),
+        choices=(
+            "house",
+            "turntable",
+            "lshape",
+            "oriel",
+            "tower",
+            "chessboard",
+            "street",
+            "terrace",
+            "occluded",
+            "random",
+        ),
         help="scene",
     )
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="scene directory to write")

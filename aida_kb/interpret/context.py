@@ -79,27 +79,49 @@ class Context:
     segments: tuple[SegmentView, ...]
     views: tuple[str, ...]
     pinholes: tuple[PinholeCamera, ...]
+    # the weight `significant` judges against when not the total (`interpret.scene`)
+    reference_weight: float = 0.0
 
     @classmethod
-    def build(cls, knowledge: Knowledge, evidence: EvidenceView, goal: str) -> Context:
+    def build(
+        cls,
+        knowledge: Knowledge,
+        evidence: EvidenceView,
+        goal: str,
+        explained: frozenset[str] = frozenset(),
+        reference_weight: float = 0.0,
+    ) -> Context:
         """The context of interpreting `evidence` for `goal` (raises InterpretError for a goal
-        that cannot be interpreted, `body_slot`)."""
+        that cannot be interpreted, `body_slot`).
+
+        explained : region ids another object of the scene explains (`interpret.scene`):
+        no part binds them and no segment bordering only them measures an edge; the vertical
+        and the weight they are judged against (`significant`) stay those of all regions.
+        reference_weight : the weight `significant` judges against instead of the total (0:
+        the total).
+        """
         camera = evidence.camera
         views = tuple(sorted(evidence.cameras))
-        regions = tuple(r for r in evidence.regions.values() if r.view == evidence.reference_view)
+        seen = tuple(r for r in evidence.regions.values() if r.view == evidence.reference_view)
+        regions = tuple(r for r in seen if r.id not in explained)
         return cls(
             knowledge=knowledge,
             evidence=evidence,
             goal=goal,
             body=body_slot(knowledge, goal),
             regions=regions,
-            total_weight=sum(r.weight for r in regions) or 1.0,
-            up=estimate_up(list(regions), camera, segments_px=evidence.lines_px.get(camera.view)),
-            segments=tuple(s for s in evidence.segments if s.view == camera.view),
+            total_weight=sum(r.weight for r in seen) or 1.0,
+            up=estimate_up(list(seen), camera, segments_px=evidence.lines_px.get(camera.view)),
+            segments=tuple(
+                s
+                for s in evidence.segments
+                if s.view == camera.view and not (s.regions and set(s.regions) <= explained)
+            ),
             views=views,
             pinholes=tuple(evidence.cameras[v].pinhole for v in views),
+            reference_weight=reference_weight,
         )
 
     def significant(self, region: RegionView, fraction: float = MIN_WALL_WEIGHT_FRACTION) -> bool:
         """True if `region` carries at least `fraction` of the reference view's evidence."""
-        return region.weight >= fraction * self.total_weight
+        return region.weight >= fraction * (self.reference_weight or self.total_weight)

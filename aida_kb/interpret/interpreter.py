@@ -67,9 +67,14 @@ class Interpreter:
     evidence: EvidenceView
     goal: str
     trace: Trace = field(default_factory=Trace)
+    # regions other objects of the scene explain (`interpret.scene`): never bound here
+    explained: frozenset[str] = frozenset()
+    reference_weight: float = 0.0  # what `Context.significant` judges against (0: the total)
 
     def __post_init__(self) -> None:
-        self.context = Context.build(self.knowledge, self.evidence, self.goal)
+        self.context = Context.build(
+            self.knowledge, self.evidence, self.goal, self.explained, self.reference_weight
+        )
 
     # ---- level 0: the main body --------------------------------------------------------------
     def body_candidates(self, parent: int) -> list[Pending]:

@@ -424,6 +424,11 @@ def reconstruct_views(
     known = [v for v in evidence.views[:1] if v.frame == "world"]
     first = evidence.model_copy(update={"views": known})
     interp = interpret(kb, first, goal=goal, source=source)
+    if interp.objects and (later or placed):  # several objects (interpret.scene): one view
+        skipped = ", ".join(v.id for v in [*placed, *later])
+        return interp.model_copy(
+            update={"message": f"{interp.message}; views {skipped} not used (several objects)"}
+        )
     if not (later or placed) or interp.model is None:
         return interp
     known += placed

@@ -64,6 +64,21 @@ class HypothesisTrace(_Frozen):
     )
 
 
+class SceneObject(_Frozen):
+    """One object of a scene of several (`aida_kb.interpret.scene`), with its own verdict."""
+
+    role: str = Field(description="its role path in the scene object, e.g. 'houses[0]'")
+    concept: str = Field(description="its scene-layer concept")
+    verdict: Literal["verified", "doubtful"] = Field(description="its own verdict")
+    doubts: list[str] = Field(default_factory=list, description="why it is doubtful")
+    message: str = Field(description="its one-line summary")
+    cost: FiniteCost | None = Field(default=None, description="its search's total cost")
+    expanded: int = Field(ge=0, description="hypotheses its search expanded")
+    evidence: list[str] = Field(
+        default_factory=list, description="the region ids it explains ('VIEW/REGION'), sorted"
+    )
+
+
 class Interpretation(_Frozen):
     """An interpretation of evidence against a knowledge base (``interpretation.json``)."""
 
@@ -82,6 +97,10 @@ class Interpretation(_Frozen):
         default=None, description="aida_kb.interpret.verdict: None where it was not judged"
     )
     doubts: list[str] = Field(default_factory=list, description="why it is doubtful")
+    objects: list[SceneObject] = Field(
+        default_factory=list,
+        description="a goal holding several objects: each object found, with its own verdict",
+    )
 
     def instance(self, role: str) -> Instance:
         """The instance with role path `role` (KeyError if none)."""

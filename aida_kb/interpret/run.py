@@ -103,7 +103,10 @@ def check_goal(kb: KnowledgeBase, goal: str | None) -> str:
     names = sorted(n for n, c in kb.concepts.items() if c.layer == top)
     scene = ", ".join(names) or "none"
     if goal is None:
-        concrete = [n for n in names if not kb.concepts[n].abstract]
+        # the concrete concepts no other one of the layer holds as a part (a street, not
+        # its houses)
+        held = {p.concept for n in names for p in kb.concepts[n].parts.values()}
+        concrete = [n for n in names if not kb.concepts[n].abstract and n not in held]
         if len(concrete) != 1:
             raise InterpretError(
                 f"the knowledge base has {len(concrete) or 'no'} concrete {top}-layer concepts "
@@ -140,11 +143,25 @@ def interpret(
     """
     goal = check_goal(kb, goal)
     knowledge = Knowledge.from_kb(kb)
+    from aida_kb.interpret.scene import interpret_scene, members  # it builds on this module
+
+    slot = members(knowledge, goal)
+    if slot is not None:  # a goal holding several scene objects
+        return interpret_scene(kb, evidence, goal, slot, source=source, progress=progress)
     view = view_of(evidence, source)
     interpreter = Interpreter(knowledge, view, goal)
     if progress is not None:
         progress(f"interpreting {len(view.regions)} regions, {len(view.segments)} segments")
     state, expanded, goal_id = interpreter.run()
+    return interpretation_of(interpreter, state, expanded, goal_id, evidence)
+
+
+def interpretation_of(
+    interpreter: Interpreter, state: State | None, expanded: int, goal_id: int, evidence: Evidence
+) -> Interpretation:
+    """The `Interpretation` of one search of `interpreter` (its result `Interpreter.run`):
+    accepted with instances, model and residuals, or not accepted with the reason."""
+    goal = interpreter.goal
     trace = list(interpreter.trace.entries)
     if state is None:
         reasons = [h for h in trace if h.status == "rejected" and h.id != goal_id]

@@ -1043,6 +1043,8 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
     model = interp.model
     if not interp.accepted or model is None:
         return Verdict(NOTHING, (), (), ())
+    if interp.objects:  # a scene of several objects: each was judged alone (interpret.scene)
+        return Verdict(interp.verdict or NOTHING, tuple(interp.doubts), (), ())
     reasons: list[str] = []
     # (a) every constraint of the knowledge (and every prior) under its threshold; the
     # evidence's own factors of a multi-view adjustment (segments, regions: robust, made by

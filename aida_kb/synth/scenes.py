@@ -35,7 +35,8 @@ from aida_kb.synth.render import GROUND_LABEL, Exposure, Lighting, Surface, rend
 FloatArray = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
 
-PRESETS = ("house", "turntable", "lshape", "oriel", "tower", "chessboard")
+STREET = ("street", "terrace", "occluded")  # several houses: `aida_kb.synth.street`
+PRESETS = ("house", "turntable", "lshape", "oriel", "tower", "chessboard", *STREET)
 ROOF_CONCEPTS = {"gable": "GableRoof", "hip": "HipRoof", "flat": "FlatRoof", "shed": "ShedRoof"}
 """The specialisation each roof kind of `synth.buildings` is (synth's own names, in truth.json)."""
 #: the `house` preset's dihedral angles `aida-kb demo` names (its parts' role paths in
@@ -260,6 +261,10 @@ def preset(
     p: dict[str, str | float] = dict(params or {})
     if not 0 <= seed <= MAX_SEED:
         raise GeometryError(f"--seed {seed}: must be in [0, {MAX_SEED}]")
+    if name in STREET:  # several buildings per scene: aida_kb.synth.street
+        from aida_kb.synth.street import street_spec
+
+        return street_spec(name, p, seed=seed, views=views)
     if name not in KNOWN_KEYS:
         raise GeometryError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
     unknown = set(p) - KNOWN_KEYS[name] - COMMON_KEYS

@@ -1,0 +1,548 @@
+"""Several objects per scene: a goal that holds scene objects (``part houses: House [1..*]``).
+
+A scene-layer goal whose part-of role is filled by another scene-layer concept (kb/street.kb:
+a street holding one or more houses) is interpreted object by object. Each round runs the
+single-object search (`interpreter.Interpreter`) for the member concept on the evidence that
+the objects found so far do not explain (`Context.build(..., explained)`): the regions an
+accepted object binds, and the regions lying on its faces though unbound (a window band, a
+sliver of a side wall), are never bound again, and segments bordering only them measure no
+edge. The rounds end when the search finds nothing more, or the role's maximum (or
+`MAX_OBJECTS`) is reached. Touching objects need nothing special: a party wall no view sees is
+inserted for each of them from its own evidence (the two planes coincide); a region hidden in
+part by a nearer object is still one region, bound to the object behind.
+
+Each object is then judged alone (`verdict.judge`) on the evidence without the regions the
+others explain: its own verdict, 'verified' or 'doubtful'; one the verdict finds 'nothing'
+(its evidence does not support it) is dropped. The scene's result is one `Interpretation`:
+the goal, each object's instances, model parts and residuals under its role (``houses[0]``,
+``houses[1]`` ...; the order found), the traces one after the other, and `objects` with every
+object's verdict; the scene is verified when every object is, doubtful when one is.
+
+Cost: round k searches with the regions of k objects removed, each round bounded like one
+object's search (`interpreter.MAX_EXPANSIONS` expansions, each over the remaining regions).
+With N objects there are at most N + 1 rounds (the last finds nothing), so the hypotheses
+expanded grow linearly with N (at most (N + 1) · MAX_EXPANSIONS), and each expansion's region
+matching with the regions left, at most R: O(N · R) in all, not the combinations of objects.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.interpret.assign import vertical
+from aida_kb.interpret.context import Context
+from aida_kb.interpret.hypotheses import CONE_WINDOW_DEG, front_region
+from aida_kb.interpret.interpreter import Interpreter
+from aida_kb.interpret.knowledge import Knowledge
+from aida_kb.interpret.observe import EvidenceView, RegionView, view_of
+from aida_kb.interpret.result import (
+    INSERTED,
+    HypothesisTrace,
+    Instance,
+    Interpretation,
+    SceneObject,
+)
+from aida_kb.interpret.run import interpretation_of
+from aida_kb.interpret.verdict import DOUBTFUL, NOTHING, VERIFIED, judge, with_verdict
+from aida_kb.io.evidence import Evidence
+from aida_kb.io.model import ModelPart, ReconstructedModel
+from aida_kb.io.scene import SceneTruth
+
+if TYPE_CHECKING:
+    from aida_kb.kb.model import KnowledgeBase
+
+FloatArray = npt.NDArray[np.float64]
+
+# an object's regions are found from its anchor across at most this many region borders (a
+# front, its roof, the roof's hips; a side wall, its roof)
+NEIGHBOUR_HOPS = 2
+# neighbouring regions this close to parallel belong to two objects (coplanar fronts)
+PARALLEL_NEIGHBOURS_DEG = 10.0
+# two regions border each other along the pixels of their outlines this close to each other
+BORDER_PX = 5.0
+# ... and meet there in 3-D when their planes, seen along those pixels, lie closer than this
+# fraction of the distance from the camera (stereo planes scatter by about 1 %; an occluding
+# house stands metres in front of the one behind)
+MEET_TOLERANCE = 0.04
+# anchors tried per round (the most likely fronts first) before the rounds end
+ANCHORS_PER_ROUND = 3
+# an unbounded role ([1..*]) stops after this many objects: each round costs one search
+MAX_OBJECTS = 12
+# a region unbound by an object lies on one of its faces (and is explained by it) when its
+# plane's normal is within this angle of the face's ...
+ON_FACE_ANGLE_DEG = 15.0
+# ... its centroid within this fraction of the object's size (bounding-box diagonal) of the
+# face's plane (stereo planes of small regions scatter by a few per cent) ...
+ON_FACE_DISTANCE = 0.03
+# ... and inside the face's polygon grown by this fraction of the object's size
+ON_FACE_MARGIN = 0.03
+
+
+@dataclass(frozen=True)
+class Members:
+    """The role of a scene-layer goal that holds scene objects: role, concept, cardinality."""
+
+    role: str
+    concept: str
+    min: int
+    max: int | None
+
+
+def members(knowledge: Knowledge, goal: str) -> Members | None:
+    """The goal's first part-of role filled by a concept of its own layer (None: there is none,
+    the goal is one object)."""
+    concept = knowledge.concept(goal)
+    for slot in concept.slots:
+        if slot.link != "part-of":
+            continue
+        if knowledge.concept(slot.concept).layer == concept.layer:
+            return Members(slot.role, slot.concept, 0 if slot.optional else slot.min, slot.max)
+    return None
+
+
+def object_weight(ctx: Context) -> float:
+    """The weight of the reference view's regions that are not level (within
+    `hypotheses.CONE_WINDOW_DEG` of facing up or down): what the objects' walls and roofs can
+    be. A region of one object is significant against this, not against the whole view, whose
+    ground grows with the scene (a street of small houses: a side wall is 1 % of the view's
+    weight but 4 % of this)."""
+    cos = math.cos(math.radians(CONE_WINDOW_DEG))
+    return sum(r.weight for r in ctx.regions if abs(float(r.normal @ ctx.up)) < cos)
+
+
+def _ranked(walls: list[RegionView], ctx: Context, count: int) -> list[RegionView]:
+    """Up to `count` significant anchor candidates, the likeliest front first
+    (`hypotheses.front_region`: heavy and facing the camera)."""
+    left = [w for w in walls if ctx.significant(w)]
+    out: list[RegionView] = []
+    while left and len(out) < count:
+        best = front_region(left, ctx.evidence.camera)
+        if best is None:
+            break
+        out.append(best)
+        left = [w for w in left if w.id != best.id]
+    return out
+
+
+def meet(view: EvidenceView, a: str, b: str) -> bool:
+    """True unless the planes of regions `a` and `b` lie apart along their common border: its
+    pixels (the vertices of each outline within `BORDER_PX` of the other's) seen on the two
+    planes are on average more than `MEET_TOLERANCE` of their distance from the camera apart
+    (one region occludes the other: two objects). Without outlines: True."""
+    oa, ob = view.outlines.get(a, ()), view.outlines.get(b, ())
+    border = [p[_near(p, q)] for p in oa for q in ob if len(p) and len(q)] + [
+        q[_near(q, p)] for p in oa for q in ob if len(p) and len(q)
+    ]
+    pixels = np.vstack(border) if border else np.zeros((0, 2))
+    if len(pixels) == 0:
+        return True
+    camera = view.cameras[view.regions[a].view]
+    rays = camera.rays_world(pixels)
+    centre = camera.centre_m
+    points = []
+    for rid in (a, b):
+        r = view.regions[rid]
+        along = rays @ r.normal
+        ok = np.abs(along) > 1e-6
+        t = np.where(ok, (r.offset_m - float(r.normal @ centre)) / np.where(ok, along, 1.0), 0.0)
+        points.append(centre + t[:, None] * rays)
+    gap = np.linalg.norm(points[0] - points[1], axis=1)
+    depth = np.maximum(np.linalg.norm(points[0] - centre, axis=1), 1e-6)
+    return float(np.median(gap / depth)) <= MEET_TOLERANCE
+
+
+def _near(points: FloatArray, polygon: FloatArray) -> npt.NDArray[np.bool_]:
+    """Which of the points (N, 2) lie within `BORDER_PX` of the closed polygon (M, 2)."""
+    edge = np.roll(polygon, -1, axis=0) - polygon
+    length2 = np.maximum(np.sum(edge * edge, axis=1), 1e-12)
+    rel = points[:, None, :] - polygon[None, :, :]
+    t = np.clip(np.sum(rel * edge[None], axis=2) / length2[None], 0.0, 1.0)
+    gap = np.linalg.norm(rel - t[..., None] * edge[None], axis=2).min(axis=1)
+    out: npt.NDArray[np.bool_] = gap <= BORDER_PX
+    return out
+
+
+def neighbourhood(ctx: Context, anchor: RegionView, free: set[str]) -> set[str]:
+    """The regions of `free` an object anchored on `anchor` may bind: those reached from it
+    across region borders (`EvidenceView.beside`) in at most `NEIGHBOUR_HOPS` steps, never
+    across a border of two parallel regions (two objects' coplanar fronts or roofs side by
+    side: one convex solid has no two parallel faces that meet) and never through a level
+    region below the anchor (the ground, which every object stands on)."""
+    view = ctx.evidence
+    cos_level = math.cos(math.radians(CONE_WINDOW_DEG))
+    cos_parallel = math.cos(math.radians(PARALLEL_NEIGHBOURS_DEG))
+
+    def allowed(rid: str) -> bool:
+        r = view.regions[rid]
+        below = float((r.centroid_m - anchor.centroid_m) @ ctx.up) < 0.0
+        return not (abs(float(r.normal @ ctx.up)) >= cos_level and below)
+
+    reached = {anchor.id}
+    frontier = [anchor.id]
+    for _ in range(NEIGHBOUR_HOPS):
+        step: list[str] = []
+        for a in frontier:
+            na = view.regions[a].normal
+            for b in sorted(free - reached):
+                if not allowed(b) or abs(float(na @ view.regions[b].normal)) >= cos_parallel:
+                    continue
+                if view.beside(a, b) and meet(view, a, b):
+                    reached.add(b)
+                    step.append(b)
+        frontier = step
+    return reached
+
+
+def _inside(point: FloatArray, polygon: FloatArray, normal: FloatArray, margin: float) -> bool:
+    """True if `point` (3,) projected on the plane of `polygon` (K, 3, convex, any order) lies
+    inside it grown by `margin` metres."""
+    u = polygon[1] - polygon[0]
+    u = u / float(np.linalg.norm(u))
+    v = np.cross(normal, u)
+    q = np.stack([polygon @ u, polygon @ v], axis=1)
+    p = np.array([point @ u, point @ v])
+    centre = q.mean(axis=0)
+    # a convex polygon: inside all half-planes of its sides, each moved out by the margin
+    edges = np.roll(q, -1, axis=0) - q
+    outward = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+    outward /= np.linalg.norm(outward, axis=1, keepdims=True) + 1e-12
+    flip = np.sign(np.sum((centre - q) * outward, axis=1))
+    outward *= -np.where(flip == 0, 1.0, flip)[:, None]
+    return bool(np.all(np.sum((p - q) * outward, axis=1) <= margin))
+
+
+def on_faces(view: EvidenceView, model: ReconstructedModel, candidates: set[str]) -> set[str]:
+    """The region ids of `candidates` lying on a face of `model` (see the module constants)."""
+    pts = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
+    size = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    cos = math.cos(math.radians(ON_FACE_ANGLE_DEG))
+    out: set[str] = set()
+    for rid in sorted(candidates):
+        region = view.regions[rid]
+        for part in model.parts:
+            n = np.asarray(part.normal, dtype=np.float64)
+            if abs(float(region.normal @ n)) < cos:
+                continue
+            if abs(float(n @ region.centroid_m) - part.offset_m) > ON_FACE_DISTANCE * size:
+                continue
+            poly = np.asarray(part.polygon, dtype=np.float64)
+            if _inside(region.centroid_m, poly, n, ON_FACE_MARGIN * size):
+                out.add(rid)
+                break
+    return out
+
+
+def _bound(interp: Interpretation) -> set[str]:
+    """The region ids an interpretation binds."""
+    return {b for inst in interp.instances for b in inst.bindings if b != INSERTED}
+
+
+def without_regions(evidence: Evidence, removed: set[str]) -> Evidence:
+    """`evidence` without the regions `removed` ('VIEW/REGION') and their contours."""
+    views = []
+    for v in evidence.views:
+        gone = {int(r.split("/", 1)[1]) for r in removed if r.split("/", 1)[0] == v.id}
+        if not gone:
+            views.append(v)
+            continue
+        views.append(
+            v.model_copy(
+                update={
+                    "regions": [r for r in v.regions if r.id not in gone],
+                    "contours": [c for c in v.contours if c.region not in gone],
+                }
+            )
+        )
+    return evidence.model_copy(update={"views": views})
+
+
+def _under(prefix: str, role: str) -> str:
+    return prefix if not role else f"{prefix}.{role}"
+
+
+def _prefixed(
+    prefix: str, interp: Interpretation, offset: int
+) -> tuple[list[Instance], list[ModelPart], list[HypothesisTrace]]:
+    """An object's instances, model parts and trace under its role `prefix` in the scene; its
+    hypotheses' ids moved by `offset` (the scene's trace is one list)."""
+    instances = [
+        inst.model_copy(
+            update={
+                "role": _under(prefix, inst.role),
+                "parent": "" if inst.parent is None else _under(prefix, inst.parent),
+                "link": "part-of" if inst.link == "goal" else inst.link,
+            }
+        )
+        for inst in interp.instances
+    ]
+    model = interp.model
+    parts = (
+        []
+        if model is None
+        else [p.model_copy(update={"role": _under(prefix, p.role)}) for p in model.parts]
+    )
+    trace = [
+        h.model_copy(
+            update={
+                "id": h.id + offset,
+                "parent": None if h.parent is None else h.parent + offset,
+                "role": _under(prefix, h.role),
+            }
+        )
+        for h in interp.trace
+    ]
+    return instances, parts, trace
+
+
+def interpret_scene(
+    kb: KnowledgeBase,
+    evidence: Evidence,
+    goal: str,
+    slot: Members,
+    *,
+    source: str = "",
+    progress: Callable[[str], None] | None = None,
+) -> Interpretation:
+    """Interpret `evidence` for a goal holding several objects in its role `slot` (see the
+    module docstring). The result carries every object with its own verdict in `objects`, and
+    the scene's verdict."""
+    knowledge = Knowledge.from_kb(kb)
+    view = view_of(evidence, source)
+    limit = min(slot.max if slot.max is not None else MAX_OBJECTS, MAX_OBJECTS)
+    found: list[tuple[Interpretation, set[str]]] = []
+    explained: set[str] = set()
+    expanded = 0
+    stop = ""
+    reference = {r for r in view.regions if view.regions[r].view == view.reference_view}
+    weight = object_weight(Context.build(knowledge, view, slot.concept))
+    failed: set[str] = set()  # anchors whose search found nothing
+    while len(found) < limit:
+        ctx = Context.build(knowledge, view, slot.concept, frozenset(explained), weight)
+        free = {r.id for r in ctx.regions}
+        walls = [r for r in vertical(ctx.regions, ctx.up) if r.id not in failed]
+        anchors = _ranked(walls, ctx, ANCHORS_PER_ROUND)
+        if not anchors:
+            stop = stop or "no vertical region left to anchor an object"
+            break
+        one: Interpretation | None = None
+        for anchor in anchors:
+            if progress is not None:
+                progress(f"{slot.concept} {len(found) + 1}: anchored on region {anchor.id}")
+            near = neighbourhood(ctx, anchor, free)
+            interpreter = Interpreter(
+                knowledge,
+                view,
+                slot.concept,
+                explained=frozenset(reference - near),
+                reference_weight=weight,
+            )
+            state, n, goal_id = interpreter.run()
+            expanded += n
+            attempt = interpretation_of(interpreter, state, n, goal_id, evidence)
+            if attempt.accepted and attempt.model is not None and _bound(attempt) - explained:
+                one = attempt
+                break
+            failed.add(anchor.id)
+            stop = attempt.message
+        if one is None or one.model is None:
+            break
+        bound = _bound(one) - explained
+        own = bound | on_faces(view, one.model, reference - explained - bound)
+        explained |= own
+        found.append((one, own))
+    # each object judged on the evidence without what the others explain
+    objects: list[SceneObject] = []
+    instances = [Instance(role="", concept=goal, instance_of=goal, parent=None, link="goal")]
+    parts: list[ModelPart] = []
+    residuals = []
+    trace: list[HypothesisTrace] = []
+    dropped: list[str] = []
+    for one, own in found:
+        others = set().union(*(o for other, o in found if other is not one))
+        verdict = judge(kb, one, without_regions(evidence, others))
+        judged = with_verdict(one, verdict)
+        if verdict.verdict == NOTHING:
+            dropped.append(judged.message)
+            continue
+        prefix = f"{slot.role}[{len(objects)}]"
+        inst, faces, steps = _prefixed(prefix, judged, len(trace))
+        instances += inst
+        parts += faces
+        trace += steps
+        residuals += [
+            r.model_copy(
+                update={
+                    "owner": _under(prefix, r.owner),
+                    "parts": tuple(_under(prefix, p) for p in r.parts),
+                }
+            )
+            for r in judged.residuals
+        ]
+        objects.append(
+            SceneObject(
+                role=prefix,
+                concept=slot.concept,
+                verdict=DOUBTFUL if verdict.verdict == DOUBTFUL else VERIFIED,
+                doubts=list(verdict.reasons),
+                message=judged.message,
+                cost=judged.cost,
+                expanded=judged.expanded,
+                evidence=sorted(own),
+            )
+        )
+    counts = f"{len(objects)} {slot.concept} found in {len(found) + 1} rounds"
+    if len(objects) < max(slot.min, 1):
+        why = "; ".join(dropped) or stop or "nothing found"
+        return Interpretation(
+            goal=goal,
+            accepted=False,
+            message=f"no {goal} in the evidence: {counts} (at least {slot.min} needed): {why}",
+            trace=trace,
+            expanded=expanded,
+        )
+    first = found[0][0].model
+    assert first is not None
+    model = ReconstructedModel(parts=parts, cameras=first.cameras, up=first.up)
+    doubtful = [o for o in objects if o.verdict == DOUBTFUL]
+    listing = ", ".join(f"{o.role} {o.verdict}" for o in objects)
+    return Interpretation(
+        goal=goal,
+        accepted=True,
+        message=(
+            f"{goal}: {counts} ({listing}); {expanded} hypotheses expanded; "
+            f"no more: {stop or 'the role is full'}"
+        ),
+        instances=instances,
+        model=model,
+        residuals=residuals,
+        trace=trace,
+        expanded=expanded,
+        cost=sum(o.cost or 0.0 for o in objects),
+        verdict=DOUBTFUL if doubtful else VERIFIED,
+        doubts=[f"{o.role}: {d}" for o in doubtful for d in o.doubts],
+        objects=objects,
+    )
+
+
+# ---- judging a scene of several objects against its truth (tests and benchmarks) ------------
+def _object_of(role: str, members_role: str) -> str | None:
+    """The object a role path belongs to ('houses[1]' of 'houses[1].body.front'), or None."""
+    head = role.split(".", 1)[0]
+    return head if head.startswith(f"{members_role}[") else None
+
+
+def evaluate_scene(
+    interp: Interpretation, truth: SceneTruth, members_role: str
+) -> list[dict[str, object]]:
+    """Every true object of `truth` against the reconstructed object paired with it.
+
+    Objects are roles ``MEMBERS[K]`` (`members_role`) in the truth's part roles and in the
+    result's. A reconstructed object is paired with the true one whose faces its model's
+    vertices lie nearest (mean distance to the nearest true vertex); each true object takes
+    at most one reconstructed object. Returns one row per true object (its role, the paired
+    object or None, `evaluate.evaluate`'s figures of the pair) and one per reconstructed
+    object paired with no true one ('invented') or with a true object already taken
+    ('twice').
+    """
+    from aida_kb.interpret.evaluate import evaluate
+
+    true_roles = sorted({o for p in truth.parts if (o := _object_of(p.role, members_role))})
+    model = interp.model
+    found = [o.role for o in interp.objects]
+    verdicts = {o.role: o for o in interp.objects}
+
+    def vertices(
+        role: str, parts: list[tuple[str, list[tuple[float, float, float]]]]
+    ) -> FloatArray:
+        pts = [v for r, poly in parts if _object_of(r, members_role) == role for v in poly]
+        return np.asarray(pts, dtype=np.float64).reshape(-1, 3)
+
+    true_parts = [(p.role, p.polygon) for p in truth.parts]
+    mine = [] if model is None else [(p.role, p.polygon) for p in model.parts]
+    distance = np.full((len(found), len(true_roles)), np.inf)
+    for i, f in enumerate(found):
+        a = vertices(f, mine)
+        for j, t in enumerate(true_roles):
+            b = vertices(t, true_parts)
+            if len(a) and len(b):
+                distance[i, j] = float(
+                    np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2).min(axis=1).mean()
+                )
+    pairs: dict[str, str] = {}  # true -> found
+    rows: list[dict[str, object]] = []
+    for i in np.argsort(distance.min(axis=1) if len(true_roles) else np.zeros(len(found))):
+        f = found[int(i)]
+        j = int(np.argmin(distance[i])) if len(true_roles) else -1
+        if j < 0 or not np.isfinite(distance[i, j]):
+            rows.append({"object": f, "truth": None, "status": "invented"})
+            continue
+        t = true_roles[j]
+        size = vertices(t, true_parts)
+        diag = float(np.linalg.norm(size.max(axis=0) - size.min(axis=0)))
+        if distance[i, j] > 0.25 * diag:
+            rows.append({"object": f, "truth": None, "status": "invented"})
+        elif t in pairs:
+            rows.append({"object": f, "truth": t, "status": "twice"})
+        else:
+            pairs[t] = f
+    for t in true_roles:
+        f_role = pairs.get(t)
+        sub_truth = _sub_truth(truth, t)
+        if f_role is None or model is None:
+            rows.append({"truth": t, "object": None, "status": "missed", "correct": False})
+            continue
+        sub = _sub_interpretation(interp, f_role, verdicts[f_role])
+        result = evaluate(sub, sub_truth, goal=sub.goal)
+        rows.append({"truth": t, "object": f_role, "status": "found", **result.summary()})
+    return rows
+
+
+def _strip(prefix: str, role: str) -> str:
+    return role[len(prefix) + 1 :] if role.startswith(prefix + ".") else ""
+
+
+def _sub_truth(truth: SceneTruth, role: str) -> SceneTruth:
+    """The truth of one object: its parts and concepts, role paths relative to it."""
+    parts = [
+        p.model_copy(update={"role": _strip(role, p.role)})
+        for p in truth.parts
+        if p.role.startswith(role + ".")
+    ]
+    concepts = {_strip(role, r): c for r, c in truth.concepts.items() if r.startswith(role + ".")}
+    concept = str(truth.parameters.get(f"{role}.concept", "")) or _MEMBER_CONCEPT
+    return truth.model_copy(update={"parts": parts, "concepts": concepts, "object": concept})
+
+
+_MEMBER_CONCEPT = "member"  # a sub-truth's object when the truth does not name it
+
+
+def _sub_interpretation(interp: Interpretation, role: str, obj: SceneObject) -> Interpretation:
+    """One object of a scene's result as an interpretation of its own, roles relative to it."""
+    model = interp.model
+    assert model is not None
+    parts = [
+        p.model_copy(update={"role": _strip(role, p.role)})
+        for p in model.parts
+        if p.role.startswith(role + ".")
+    ]
+    instances = [
+        i.model_copy(update={"role": _strip(role, i.role)})
+        for i in interp.instances
+        if i.role.startswith(role + ".") or i.role == role
+    ]
+    return Interpretation(
+        goal=_MEMBER_CONCEPT,
+        accepted=True,
+        message=obj.message,
+        instances=instances,
+        model=model.model_copy(update={"parts": parts}),
+        expanded=obj.expanded,
+        verdict=obj.verdict,
+        doubts=obj.doubts,
+    )

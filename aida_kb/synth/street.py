@@ -1,0 +1,175 @@
+"""Scenes of several buildings: a street, a terrace of touching houses, a house half hidden.
+
+Each preset places several `synth.buildings.house` models in one site frame (y up, ground
+y = 0, the houses' fronts facing +z) and names every face with its house's role in the scene
+object: ``houses[K].body.front`` (``houses`` is this module's own name for the scene's
+members, as kb/street.kb names them; truth.json's ``object`` is ``Street``). Every house's
+faces are in truth.json, hidden or not — a party wall of a terrace is one plane of two houses,
+in the truth twice, once per house — so that `aida_kb.interpret.scene.evaluate_scene` can
+judge every house.
+
+- ``street``: 2-5 free-standing houses in a row along x (``--set houses=N``, default 3), gaps
+  of 3-5 m, roofs cycling gable, hip, flat, shed, sizes drawn from the seed.
+- ``terrace``: 3 touching houses (``--set houses=N``, 2-5) sharing party walls: the same
+  depth, their own widths, heights and gable pitches.
+- ``occluded``: two houses, the back one set back and to the side so that the front one hides
+  about half of its front wall in view 00.
+
+The cameras stand on an arc in front of the row, far enough back for the whole row to fit
+the image.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+
+import numpy as np
+
+from aida_kb.errors import GeometryError
+from aida_kb.synth import buildings as bld
+from aida_kb.synth.scenes import (
+    ROOF_CONCEPTS,
+    SceneSpec,
+    _float,
+    _orbit,
+    _rig_from,
+    _sun,
+)
+
+SCENE_OBJECT = "Street"  # truth.json's object: the scene concept of kb/street.kb
+MEMBERS = "houses"  # the role of the houses in it
+ROOF_CYCLE = ("gable", "hip", "flat", "shed")
+MIN_HOUSES, MAX_HOUSES = 2, 5
+STREET_KEYS = {"houses", "distance", "gap"}
+# a house's share of the image width seen from view 00: the row's extent over this fraction
+# of the field of view sets the camera's distance
+FILL = 0.85
+STREET_ANGLE_DEG = -25.0  # view 00 from the front left: the houses' left walls are seen
+OCCLUDED_ANGLE_DEG = 15.0  # from the front right: the front house hides the back one's left
+VIEW_STEP_DEG = 30.0  # between further views on the arc
+CAMERA_HEIGHT_M = 9.0
+# a street is seen from 40-80 m: a vehicle's wide stereo rig gives 15-30 px of disparity there
+BASELINE_M = 1.5  # above the eaves of most houses: flat roofs are seen from above
+
+
+def _member(k: int) -> str:
+    return f"{MEMBERS}[{k}]"
+
+
+def _placed(model: bld.Model, k: int, offset: np.ndarray, material: str) -> list[bld.Solid]:
+    """The house's solids moved by `offset` (site frame, metres), roles under houses[k]."""
+    solids = []
+    for s in model.solids:
+        faces = []
+        for f in s.faces:
+            mat = material if f.material in ("mixed", "plaster", "brick") else f.material
+            faces.append(
+                replace(f, role=f"{_member(k)}.{f.role}", polygon=f.polygon + offset, material=mat)
+            )
+        solids.append(bld.Solid(f"{_member(k)}.{s.name}", tuple(faces)))
+    return solids
+
+
+def _count(p: Mapping[str, str | float], default: int) -> int:
+    n = _float(p, "houses", default)
+    if n != int(n) or not MIN_HOUSES <= n <= MAX_HOUSES:
+        raise GeometryError(
+            f"--set houses={p.get('houses')}: a whole number in [{MIN_HOUSES}, {MAX_HOUSES}]"
+        )
+    return int(n)
+
+
+def _layout(
+    name: str, p: Mapping[str, str | float], rng: np.random.Generator
+) -> list[tuple[bld.Model, np.ndarray, str]]:
+    """The houses of a preset: model, offset of its centre (site frame, m), roof kind."""
+    walls = ("plaster", "brick", "mixed")
+    out: list[tuple[bld.Model, np.ndarray, str]] = []
+    if name == "street":
+        n = _count(p, 3)
+        x = 0.0
+        for k in range(n):
+            roof = ROOF_CYCLE[k % len(ROOF_CYCLE)]
+            width = float(rng.uniform(9.0, 12.0))
+            depth = float(rng.uniform(7.5, 9.5))
+            height = float(rng.uniform(6.0, 8.5))
+            pitch = float(rng.uniform(12.0, 18.0) if roof == "shed" else rng.uniform(30.0, 40.0))
+            floors = max(1, round(height / 3.0))
+            model = bld.house(width, depth, height, roof, pitch, walls[k % 3], "tiles", floors)
+            if k:
+                x += width / 2 + float(rng.uniform(5.0, 7.0))
+            out.append((model, np.array([x, 0.0, float(rng.uniform(-1.0, 1.0))]), roof))
+            x += width / 2
+    elif name == "terrace":
+        n = _count(p, 3)
+        depth = float(rng.uniform(8.0, 9.5))
+        x = 0.0
+        for k in range(n):
+            width = float(rng.uniform(8.0, 11.0))
+            height = float(rng.uniform(6.0, 7.5))
+            pitch = float(rng.uniform(30.0, 40.0))
+            floors = max(1, round(height / 3.0))
+            model = bld.house(width, depth, height, "gable", pitch, walls[k % 3], "tiles", floors)
+            x += width / 2
+            out.append((model, np.array([x, 0.0, 0.0]), "gable"))
+            x += width / 2
+    else:  # occluded
+        front = bld.house(10.0, 8.0, 6.5, "gable", 35.0, "plaster", "tiles", 2)
+        back = bld.house(12.0, 9.0, 8.0, "hip", 32.0, "brick", "tiles", 3)
+        out.append((front, np.array([0.0, 0.0, 0.0]), "gable"))
+        out.append((back, np.array([-7.0, 0.0, -14.0]), "hip"))
+    # centre the row on x = 0
+    xs = [float(off[0]) for _, off, _ in out]
+    mid = (min(xs) + max(xs)) / 2
+    return [(m, off - np.array([mid, 0.0, 0.0]), r) for m, off, r in out]
+
+
+def street_spec(
+    name: str, p: Mapping[str, str | float], *, seed: int = 0, views: int | None = None
+) -> SceneSpec:
+    """The scene specification of a preset of `STREET_PRESETS` (GeometryError: bad key/value)."""
+    unknown = set(p) - STREET_KEYS - {"image_width", "image_height", "focal_px", "baseline"}
+    unknown -= {"k1", "noise_sigma"}
+    if unknown:
+        raise GeometryError(f"--set: unknown key(s) {', '.join(sorted(unknown))} for {name}")
+    if name == "occluded" and "houses" in p:
+        raise GeometryError("--set houses: the occluded preset has two houses")
+    rng = np.random.default_rng(seed + 1901)
+    layout = _layout(name, p, rng)
+    solids: list[bld.Solid] = []
+    concepts: dict[str, str] = {}
+    params: dict[str, float | str | bool] = {"houses": float(len(layout))}
+    for k, (model, offset, roof) in enumerate(layout):
+        solids += _placed(model, k, offset, ("plaster", "brick", "mixed")[k % 3])
+        concepts[f"{_member(k)}.body.roof"] = ROOF_CONCEPTS[roof]
+        params[f"{_member(k)}.roof"] = roof
+        for key in ("width", "depth", "height", "pitch_deg"):
+            params[f"{_member(k)}.{key}"] = float(model.parameters[key])
+        params[f"{_member(k)}.x"] = float(offset[0])
+        params[f"{_member(k)}.z"] = float(offset[2])
+    model = bld.Model(SCENE_OBJECT, tuple(solids), params)
+    pts = np.concatenate([f.polygon for f in model.faces])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    centre = (lo + hi) / 2
+    rig = _rig_from(p, BASELINE_M)
+    fov = 2 * math.atan(rig.size[0] / 2 / float(rig.K1[0, 0]))
+    extent = float(hi[0] - lo[0])
+    fit = extent / 2 / math.tan(FILL * fov / 2) + float(hi[2])
+    dist = _float(p, "distance", max(fit, 25.0))
+    n = views or 1
+    first = OCCLUDED_ANGLE_DEG if name == "occluded" else STREET_ANGLE_DEG
+    angles = [first + VIEW_STEP_DEG * k for k in range(n)]
+    target = np.array([centre[0], 0.45 * float(hi[1]), centre[2]])
+    poses = _orbit(target, dist, CAMERA_HEIGHT_M, angles)
+    return SceneSpec(
+        name,
+        model,
+        rig,
+        poses,
+        _sun(-40.0, 40.0),
+        seed=seed,
+        noise_sigma=_float(p, "noise_sigma", 1.8),
+        truth_concepts=concepts,
+    )

@@ -1,0 +1,106 @@
+"""Several objects per scene (aida_kb.interpret.scene, kb/street.kb, synth.street)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from aida_kb.errors import GeometryError
+from aida_kb.interpret.knowledge import Knowledge
+from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.run import check_goal, interpret
+from aida_kb.interpret.scene import evaluate_scene, members
+from aida_kb.io.evidence import Evidence
+from aida_kb.kb.compiler import compile_path
+from aida_kb.kb.model import KnowledgeBase
+from aida_kb.synth.scenes import preset, render_scene
+
+ROOT = Path(__file__).resolve().parents[2]
+STREET_KB = ROOT / "kb" / "street.kb"
+
+
+@pytest.fixture(scope="session")
+def street_kb() -> KnowledgeBase:
+    kb = compile_path(STREET_KB).kb
+    assert kb is not None
+    return kb
+
+
+@pytest.fixture(scope="session")
+def street_result(
+    tmp_path_factory: pytest.TempPathFactory, street_kb: KnowledgeBase
+) -> tuple[Path, Evidence, Interpretation]:
+    """A street of two houses, 480x360, rendered, seen and interpreted once per session."""
+    from aida_kb.io.scene import read_scene
+    from aida_kb.vision.evidence import scene_evidence
+
+    folder = tmp_path_factory.mktemp("street") / "scene"
+    spec = preset(
+        "street",
+        seed=3,
+        params={"houses": "2", "image_width": "480", "image_height": "360", "focal_px": "600"},
+    )
+    render_scene(spec, folder)
+    evidence, _ = scene_evidence(read_scene(folder, with_truth=False))
+    return folder, evidence, interpret(street_kb, evidence, goal="Street")
+
+
+def test_street_kb_holds_houses(street_kb: KnowledgeBase) -> None:
+    slot = members(Knowledge.from_kb(street_kb), "Street")
+    assert slot is not None
+    assert (slot.role, slot.concept, slot.min, slot.max) == ("houses", "House", 1, None)
+    assert members(Knowledge.from_kb(street_kb), "House") is None
+    # the default goal is the scene concept that no other one holds
+    assert check_goal(street_kb, None) == "Street"
+
+
+def test_street_presets_check_their_keys() -> None:
+    for name in ("street", "terrace", "occluded"):
+        spec = preset(name, seed=1)
+        assert spec.model.concept == "Street"
+        roles = {f.role.split(".")[0] for f in spec.model.faces}
+        assert roles == {f"houses[{k}]" for k in range(int(spec.model.parameters["houses"]))}
+    assert int(preset("street", params={"houses": "5"}).model.parameters["houses"]) == 5
+    with pytest.raises(GeometryError, match="houses=6"):
+        preset("street", params={"houses": "6"})
+    with pytest.raises(GeometryError, match="unknown key"):
+        preset("terrace", params={"roof": "hip"})
+
+
+def test_terrace_houses_share_party_walls() -> None:
+    model = preset("terrace", seed=2).model
+    right = model.face("houses[0].body.right")
+    left = model.face("houses[1].body.left")
+    # one plane of two objects: opposite normals, the same plane
+    assert float(right.normal @ left.normal) == pytest.approx(-1.0, abs=1e-9)
+    assert right.d == pytest.approx(-left.d, abs=1e-9)
+
+
+def test_street_objects_each_with_own_verdict_and_evidence(
+    street_result: tuple[Path, Evidence, Interpretation],
+) -> None:
+    folder, _, interp = street_result
+    assert interp.accepted
+    assert interp.model is not None
+    assert len(interp.objects) >= 1
+    roles = [o.role for o in interp.objects]
+    assert roles == [f"houses[{k}]" for k in range(len(roles))]
+    # evidence explained by one object is not reused by another
+    seen: set[str] = set()
+    for obj in interp.objects:
+        assert obj.evidence
+        assert not seen & set(obj.evidence)
+        seen |= set(obj.evidence)
+        assert obj.verdict in ("verified", "doubtful")
+    # every model part and instance hangs under its object
+    assert all(p.role.split(".")[0] in roles for p in interp.model.parts)
+    assert {i.role for i in interp.instances if i.parent == ""} == set(roles)
+    from aida_kb.io.scene import read_scene
+
+    truth = read_scene(folder, with_truth=True).truth
+    assert truth is not None
+    rows = evaluate_scene(interp, truth, "houses")
+    # no object accepted twice
+    assert not [r for r in rows if r["status"] == "twice"]
+    assert {r["truth"] for r in rows if r.get("truth")} >= {"houses[0]", "houses[1]"}
