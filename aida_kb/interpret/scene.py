@@ -53,6 +53,7 @@ from aida_kb.interpret.verdict import DOUBTFUL, NOTHING, VERIFIED, judge, with_v
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import ModelPart, ReconstructedModel
 from aida_kb.io.scene import SceneTruth
+from aida_kb.io.subset import without_regions
 
 if TYPE_CHECKING:
     from aida_kb.kb.model import KnowledgeBase
@@ -241,25 +242,6 @@ def on_faces(view: EvidenceView, model: ReconstructedModel, candidates: set[str]
 def _bound(interp: Interpretation) -> set[str]:
     """The region ids an interpretation binds."""
     return {b for inst in interp.instances for b in inst.bindings if b != INSERTED}
-
-
-def without_regions(evidence: Evidence, removed: set[str]) -> Evidence:
-    """`evidence` without the regions `removed` ('VIEW/REGION') and their contours."""
-    views = []
-    for v in evidence.views:
-        gone = {int(r.split("/", 1)[1]) for r in removed if r.split("/", 1)[0] == v.id}
-        if not gone:
-            views.append(v)
-            continue
-        views.append(
-            v.model_copy(
-                update={
-                    "regions": [r for r in v.regions if r.id not in gone],
-                    "contours": [c for c in v.contours if c.region not in gone],
-                }
-            )
-        )
-    return evidence.model_copy(update={"views": views})
 
 
 def _under(prefix: str, role: str) -> str:
