@@ -70,8 +70,8 @@ def _renamed(key: str, objects: dict[str, Any], extra: dict[str, Any]) -> dict[s
         for link in ("children", "parents"):
             if link in obj:
                 obj[link] = [rename(n) for n in obj[link]]
-        if "parents" not in obj:
-            obj["attributes"] = {**obj.get("attributes", {}), **extra}
+        if "parents" not in obj:  # an object's own verdict (several per scene) stays
+            obj["attributes"] = {**extra, **obj.get("attributes", {})}
         out[rename(name)] = obj
     return out
 
@@ -86,6 +86,42 @@ def _appearance(key: str, appearance: dict[str, Any] | None) -> dict[str, Any] |
             {**t, "image": f"{SCENES_DIR}/{key}/{t['image']}"} for t in appearance["textures"]
         ]
     return appearance
+
+
+def _renumber(node: Any, used: dict[int, int]) -> Any:
+    """Boundaries (nested lists of vertex indices) with each index replaced by its place in
+    `used` (old -> new, extended in the order met)."""
+    if isinstance(node, list):
+        return [_renumber(x, used) for x in node]
+    if isinstance(node, int) and not isinstance(node, bool):
+        return used.setdefault(node, len(used))
+    return node
+
+
+def _features(
+    objects: dict[str, Any], roots: list[str], quantised: np.ndarray[Any, np.dtype[np.int64]]
+) -> list[tuple[str, dict[str, Any], list[list[int]]]]:
+    """(id, city objects, vertices) of each building of a scene: a root and its children,
+    with only the vertices their geometry uses, renumbered. One root or none: the scene's
+    objects and vertices as they are."""
+    if len(roots) <= 1:
+        return [(roots[0] if roots else "", objects, quantised.tolist())]
+    out = []
+    for root in roots:
+        names = [root, *objects[root].get("children", [])]
+        members = {n: objects[n] for n in names if n in objects}
+        used: dict[int, int] = {}
+        renumbered = {}
+        for name, obj in members.items():
+            obj = dict(obj)
+            obj["geometry"] = [
+                {**g, "boundaries": _renumber(g["boundaries"], used)}
+                for g in obj.get("geometry", [])
+            ]
+            renumbered[name] = obj
+        order = sorted(used, key=lambda v: used[v])
+        out.append((root, renumbered, quantised[order].tolist()))
+    return out
 
 
 def city_sequence(
@@ -143,18 +179,20 @@ def city_sequence(
             extra["aida-kb:verdict"] = verdict
         objects = _renamed(key, doc.get("CityObjects", {}), extra)
         roots = [n for n, o in objects.items() if "parents" not in o]
-        feature: dict[str, Any] = {
-            "type": "CityJSONFeature",
-            "id": roots[0] if roots else f"{key}",
-            "CityObjects": objects,
-            "vertices": quantised.tolist(),
-        }
         appearance = _appearance(key, doc.get("appearance"))
-        if appearance is not None:
-            feature["appearance"] = appearance
-        if "+aida-kb" in doc:
-            feature["+aida-kb"] = doc["+aida-kb"]
-        lines.append(feature)
+        # one feature per building (a scene of several objects has one per object)
+        for building, members, vertices in _features(objects, roots, quantised):
+            feature: dict[str, Any] = {
+                "type": "CityJSONFeature",
+                "id": building or f"{key}",
+                "CityObjects": members,
+                "vertices": vertices,
+            }
+            if appearance is not None:
+                feature["appearance"] = appearance
+            if "+aida-kb" in doc:
+                feature["+aida-kb"] = doc["+aida-kb"]
+            lines.append(feature)
     return lines, problems
 
 

@@ -35,6 +35,7 @@ from aida_kb.interpret.pipeline import reconstruct_scene
 from aida_kb.io.atomic import make_dirs
 
 if TYPE_CHECKING:
+    from aida_kb.interpret.result import Interpretation
     from aida_kb.kb.model import KnowledgeBase
 
 SCENES_DIR = "scenes"
@@ -48,6 +49,29 @@ _ONE_SCENE = threading.Lock()
 # Threads per scene inside a worker process. Workers are processes, one per core: a second
 # thread per scene (OpenCV's, or the stereo's row bands) would only oversubscribe the cores.
 THREADS_PER_SCENE = 1
+
+
+def verdicts_of(interp: Interpretation) -> list[Verdict]:
+    """The verdict of each object of a scene: the goal's, or each of several objects' own
+    (`aida_kb.interpret.scene`: a street's houses) with its role."""
+    if interp.objects:
+        return [
+            Verdict(
+                goal=f"{o.concept} {o.role}",
+                accepted=True,
+                verdict=o.verdict,
+                message=o.message,
+            )
+            for o in interp.objects
+        ]
+    return [
+        Verdict(
+            goal=interp.goal,
+            accepted=interp.accepted,
+            verdict=interp.verdict,
+            message=interp.message,
+        )
+    ]
 
 
 def scene_dir(out: Path, key: str) -> Path:
@@ -174,15 +198,8 @@ def run_scene(
                 split = evidence_end[0] if evidence_end else None
                 outcome = SceneOutcome(
                     status="accepted" if interp.accepted else "nothing",
-                    objects=1 if interp.accepted else 0,
-                    verdicts=[
-                        Verdict(
-                            goal=interp.goal,
-                            accepted=interp.accepted,
-                            verdict=interp.verdict,
-                            message=interp.message,
-                        )
-                    ],
+                    objects=len(interp.objects) or (1 if interp.accepted else 0),
+                    verdicts=verdicts_of(interp),
                     seconds=end - start,
                     seconds_evidence=None if split is None else split - start,
                     seconds_interpretation=None if split is None else end - split,

@@ -295,8 +295,10 @@ def kb_constraints(
     out: list[Constraint] = []
     index = {path: i for i, n in enumerate(names) if (path := _role_path(n)) is not None}
     roles = [(path, inst.concept) for inst in interp.instances if (path := _role_path(inst.role))]
+    # the objects of a scene of several (interpret.scene) are one level down: houses[0].body
+    objects = {RolePath.parse(o.role) for o in interp.objects}
     for top, concept in roles:
-        if len(top) != 1:
+        if len(top) != 1 and not (len(top) == 2 and top.parent in objects):
             continue
         assignment = {
             p.relative_to(top): i for p, i in index.items() if p.is_under(top) and p != top
@@ -424,11 +426,6 @@ def reconstruct_views(
     known = [v for v in evidence.views[:1] if v.frame == "world"]
     first = evidence.model_copy(update={"views": known})
     interp = interpret(kb, first, goal=goal, source=source)
-    if interp.objects and (later or placed):  # several objects (interpret.scene): one view
-        skipped = ", ".join(v.id for v in [*placed, *later])
-        return interp.model_copy(
-            update={"message": f"{interp.message}; views {skipped} not used (several objects)"}
-        )
     if not (later or placed) or interp.model is None:
         return interp
     known += placed
@@ -518,11 +515,12 @@ def reconstruct_views(
         parts=parts,
         cameras=[_model_camera(i, c) for i, c in zip(ids, cams, strict=True)],
         up=model0.up,
+        objects=model0.objects,
     )
     update: dict[str, object] = {}
     if report is not None:  # the residuals of the model this interpretation holds
         update = {"residuals": list(report.rows), "cost": report.reduced_cost}
-    return interp.model_copy(
+    refined = interp.model_copy(
         update={
             **update,
             "model": model,
@@ -532,3 +530,8 @@ def reconstruct_views(
             f"the model refined with all {len(ids)}" + "".join(f"; {n}" for n in notes),
         }
     )
+    if refined.objects:  # several objects (interpret.scene): each judged again on all views
+        from aida_kb.interpret.scene import judge_objects  # it builds on `run`, as this does
+
+        refined = judge_objects(kb, refined, evidence)
+    return refined

@@ -28,7 +28,7 @@ matching with the regions left, at most R: O(N · R) in all, not the combination
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -51,7 +51,7 @@ from aida_kb.interpret.result import (
 from aida_kb.interpret.run import interpretation_of
 from aida_kb.interpret.verdict import DOUBTFUL, NOTHING, VERIFIED, judge, with_verdict
 from aida_kb.io.evidence import Evidence
-from aida_kb.io.model import ModelPart, ReconstructedModel
+from aida_kb.io.model import ModelObject, ModelPart, ReconstructedModel
 from aida_kb.io.scene import SceneTruth
 from aida_kb.io.subset import without_regions
 
@@ -107,14 +107,19 @@ def members(knowledge: Knowledge, goal: str) -> Members | None:
     return None
 
 
-def object_weight(ctx: Context) -> float:
-    """The weight of the reference view's regions that are not level (within
-    `hypotheses.CONE_WINDOW_DEG` of facing up or down): what the objects' walls and roofs can
-    be. A region of one object is significant against this, not against the whole view, whose
-    ground grows with the scene (a street of small houses: a side wall is 1 % of the view's
-    weight but 4 % of this)."""
+def object_weight(ctx: Context, ids: set[str] | None = None) -> float:
+    """The weight of the reference view's regions (of `ids`; None: all) that are not level
+    (within `hypotheses.CONE_WINDOW_DEG` of facing up or down): what walls and roofs can be.
+    A region is significant against this weight of its object's neighbourhood, not against the
+    whole view, whose ground and other objects grow with the scene (a hip of a house in a
+    street of three: 0.7 % of the view's weight, 1.7 % of the three houses', 4.6 % of its
+    house's)."""
     cos = math.cos(math.radians(CONE_WINDOW_DEG))
-    return sum(r.weight for r in ctx.regions if abs(float(r.normal @ ctx.up)) < cos)
+    return sum(
+        r.weight
+        for r in ctx.regions
+        if (ids is None or r.id in ids) and abs(float(r.normal @ ctx.up)) < cos
+    )
 
 
 def _ranked(walls: list[RegionView], ctx: Context, count: int) -> list[RegionView]:
@@ -131,18 +136,19 @@ def _ranked(walls: list[RegionView], ctx: Context, count: int) -> list[RegionVie
     return out
 
 
-def meet(view: EvidenceView, a: str, b: str) -> bool:
-    """True unless the planes of regions `a` and `b` lie apart along their common border: its
-    pixels (the vertices of each outline within `BORDER_PX` of the other's) seen on the two
-    planes are on average more than `MEET_TOLERANCE` of their distance from the camera apart
-    (one region occludes the other: two objects). Without outlines: True."""
+def meet(view: EvidenceView, a: str, b: str) -> int:
+    """How long the border of regions `a` and `b` is where their planes meet, in outline
+    vertices (the vertices of each outline within `BORDER_PX` of the other's; 1 without
+    outlines): 0 when the planes seen along those pixels lie on average more than
+    `MEET_TOLERANCE` of their distance from the camera apart (one region occludes the other:
+    two objects)."""
     oa, ob = view.outlines.get(a, ()), view.outlines.get(b, ())
     border = [p[_near(p, q)] for p in oa for q in ob if len(p) and len(q)] + [
         q[_near(q, p)] for p in oa for q in ob if len(p) and len(q)
     ]
     pixels = np.vstack(border) if border else np.zeros((0, 2))
     if len(pixels) == 0:
-        return True
+        return 1
     camera = view.cameras[view.regions[a].view]
     rays = camera.rays_world(pixels)
     centre = camera.centre_m
@@ -155,7 +161,7 @@ def meet(view: EvidenceView, a: str, b: str) -> bool:
         points.append(centre + t[:, None] * rays)
     gap = np.linalg.norm(points[0] - points[1], axis=1)
     depth = np.maximum(np.linalg.norm(points[0] - centre, axis=1), 1e-6)
-    return float(np.median(gap / depth)) <= MEET_TOLERANCE
+    return len(pixels) if float(np.median(gap / depth)) <= MEET_TOLERANCE else 0
 
 
 def _near(points: FloatArray, polygon: FloatArray) -> npt.NDArray[np.bool_]:
@@ -171,10 +177,12 @@ def _near(points: FloatArray, polygon: FloatArray) -> npt.NDArray[np.bool_]:
 
 def neighbourhood(ctx: Context, anchor: RegionView, free: set[str]) -> set[str]:
     """The regions of `free` an object anchored on `anchor` may bind: those reached from it
-    across region borders (`EvidenceView.beside`) in at most `NEIGHBOUR_HOPS` steps, never
-    across a border of two parallel regions (two objects' coplanar fronts or roofs side by
-    side: one convex solid has no two parallel faces that meet) and never through a level
-    region below the anchor (the ground, which every object stands on)."""
+    across region borders (`EvidenceView.beside`) where their planes meet (`meet`) in at most
+    `NEIGHBOUR_HOPS` steps, the longest borders first; never a region facing the way one
+    already reached faces (two objects' coplanar fronts or roofs side by side: a convex solid
+    shows no two faces facing one way; an oriel's front, parallel to its body's, is lost to
+    this) and never a level region below the anchor (the ground, which every object stands
+    on)."""
     view = ctx.evidence
     cos_level = math.cos(math.radians(CONE_WINDOW_DEG))
     cos_parallel = math.cos(math.radians(PARALLEL_NEIGHBOURS_DEG))
@@ -184,18 +192,27 @@ def neighbourhood(ctx: Context, anchor: RegionView, free: set[str]) -> set[str]:
         below = float((r.centroid_m - anchor.centroid_m) @ ctx.up) < 0.0
         return not (abs(float(r.normal @ ctx.up)) >= cos_level and below)
 
+    def parallel(a: str, b: str) -> bool:
+        return float(view.regions[a].normal @ view.regions[b].normal) >= cos_parallel
+
     reached = {anchor.id}
     frontier = [anchor.id]
     for _ in range(NEIGHBOUR_HOPS):
-        step: list[str] = []
+        found: dict[str, int] = {}
         for a in frontier:
-            na = view.regions[a].normal
             for b in sorted(free - reached):
-                if not allowed(b) or abs(float(na @ view.regions[b].normal)) >= cos_parallel:
+                if not allowed(b) or parallel(a, b) or not view.beside(a, b):
                     continue
-                if view.beside(a, b) and meet(view, a, b):
-                    reached.add(b)
-                    step.append(b)
+                border = meet(view, a, b)
+                if border:
+                    found[b] = max(found.get(b, 0), border)
+        # the longest borders first; a region facing the way one already reached faces is
+        # another object's (one convex solid shows no two faces facing one way)
+        step: list[str] = []
+        for b in sorted(found, key=lambda r: (-found[r], r)):
+            if not any(parallel(b, r) for r in reached):
+                reached.add(b)
+                step.append(b)
         frontier = step
     return reached
 
@@ -220,23 +237,39 @@ def _inside(point: FloatArray, polygon: FloatArray, normal: FloatArray, margin: 
 
 def on_faces(view: EvidenceView, model: ReconstructedModel, candidates: set[str]) -> set[str]:
     """The region ids of `candidates` lying on a face of `model` (see the module constants)."""
-    pts = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
-    size = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+    size = _size(model.parts)
+    return {
+        rid
+        for rid in sorted(candidates)
+        if _on_face(view.regions[rid].normal, view.regions[rid].centroid_m, model.parts, size)
+    }
+
+
+def _size(parts: Sequence[ModelPart]) -> float:
+    """The diagonal of the parts' bounding box, metres."""
+    pts = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in parts])
+    return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+
+
+def _on_face(
+    normal: FloatArray,
+    centroid_m: FloatArray,
+    parts: Sequence[ModelPart],
+    size_m: float,
+) -> bool:
+    """True if a region's plane (unit `normal` (3,), `centroid_m` (3,), world frame) lies on one
+    of the parts (see the module constants; `size_m` the object's size)."""
     cos = math.cos(math.radians(ON_FACE_ANGLE_DEG))
-    out: set[str] = set()
-    for rid in sorted(candidates):
-        region = view.regions[rid]
-        for part in model.parts:
-            n = np.asarray(part.normal, dtype=np.float64)
-            if abs(float(region.normal @ n)) < cos:
-                continue
-            if abs(float(n @ region.centroid_m) - part.offset_m) > ON_FACE_DISTANCE * size:
-                continue
-            poly = np.asarray(part.polygon, dtype=np.float64)
-            if _inside(region.centroid_m, poly, n, ON_FACE_MARGIN * size):
-                out.add(rid)
-                break
-    return out
+    for part in parts:
+        n = np.asarray(part.normal, dtype=np.float64)
+        if abs(float(normal @ n)) < cos:
+            continue
+        if abs(float(n @ centroid_m) - part.offset_m) > ON_FACE_DISTANCE * size_m:
+            continue
+        poly = np.asarray(part.polygon, dtype=np.float64)
+        if _inside(centroid_m, poly, n, ON_FACE_MARGIN * size_m):
+            return True
+    return False
 
 
 def _bound(interp: Interpretation) -> set[str]:
@@ -322,7 +355,7 @@ def interpret_scene(
                 view,
                 slot.concept,
                 explained=frozenset(reference - near),
-                reference_weight=weight,
+                reference_weight=object_weight(ctx, near) or weight,
             )
             state, n, goal_id = interpreter.run()
             expanded += n
@@ -390,7 +423,12 @@ def interpret_scene(
         )
     first = found[0][0].model
     assert first is not None
-    model = ReconstructedModel(parts=parts, cameras=first.cameras, up=first.up)
+    model = ReconstructedModel(
+        parts=parts,
+        cameras=first.cameras,
+        up=first.up,
+        objects=[ModelObject(role=o.role, concept=o.concept, verdict=o.verdict) for o in objects],
+    )
     doubtful = [o for o in objects if o.verdict == DOUBTFUL]
     listing = ", ".join(f"{o.role} {o.verdict}" for o in objects)
     return Interpretation(
@@ -409,6 +447,100 @@ def interpret_scene(
         verdict=DOUBTFUL if doubtful else VERIFIED,
         doubts=[f"{o.role}: {d}" for o in doubtful for d in o.doubts],
         objects=objects,
+    )
+
+
+def _object_parts(model: ReconstructedModel, role: str) -> list[ModelPart]:
+    return [p for p in model.parts if p.role.startswith(role + ".")]
+
+
+def explained_by_others(evidence: Evidence, interp: Interpretation, role: str) -> set[str]:
+    """The region ids ('VIEW/REGION') of every view that the scene's objects other than
+    `role` explain: in the interpreted view those they bound or lie on their faces (their
+    `SceneObject.evidence`), in every other view with a camera in the model those lying on
+    their faces (a view in its camera's frame is moved into the world frame by it)."""
+    model = interp.model
+    out = {r for o in interp.objects if o.role != role for r in o.evidence}
+    if model is None:
+        return out
+    others = [
+        (_object_parts(model, o.role), _size(_object_parts(model, o.role)))
+        for o in interp.objects
+        if o.role != role and _object_parts(model, o.role)
+    ]
+    cameras = {c.view: c for c in model.cameras}
+    interpreted = {r.split("/", 1)[0] for o in interp.objects for r in o.evidence}
+    for v in evidence.views:
+        if v.id in interpreted or v.id not in cameras:
+            continue
+        R = np.asarray(cameras[v.id].R, dtype=np.float64)
+        t = np.asarray(cameras[v.id].t, dtype=np.float64)
+        for r in v.regions:
+            n = np.asarray(r.n_init, dtype=np.float64)
+            c = np.asarray(r.c_init, dtype=np.float64)
+            if v.frame == "camera":  # x_cam = R x_world + t
+                n, c = R.T @ n, R.T @ (c - t)
+            if any(_on_face(n, c, parts, size) for parts, size in others):
+                out.add(f"{v.id}/{r.id}")
+    return out
+
+
+def judge_objects(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Interpretation:
+    """`interp` (a scene of several objects) with every object judged again on its model as it
+    now is (after a refinement with more views), each on the evidence the others do not
+    explain (`explained_by_others`); the scene's verdict from theirs. An object now judged
+    'nothing' is kept, doubtful, with that reason (its evidence was found in the first view)."""
+    if interp.model is None or not interp.objects:
+        return interp
+    objects: list[SceneObject] = []
+    for obj in interp.objects:
+        sub = _sub_interpretation(interp, obj.role, obj)
+        sub = sub.model_copy(
+            update={
+                "goal": obj.concept,
+                "residuals": [
+                    r.model_copy(
+                        update={
+                            "owner": _strip(obj.role, r.owner),
+                            "parts": tuple(_strip(obj.role, p) for p in r.parts),
+                        }
+                    )
+                    for r in interp.residuals
+                    if all(p.startswith(obj.role + ".") for p in r.parts)
+                ],
+            }
+        )
+        verdict = judge(
+            kb,
+            sub,
+            without_regions(evidence, explained_by_others(evidence, interp, obj.role)),
+        )
+        reasons = list(verdict.reasons)
+        if verdict.verdict == NOTHING:
+            reasons = reasons or ["its model was lost in the refinement"]
+        objects.append(
+            obj.model_copy(
+                update={
+                    "verdict": VERIFIED if verdict.verdict == VERIFIED else DOUBTFUL,
+                    "doubts": reasons if verdict.verdict != VERIFIED else [],
+                }
+            )
+        )
+    doubtful = [o for o in objects if o.verdict == DOUBTFUL]
+    model = interp.model.model_copy(
+        update={
+            "objects": [
+                ModelObject(role=o.role, concept=o.concept, verdict=o.verdict) for o in objects
+            ]
+        }
+    )
+    return interp.model_copy(
+        update={
+            "model": model,
+            "objects": objects,
+            "verdict": DOUBTFUL if doubtful else VERIFIED,
+            "doubts": [f"{o.role}: {d}" for o in doubtful for d in o.doubts],
+        }
     )
 
 

@@ -480,6 +480,29 @@ def _common_role(roles: Sequence[str]) -> str:
     return ".".join(prefix)
 
 
+def _buildings(
+    model: ReconstructedModel, identifier: str
+) -> list[tuple[str, list[list[int]], dict[str, str]]]:
+    """The model's buildings: (id, solids (part indices each, `_solids`), attributes).
+
+    One object: one building `identifier` of all solids. A scene of several objects
+    (`ReconstructedModel.objects`): one building per object, ``IDENTIFIER-K``, of the solids
+    under its role, with its role and verdict as attributes.
+    """
+    if not model.objects:
+        return [(identifier, _solids(model), {})]
+    out = []
+    for k, obj in enumerate(model.objects):
+        # touching objects share edges (a party wall): each object's solids on their own
+        index = [i for i, p in enumerate(model.parts) if p.role.startswith(obj.role + ".")]
+        own = model.model_copy(update={"parts": [model.parts[i] for i in index]})
+        mine = [[index[i] for i in g] for g in _solids(own)]
+        if mine:
+            extra = {"aida-kb:object": obj.role, "aida-kb:verdict": obj.verdict}
+            out.append((f"{identifier}-{k}", mine, extra))
+    return out
+
+
 def cityjson_document(
     model: ReconstructedModel,
     atlas: Atlas | None = None,
@@ -519,66 +542,66 @@ def cityjson_document(
         return index[key]
 
     objects: dict[str, Any] = {}
-    solids = _solids(model)
-    children = [f"{identifier}-part-{i}" for i in range(1, len(solids))]
-    for s, group in enumerate(solids):
-        boundaries = []
-        surfaces = []
-        tex_values: list[list[list[int | None]]] = []
-        mat_values: list[int | None] = []
-        for k in group:
-            face = faces[k]
-            ring = [vid(p) for p in face.points]
-            # a ring must not repeat a vertex (welded neighbours closer than 1 mm)
-            ring = [v for i, v in enumerate(ring) if v != ring[i - 1]]
-            boundaries.append([ring])
-            part = model.parts[k]
-            seen = atlas is not None and atlas.seen[k]
-            surfaces.append(
-                {
-                    "type": surface_class(
-                        float(face.normal[2]), float(face.points[:, 2].min()) - lowest
-                    ),
-                    "role": part.role,
-                    "concept": part.concept,
-                    "seen": bool(seen),
-                }
-            )
-            if textured:
-                if face.uv is not None and len(ring) == len(face.uv):
-                    start = len(uv_vertices)
-                    uv_vertices += [[float(u), float(v)] for u, v in face.uv]
-                    tex_values.append([[0, *range(start, start + len(ring))]])
-                    mat_values.append(None)
+    for building, solids, extra in _buildings(model, identifier):
+        children = [f"{building}-part-{i}" for i in range(1, len(solids))]
+        for s, group in enumerate(solids):
+            boundaries = []
+            surfaces = []
+            tex_values: list[list[list[int | None]]] = []
+            mat_values: list[int | None] = []
+            for k in group:
+                face = faces[k]
+                ring = [vid(p) for p in face.points]
+                # a ring must not repeat a vertex (welded neighbours closer than 1 mm)
+                ring = [v for i, v in enumerate(ring) if v != ring[i - 1]]
+                boundaries.append([ring])
+                part = model.parts[k]
+                seen = atlas is not None and atlas.seen[k]
+                surfaces.append(
+                    {
+                        "type": surface_class(
+                            float(face.normal[2]), float(face.points[:, 2].min()) - lowest
+                        ),
+                        "role": part.role,
+                        "concept": part.concept,
+                        "seen": bool(seen),
+                    }
+                )
+                if textured:
+                    if face.uv is not None and len(ring) == len(face.uv):
+                        start = len(uv_vertices)
+                        uv_vertices += [[float(u), float(v)] for u, v in face.uv]
+                        tex_values.append([[0, *range(start, start + len(ring))]])
+                        mat_values.append(None)
+                    else:
+                        tex_values.append([[None]])
+                        mat_values.append(0)
                 else:
-                    tex_values.append([[None]])
                     mat_values.append(0)
+            geometry: dict[str, Any] = {
+                "type": "Solid",
+                "lod": "2",
+                "boundaries": [boundaries],
+                "semantics": {"surfaces": surfaces, "values": [list(range(len(group)))]},
+                "material": {"neutral": {"values": [mat_values]}},
+            }
+            if textured:
+                geometry["texture"] = {"texture": {"values": [tex_values]}}
+            role = _common_role([model.parts[k].role for k in group])
+            if s == 0:
+                objects[building] = {
+                    "type": "Building",
+                    "attributes": {"role": role, **extra},
+                    "geometry": [geometry],
+                    **({"children": children} if children else {}),
+                }
             else:
-                mat_values.append(0)
-        geometry: dict[str, Any] = {
-            "type": "Solid",
-            "lod": "2",
-            "boundaries": [boundaries],
-            "semantics": {"surfaces": surfaces, "values": [list(range(len(group)))]},
-            "material": {"neutral": {"values": [mat_values]}},
-        }
-        if textured:
-            geometry["texture"] = {"texture": {"values": [tex_values]}}
-        role = _common_role([model.parts[k].role for k in group])
-        if s == 0:
-            objects[identifier] = {
-                "type": "Building",
-                "attributes": {"role": role},
-                "geometry": [geometry],
-                **({"children": children} if children else {}),
-            }
-        else:
-            objects[children[s - 1]] = {
-                "type": "BuildingPart",
-                "attributes": {"role": role},
-                "parents": [identifier],
-                "geometry": [geometry],
-            }
+                objects[children[s - 1]] = {
+                    "type": "BuildingPart",
+                    "attributes": {"role": role},
+                    "parents": [building],
+                    "geometry": [geometry],
+                }
     appearance: dict[str, Any] = {
         "materials": [
             {"name": "unseen", "diffuseColor": list(UNSEEN_RGB), "isSmooth": False},

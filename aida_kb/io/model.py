@@ -155,6 +155,14 @@ class ModelPart(_Frozen):
         return self
 
 
+class ModelObject(_Frozen):
+    """One object of a scene of several (``houses[0]``): its parts are those under its role."""
+
+    role: str = Field(min_length=1, description="its role path in the scene object")
+    concept: str = Field(description="its scene-layer concept")
+    verdict: Literal["verified", "doubtful"] = Field(description="its own verdict")
+
+
 class ReconstructedModel(_Frozen):
     """A reconstructed scene: parts (a closed polyhedron per object) and the view cameras."""
 
@@ -171,6 +179,11 @@ class ReconstructedModel(_Frozen):
     up: Vec3 | None = Field(
         default=None,
         description="the estimated vertical (unit, world frame, pointing up); None: unknown",
+    )
+    objects: list[ModelObject] = Field(
+        default_factory=list,
+        description="a scene of several objects: each object, its parts those under its role; "
+        "empty: the model is one object",
     )
 
     @model_validator(mode="after")

@@ -47,11 +47,15 @@ STREET_KEYS = {"houses", "distance", "gap"}
 # of the field of view sets the camera's distance
 FILL = 0.85
 STREET_ANGLE_DEG = -25.0  # view 00 from the front left: the houses' left walls are seen
-OCCLUDED_ANGLE_DEG = 15.0  # from the front right: the front house hides the back one's left
+# view 00 of `occluded` from the front right: the front house hides the back one's left
+OCCLUDED_ANGLE_DEG = 15.0
 VIEW_STEP_DEG = 30.0  # between further views on the arc
-CAMERA_HEIGHT_M = 9.0
+CAMERA_HEIGHT_M = 9.0  # above the eaves of most houses: flat roofs are seen from above
 # a street is seen from 40-80 m: a vehicle's wide stereo rig gives 15-30 px of disparity there
-BASELINE_M = 1.5  # above the eaves of most houses: flat roofs are seen from above
+BASELINE_M = 1.5
+# a row of houses needs more pixels than one house: each house is about 300 px wide in
+# view 00 (the single-house presets' 640 x 480 leave it 150 px, its planes 1 deg off)
+IMAGE: dict[str, str | float] = {"image_width": 1280, "image_height": 960, "focal_px": 1600.0}
 
 
 def _member(k: int) -> str:
@@ -66,7 +70,12 @@ def _placed(model: bld.Model, k: int, offset: np.ndarray, material: str) -> list
         for f in s.faces:
             mat = material if f.material in ("mixed", "plaster", "brick") else f.material
             faces.append(
-                replace(f, role=f"{_member(k)}.{f.role}", polygon=f.polygon + offset, material=mat)
+                replace(
+                    f,
+                    role=f"{_member(k)}.{f.role}",
+                    polygon=f.polygon + offset,
+                    material=mat,
+                )
             )
         solids.append(bld.Solid(f"{_member(k)}.{s.name}", tuple(faces)))
     return solids
@@ -153,7 +162,7 @@ def street_spec(
     pts = np.concatenate([f.polygon for f in model.faces])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     centre = (lo + hi) / 2
-    rig = _rig_from(p, BASELINE_M)
+    rig = _rig_from({**IMAGE, **p}, BASELINE_M)
     fov = 2 * math.atan(rig.size[0] / 2 / float(rig.K1[0, 0]))
     extent = float(hi[0] - lo[0])
     fit = extent / 2 / math.tan(FILL * fov / 2) + float(hi[2])

@@ -93,6 +93,10 @@ def test_street_objects_each_with_own_verdict_and_evidence(
         assert not seen & set(obj.evidence)
         seen |= set(obj.evidence)
         assert obj.verdict in ("verified", "doubtful")
+    # the model knows its objects and their verdicts (CityJSON: a Building each)
+    assert [(o.role, o.verdict) for o in interp.model.objects] == [
+        (o.role, o.verdict) for o in interp.objects
+    ]
     # every model part and instance hangs under its object
     assert all(p.role.split(".")[0] in roles for p in interp.model.parts)
     assert {i.role for i in interp.instances if i.parent == ""} == set(roles)
