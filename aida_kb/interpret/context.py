@@ -90,6 +90,7 @@ class Context:
         goal: str,
         explained: frozenset[str] = frozenset(),
         reference_weight: float = 0.0,
+        foreign: frozenset[str] = frozenset(),
     ) -> Context:
         """The context of interpreting `evidence` for `goal` (raises InterpretError for a goal
         that cannot be interpreted, `body_slot`).
@@ -99,6 +100,9 @@ class Context:
         and the weight they are judged against (`significant`) stay those of all regions.
         reference_weight : the weight `significant` judges against instead of the total (0:
         the total).
+        foreign : region ids of other objects (`interpret.scene`): a segment bordering one
+        measures no edge here (where another object occludes this one, the border is not
+        this object's edge).
         """
         camera = evidence.camera
         views = tuple(sorted(evidence.cameras))
@@ -115,7 +119,9 @@ class Context:
             segments=tuple(
                 s
                 for s in evidence.segments
-                if s.view == camera.view and not (s.regions and set(s.regions) <= explained)
+                if s.view == camera.view
+                and not (s.regions and set(s.regions) <= explained)
+                and not foreign.intersection(s.regions)
             ),
             views=views,
             pinholes=tuple(evidence.cameras[v].pinhole for v in views),

@@ -70,10 +70,17 @@ class Interpreter:
     # regions other objects of the scene explain (`interpret.scene`): never bound here
     explained: frozenset[str] = frozenset()
     reference_weight: float = 0.0  # what `Context.significant` judges against (0: the total)
+    anchors: frozenset[str] = frozenset()  # the regions the body may be anchored on (all)
+    foreign: frozenset[str] = frozenset()  # other objects' regions: their borders measure nothing
 
     def __post_init__(self) -> None:
         self.context = Context.build(
-            self.knowledge, self.evidence, self.goal, self.explained, self.reference_weight
+            self.knowledge,
+            self.evidence,
+            self.goal,
+            self.explained,
+            self.reference_weight,
+            self.foreign,
         )
 
     # ---- level 0: the main body --------------------------------------------------------------
@@ -94,6 +101,8 @@ class Interpreter:
             )
             return []
         fronts = ranked_fronts(vertical(ctx.regions, ctx.up), self.evidence)
+        if self.anchors:  # a scene's round anchors its object on one region (interpret.scene)
+            fronts = [r for r in ctx.regions if r.id in self.anchors]
         if not fronts:
             hid = self.trace.create(concept, role, parent)
             anchor = framed[0].anchor_path

@@ -175,6 +175,14 @@ def _near(points: FloatArray, polygon: FloatArray) -> npt.NDArray[np.bool_]:
     return out
 
 
+def ground(ctx: Context, anchor: RegionView, rid: str) -> bool:
+    """True if region `rid` is level (within `hypotheses.CONE_WINDOW_DEG` of facing up or
+    down) and lies below the anchor's centroid: the ground every object stands on."""
+    r = ctx.evidence.regions[rid]
+    below = float((r.centroid_m - anchor.centroid_m) @ ctx.up) < 0.0
+    return below and abs(float(r.normal @ ctx.up)) >= math.cos(math.radians(CONE_WINDOW_DEG))
+
+
 def neighbourhood(ctx: Context, anchor: RegionView, free: set[str]) -> set[str]:
     """The regions of `free` an object anchored on `anchor` may bind: those reached from it
     across region borders (`EvidenceView.beside`) where their planes meet (`meet`) in at most
@@ -184,13 +192,10 @@ def neighbourhood(ctx: Context, anchor: RegionView, free: set[str]) -> set[str]:
     this) and never a level region below the anchor (the ground, which every object stands
     on)."""
     view = ctx.evidence
-    cos_level = math.cos(math.radians(CONE_WINDOW_DEG))
     cos_parallel = math.cos(math.radians(PARALLEL_NEIGHBOURS_DEG))
 
     def allowed(rid: str) -> bool:
-        r = view.regions[rid]
-        below = float((r.centroid_m - anchor.centroid_m) @ ctx.up) < 0.0
-        return not (abs(float(r.normal @ ctx.up)) >= cos_level and below)
+        return not ground(ctx, anchor, rid)
 
     def parallel(a: str, b: str) -> bool:
         return float(view.regions[a].normal @ view.regions[b].normal) >= cos_parallel
@@ -356,6 +361,8 @@ def interpret_scene(
                 slot.concept,
                 explained=frozenset(reference - near),
                 reference_weight=object_weight(ctx, near) or weight,
+                anchors=frozenset({anchor.id}),
+                foreign=frozenset(r for r in reference - near if not ground(ctx, anchor, r)),
             )
             state, n, goal_id = interpreter.run()
             expanded += n

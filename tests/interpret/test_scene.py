@@ -108,3 +108,24 @@ def test_street_objects_each_with_own_verdict_and_evidence(
     # no object accepted twice
     assert not [r for r in rows if r["status"] == "twice"]
     assert {r["truth"] for r in rows if r.get("truth")} >= {"houses[0]", "houses[1]"}
+
+
+def test_context_leaves_out_explained_and_foreign_evidence(
+    street_result: tuple[Path, Evidence, Interpretation], street_kb: KnowledgeBase
+) -> None:
+    from aida_kb.interpret.context import Context
+    from aida_kb.interpret.observe import view_of
+
+    _, evidence, interp = street_result
+    view = view_of(evidence)
+    knowledge = Knowledge.from_kb(street_kb)
+    whole = Context.build(knowledge, view, "House")
+    first = set(interp.objects[0].evidence)
+    ctx = Context.build(knowledge, view, "House", frozenset(first), 0.0, frozenset(first))
+    assert {r.id for r in ctx.regions} == {r.id for r in whole.regions} - first
+    # the vertical and the weight significance is judged by stay the whole view's
+    assert ctx.total_weight == whole.total_weight
+    assert float(ctx.up @ whole.up) == pytest.approx(1.0)
+    assert ctx.segments
+    assert not [s for s in ctx.segments if first.intersection(s.regions)]
+    assert len(ctx.segments) < len(whole.segments)
