@@ -81,6 +81,8 @@ class Context:
     pinholes: tuple[PinholeCamera, ...]
     # the weight `significant` judges against when not the total (`interpret.scene`)
     reference_weight: float = 0.0
+    # other objects' regions (`interpret.scene`): they may hide this object's parts
+    foreign: frozenset[str] = frozenset()
 
     @classmethod
     def build(
@@ -126,8 +128,47 @@ class Context:
             views=views,
             pinholes=tuple(evidence.cameras[v].pinhole for v in views),
             reference_weight=reference_weight,
+            foreign=foreign,
         )
 
     def significant(self, region: RegionView, fraction: float = MIN_WALL_WEIGHT_FRACTION) -> bool:
         """True if `region` carries at least `fraction` of the reference view's evidence."""
         return region.weight >= fraction * (self.reference_weight or self.total_weight)
+
+    def hidden_by_others(self, point_m: FloatArray) -> bool:
+        """True if another object's region (`foreign`) hides `point_m` ((3,), world frame,
+        metres) from the reference camera: the point's pixel lies inside the region's outline
+        and the region's plane crosses the viewing ray before the point."""
+        if not self.foreign:
+            return False
+        camera = self.evidence.camera
+        centre = camera.centre_m
+        pixel = camera.pinhole.project(point_m.reshape(1, 3))[0]
+        ray = camera.rays_world(pixel.reshape(1, 2))[0]
+        depth = float(ray @ (point_m - centre))
+        for rid in sorted(self.foreign):
+            region = self.evidence.regions.get(rid)
+            if region is None or region.view != camera.view:
+                continue
+            if not any(_inside_px(pixel, o) for o in self.evidence.outlines.get(rid, ())):
+                continue
+            along = float(region.normal @ ray)
+            if abs(along) < 1e-9:
+                continue
+            t = (region.offset_m - float(region.normal @ centre)) / along
+            if 0.0 < t < depth:
+                return True
+        return False
+
+
+def _inside_px(pixel: FloatArray, polygon: FloatArray) -> bool:
+    """Even-odd test of a pixel (2,) against a closed polygon (M, 2), pixels."""
+    if len(polygon) < 3:
+        return False
+    x, y = float(pixel[0]), float(pixel[1])
+    a = polygon
+    b = np.roll(polygon, -1, axis=0)
+    crosses = (a[:, 1] > y) != (b[:, 1] > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        at = a[:, 0] + (y - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
+    return bool(np.count_nonzero(crosses & (x < at)) % 2)

@@ -107,7 +107,8 @@ def initial_planes(
             d = max(d, placed)
         centre = points.mean(axis=0) if len(points) else evidence.camera.centre_m
         on_plane = centre + (d - float(n @ centre)) * n
-        if faces_camera(n, on_plane, evidence.camera):
+        # a face behind another object of the scene (`interpret.scene`) is not seen, rightly
+        if faces_camera(n, on_plane, evidence.camera) and not ctx.hidden_by_others(on_plane):
             if fixed:
                 visible.append(leaf.role)
                 planes.append(PlaneInit(leaf.role, leaf.concept, n, d))

@@ -129,3 +129,24 @@ def test_context_leaves_out_explained_and_foreign_evidence(
     assert ctx.segments
     assert not [s for s in ctx.segments if first.intersection(s.regions)]
     assert len(ctx.segments) < len(whole.segments)
+
+
+def test_another_objects_region_hides_what_lies_behind_it(
+    street_result: tuple[Path, Evidence, Interpretation], street_kb: KnowledgeBase
+) -> None:
+    from aida_kb.interpret.context import Context
+    from aida_kb.interpret.observe import view_of
+
+    _, evidence, interp = street_result
+    view = view_of(evidence)
+    knowledge = Knowledge.from_kb(street_kb)
+    rid = max(interp.objects[0].evidence, key=lambda r: view.regions[r].weight)
+    region = view.regions[rid]
+    centre = view.camera.centre_m
+    behind = centre + 1.5 * (region.centroid_m - centre)
+    in_front = centre + 0.5 * (region.centroid_m - centre)
+    ctx = Context.build(knowledge, view, "House", foreign=frozenset({rid}))
+    assert ctx.hidden_by_others(behind)
+    assert not ctx.hidden_by_others(in_front)
+    # without other objects nothing is hidden
+    assert not Context.build(knowledge, view, "House").hidden_by_others(behind)
