@@ -143,7 +143,7 @@ def _reconstruct(
         scene=scene,
         progress=progress,
     )
-    interp = with_verdict(interp, judge(kb, interp, evidence))
+    interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
     if not scene.metric:
         interp = up_to_scale(interp)
     names = ["evidence.json", "interpretation.json", "interpretation.kb"]

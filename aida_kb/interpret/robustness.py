@@ -138,7 +138,8 @@ def rejudge_scene(kb: KnowledgeBase, seed: int, workdir: str | Path) -> SceneOut
     if not (out_dir / "interpretation.json").is_file():
         return None
     interp = read_interpretation(out_dir / "interpretation.json")
-    interp = with_verdict(interp, judge(kb, interp, read_evidence(out_dir / "evidence.json")))
+    evidence = read_evidence(out_dir / "evidence.json")
+    interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
     judged = evaluate(interp, truth)
     return SceneOutcome(
         seed,

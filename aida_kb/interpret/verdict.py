@@ -21,8 +21,10 @@ is **verified** only when it also
     reconstruction gave it; a view that does not explain its evidence is named, and so is a
     view where the model covers none of its regions or shows none of its edges (nothing
     there confirms the camera: a registration 100 degrees off passes every test for want
-    of evidence), and a registered view (not the first, which sets the world frame) whose
-    camera its segments on the model's edges fix only to more than
+    of evidence), a view a reconstruction left without a camera (not registered: the
+    result does not say where it was taken from; `judge(..., all_views=True)`), and a
+    registered view (not the first, which sets the world frame) whose camera its segments
+    on the model's edges fix only to more than
     CAMERA_ANGLE_SD_MAX_DEG or CAMERA_CENTRE_SD_MAX of its distance (`camera_sd`: the
     pose's covariance from those segments, the model held, at the scatter they show);
 (d) meets the knowledge's attribute ranges: every attribute of an instantiated concept that
@@ -32,14 +34,14 @@ is **verified** only when it also
     part the knowledge orients upward or downward (the floor);
 (e) measures every part (inserted from knowledge, or bound to regions none of which lies
     on it): a region of some view lies on it, the outlines of regions on the model reach
-    its plane over an area inside its face, or two of its edges are measured — seen
-    (segments along half the edge) in two views, or in one view along a neighbour a region
-    measures; one such edge suffices when the knowledge orients the part parallel or square
-    to parts regions measure — unless that orientation is the choice among alternatives the
-    evidence has not told apart (a flat roof's level top through its front eave: a shed's
-    sloping top has that eave too; and the regions on such a part lie within
-    CONTESTED_NORMAL_DEG of it, not only within (b)'s tolerance). A part not
-    measured is where the knowledge's placement put it (a back wall mirrored about the
+    its plane over an area inside its face (spanning OUTLINE_SPAN of it), or two of its
+    edges are measured — seen (segments along half the edge) in two views, or in one view
+    along a neighbour a region measures; one such edge suffices when the knowledge orients
+    the part parallel or square to parts regions measure — unless that orientation is the
+    choice among alternatives the evidence has not told apart (a flat roof's level top
+    through its front eave: a shed's sloping top has that eave too; and the regions on such
+    a part lie within CONTESTED_NORMAL_DEG of it, not only within (b)'s tolerance). A part
+    not measured is where the knowledge's placement put it (a back wall mirrored about the
     ridge: the house's depth a guess; a roof's hidden back as steep as its front: a shed
     taken for a gable; a floor square to the walls), not where the scene has it. A part
     placed by its edges is placed to POSITION_TOLERANCE of the model's size (one standard
@@ -122,6 +124,7 @@ NEAR_EXPLAINED_MIN = 0.6  # ... and the model explains at least 60 % of the weig
 POSITION_TOLERANCE = 0.02  # (e): a part placed by its edges alone is placed to 2 % of the
 # model's size (one standard deviation; the accuracy asked of its vertices)
 OUTLINE_AREA_RATIO = 0.2  # outlines reaching a plane spread over an area, not along a line
+OUTLINE_SPAN = 0.25  # ... along at least a quarter of the face's size (its polygon's diagonal)
 CONTESTED_NORMAL_DEG = 3.0  # the regions measuring a part whose orientation is the choice
 # among alternatives lie within 3 degrees of it on average (fits of regions that large agree
 # with their faces to 1-2 degrees; a shed's top pitched 8 degrees is no flat roof's)
@@ -626,14 +629,20 @@ def unexplained_near(
     return share, [i for _, i in sorted(near, reverse=True)]
 
 
-def _spread(points: FloatArray) -> int:
-    """0, 1 or 2: points (K, 3) are none, spread along a line, or over an area (the second
-    principal extent at least OUTLINE_AREA_RATIO of the first)."""
+def _spread(points: FloatArray, size: float) -> int:
+    """0, 1 or 2: points (K, 3) span less than OUTLINE_SPAN of `size` (metres, the face's),
+    span it along a line, or over an area (the second principal extent, end to end, at least
+    OUTLINE_AREA_RATIO of the first). A few points where outlines cross a plane (a valley
+    between two roofs crossing a wing's hidden end) span nothing."""
     if len(points) < 2:
-        return len(points)
+        return 0
     centred = points - points.mean(axis=0)
-    sv = np.linalg.svd(centred, compute_uv=False)
-    return 2 if sv[1] >= OUTLINE_AREA_RATIO * sv[0] else 1
+    axes = np.linalg.svd(centred, full_matrices=False)[2]  # (3, 3) principal directions
+    along = centred @ axes[:2].T  # (K, 2)
+    extent = along.max(axis=0) - along.min(axis=0)
+    if extent[0] < OUTLINE_SPAN * size:
+        return 0
+    return 2 if extent[1] >= OUTLINE_AREA_RATIO * extent[0] else 1
 
 
 def contested(kb: KnowledgeBase, interp: Interpretation, role: str) -> str | None:
@@ -811,7 +820,8 @@ def unmeasured_parts(
         touching = (
             points[near][_inside_polygon(points[near], poly, n)] if near.any() else points[:0]
         )
-        if _spread(touching) >= 2:
+        face_size = float(np.linalg.norm(poly.max(axis=0) - poly.min(axis=0)))
+        if _spread(touching, face_size) >= 2:
             continue
         me = names.index(part.role) if part.role in names else -1
         lines = 0
@@ -1038,8 +1048,12 @@ def _bound_parts(interp: Interpretation) -> set[str]:
     return out
 
 
-def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verdict:
-    """The verdict on `interp` (see the module docstring)."""
+def judge(
+    kb: KnowledgeBase, interp: Interpretation, evidence: Evidence, *, all_views: bool = False
+) -> Verdict:
+    """The verdict on `interp` (see the module docstring). all_views: the result stands for
+    every view of the evidence (a reconstruction registers them all), so a view it left
+    without a camera is doubted; `aida-kb interpret` uses the world-frame views only."""
     model = interp.model
     if not interp.accepted or model is None:
         return Verdict(NOTHING, (), (), ())
@@ -1063,9 +1077,12 @@ def judge(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence) -> Verd
     for view in evidence.views:
         check = check_view(view, model)
         if check is None:
-            if view.id in cameras:  # a camera, but none of its regions has a plane
+            if view.id in cameras or all_views:
                 not_explained.append(view.id)
+            if view.id in cameras:  # a camera, but none of its regions has a plane
                 reasons.append(f"view {view.id}: no region of it has a plane to check the model by")
+            elif all_views:  # left out by the reconstruction: where it was taken from is unknown
+                reasons.append(f"view {view.id}: not registered (the model has no camera for it)")
             continue
         checks.append(check)
         problems = []
