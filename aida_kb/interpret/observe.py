@@ -120,6 +120,9 @@ class EvidenceView:
     outlines: dict[str, tuple[FloatArray, ...]] = field(default_factory=dict)
     # every line segment of each view, (N, 2, 2) undistorted pixels, bordering a region or not
     lines_px: dict[str, FloatArray] = field(default_factory=dict)
+    # False when the evidence's lengths are in unknown units (a scene known up to scale): the
+    # knowledge's ranges in metres say nothing about them
+    metric: bool = True
     _by_region: dict[str, tuple[SegmentView, ...]] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -440,4 +443,5 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
         source,
         {r: tuple(o) for r, o in all_outlines.items() if r in regions},
         lines_px,
+        metric=evidence.units == "m",
     )

@@ -95,7 +95,7 @@ def reconstruct_scene(
 
 UP_TO_SCALE = (
     "up to scale: the scene's scale is unknown, lengths are in its calibration's units, not "
-    "metres (the knowledge's dimension ranges were applied to those units)"
+    "metres (the knowledge's ranges in metres were not applied)"
 )
 """Said in the summary line of a scene whose scene.yaml `scale` is `unknown`."""
 

@@ -166,13 +166,16 @@ def attribute_violation(
     polygons: dict[str, FloatArray],
 ) -> Violation | None:
     """The first attribute of a length measure (height, width, depth, distance) of the
-    structure's instances whose measure in the closed model lies outside its range, or None.
+    structure's instances whose measure in the closed model lies outside its range, or None
+    (always None when the evidence's lengths are in unknown units: a scene up to scale).
 
     `planes` : role path -> (unit normal (3,), offset m), world frame; `polygons` : role path ->
     closed face (K, 3), metres. ``height`` is the extent of the instance's faces along up,
     ``width`` along its frame's right, ``depth`` along its front; ``distance(a, b)`` is the
     distance of a point of plane b from plane a.
     """
+    if not ctx.evidence.metric:  # lengths in unknown units: a range in metres does not apply
+        return None
     axes = {"height": frame.up, "width": frame.right, "depth": frame.front}
     for node in structure.nodes:
         for attribute in ctx.knowledge.concept(node.concept).attributes.values():

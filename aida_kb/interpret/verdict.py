@@ -1009,13 +1009,21 @@ def measured_attributes(
 
 
 def check_attributes(
-    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel, *, unit: str = ""
+    kb: KnowledgeBase,
+    interp: Interpretation,
+    model: ReconstructedModel,
+    *,
+    unit: str = "",
+    metric: bool = True,
 ) -> list[str]:
     """Check (d): every measured attribute of every instance inside its range (reasons).
-    unit : only the attributes of this unit ('m': the sizes); '' all."""
+    unit : only the attributes of this unit ('m': the sizes); '' all. metric : False when the
+    model's lengths are in unknown units (a scene up to scale): ranges in metres are skipped."""
     reasons = []
     for inst, attr, value in measured_attributes(kb, interp, model):
         if unit and attr.unit != unit:
+            continue
+        if not metric and attr.unit == SIZE_UNIT:
             continue
         if attr.low is None and attr.high is None:
             continue
@@ -1138,7 +1146,8 @@ def judge(
         )
     # an object whose sizes the knowledge's ranges exclude is not the goal at all (a 0.3 m
     # box, a chessboard on a stand): nothing is found, and the sizes say why
-    sizes = check_attributes(kb, interp, model, unit=SIZE_UNIT)
+    metric = evidence.units == "m"
+    sizes = check_attributes(kb, interp, model, unit=SIZE_UNIT, metric=metric)
     if sizes:
         return Verdict(NOTHING, tuple(sizes), tuple(not_explained), tuple(checks))
     # (f) no large surface joined to the model that the model does not explain
@@ -1158,7 +1167,7 @@ def judge(
     # (e) every part inserted from knowledge is measured by some evidence
     reasons += unmeasured_parts(interp, evidence, tuple(checks), kb)
     # (d) the knowledge's measured attributes
-    reasons += check_attributes(kb, interp, model)
+    reasons += check_attributes(kb, interp, model, metric=metric)
     reasons += check_orientations(kb, interp, model)
     verdict = DOUBTFUL if reasons else VERIFIED
     return Verdict(verdict, tuple(reasons), tuple(not_explained), tuple(checks))

@@ -98,3 +98,22 @@ def test_a_shed_roof_is_a_tilted_plane_of_the_knowledge(
     top = next(p for p in got.model.parts if p.role == "body.roof.top")
     truth = world.face("body.roof.top").normal
     assert math.degrees(math.acos(float(np.dot(top.normal, truth)))) < 1.0
+
+
+def test_a_scene_of_unknown_scale_is_not_judged_by_ranges_in_metres(
+    synthetic: ModuleType, buildings_kb: Any
+) -> None:
+    """Lengths in unknown units (evidence.json ``units: unknown``, a scene up to scale): the
+    doll house's 1 m depth may be 10 m; neither the search nor the verdict applies the
+    knowledge's ranges in metres, while angles (slopes) still count."""
+    from aida_kb.interpret.verdict import NOTHING, judge
+
+    evidence = _doll_house(synthetic).model_copy(update={"units": "unknown"})
+    got = interpret(buildings_kb, evidence, source="doll")
+    assert got.accepted, got.message
+    verdict = judge(buildings_kb, got, evidence)
+    assert verdict.verdict != NOTHING
+    assert not any(" m outside [" in r for r in verdict.reasons), verdict.reasons
+    # the same evidence in metres: the sizes say it is no house
+    metric = evidence.model_copy(update={"units": "m"})
+    assert not interpret(buildings_kb, metric, source="doll").accepted
