@@ -64,20 +64,30 @@ def verify_alternative(
     forced: dict[str, RegionView],
     exclude: set[str] | frozenset[str] = frozenset(),
     guessed: frozenset[str] = frozenset(),
+    bindings: list[dict[str, str]] | None = None,
+    offered: frozenset[str] | None = None,
+    label: str = "",
 ) -> Level | None:
     """Verify a structure in `frame` with its anchor bound to `forced`; its level, or None.
 
     ``fixed``: the planes of verified levels (non-empty for a smaller part, paper §5);
     ``choices``: their is-a choices; ``exclude``: regions they bound; ``guessed``: their
     inserted parts (`adjust.adjust`). The hypothesis is recorded in `trace` under `parent`.
+    ``bindings``: the region assignments to try (None: `assign.assignments` finds them from
+    the anchor's region `forced`); ``offered``: the regions the structure could have bound
+    (None: those of the bindings); ``label``: how the hypothesis was generated, for the trace.
     """
     root = structure.nodes[0]
     what = "; ".join(
-        x for x in (structure.describe(), *(f"{k}={r.id}" for k, r in forced.items())) if x
+        x for x in (structure.describe(), *(f"{k}={r.id}" for k, r in forced.items()), label) if x
     )
     hid = trace.create(root.concept, root.role, parent, f"[{what}]")
     smaller = bool(fixed)  # a part of a verified level (paper §5: smaller parts later)
-    options = assignments(ctx, structure, frame, forced, exclude, smaller=smaller)
+    options = (
+        bindings
+        if bindings is not None
+        else assignments(ctx, structure, frame, forced, exclude, smaller=smaller)
+    )
     if isinstance(options, str):
         trace.reject(hid, f"[{what}] {options}")
         return None
@@ -86,7 +96,7 @@ def verify_alternative(
     # assignments come heaviest evidence first), else the first. A contradiction's culprit
     # is searched for (`blame`, many solves) only when its reason is the one reported.
     reasons: list[Reason | Callable[[], Reason]] = []
-    offered = {rid for binding in options for rid in binding}
+    offered_ids = set(offered) if offered is not None else {rid for b in options for rid in b}
     for binding in options:
         try:
             adjusted = adjust(ctx, structure, frame, binding, fixed, choices, guessed)
@@ -138,7 +148,7 @@ def verify_alternative(
             polygons,
             closing,
             adjusted.verification,
-            misfit(ctx, outcome.cost, adjusted.loose, offered - set(binding)),
+            misfit(ctx, outcome.cost, adjusted.loose, offered_ids - set(binding)),
         )
         if best is None or level.misfit < best.misfit:
             best = level

@@ -19,23 +19,28 @@ evidence left unexplained; it is deterministic and counts the hypotheses it expa
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from aida_kb.interpret.alternative import Level, verify_alternative
-from aida_kb.interpret.assign import assignments, forced_by, ranked_fronts, vertical
+from aida_kb.interpret.assign import forced_by, ranked_fronts, vertical
 from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, Context
+from aida_kb.interpret.generate import BodyHypothesis, body_hypotheses
 from aida_kb.interpret.hypotheses import Frame
-from aida_kb.interpret.knowledge import Knowledge, Structure, join
-from aida_kb.interpret.observe import EvidenceView, RegionView
+from aida_kb.interpret.knowledge import Knowledge, join
+from aida_kb.interpret.observe import EvidenceView
 from aida_kb.interpret.plausibility import unexplained
 from aida_kb.interpret.result import INSERTED, Instance
 from aida_kb.interpret.search import best_first
 from aida_kb.interpret.trace import Trace
+from aida_kb.interpret.unseen import UnseenError, initial_planes
 from aida_kb.kb.paths import RolePath
 
-# the search gives up (no interpretation) after expanding this many states: a body and its
-# optional parts take a handful; more means the alternatives do not converge
-MAX_EXPANSIONS = 50
+# at most this many hypotheses of the main body are verified (adjusted), best estimate first;
+# the others are dropped (the trace says how many)
+MAX_BODY_VERIFICATIONS = 30
+# the search gives up (no interpretation) after expanding this many states: the body's
+# verifications, and a handful for its optional parts; more means they do not converge
+MAX_EXPANSIONS = MAX_BODY_VERIFICATIONS + 40
 
 __all__ = ["Interpreter", "Level", "Pending", "State", "Trace"]
 
@@ -44,9 +49,12 @@ __all__ = ["Interpreter", "Level", "Pending", "State", "Trace"]
 class Pending:
     """An alternative of the main body waiting to be verified, with its optimistic cost."""
 
-    structure: Structure
-    front: RegionView
-    estimate: float
+    hypothesis: BodyHypothesis
+
+    @property
+    def estimate(self) -> float:
+        """The penalty for the evidence it leaves unbound (`generate`)."""
+        return self.hypothesis.estimate
 
 
 @dataclass(frozen=True)
@@ -82,13 +90,18 @@ class Interpreter:
             self.reference_weight,
             self.foreign,
         )
+        # hypotheses of the body generated, verticals, frames, structures; verified so far
+        self.generated: tuple[int, int, int, int] = (0, 0, 0, 0)
+        self.verified_bodies = 0
 
     # ---- level 0: the main body --------------------------------------------------------------
     def body_candidates(self, parent: int) -> list[Pending]:
         """The alternatives of the main body, not yet verified, with optimistic costs.
 
-        The estimate is the penalty for the regions the alternative's best assignment leaves
-        unexplained: its adjustment can only add to that (an admissible estimate).
+        Generated systematically (`generate.body_hypotheses`): every candidate vertical and
+        frame, every specialisation, the best consistent bindings of regions to parts. The
+        estimate is the penalty for the regions a binding leaves unexplained: its adjustment
+        can only add to that (an admissible estimate).
         """
         ctx = self.context
         role, concept = ctx.body.role, ctx.body.concept
@@ -100,47 +113,66 @@ class Interpreter:
                 hid, f"{concept} declares no frame ('frame from PART'): no part predicts the others"
             )
             return []
-        fronts = ranked_fronts(vertical(ctx.regions, ctx.up), self.evidence)
-        if self.anchors:  # a scene's round anchors its object on one region (interpret.scene)
-            fronts = [r for r in ctx.regions if r.id in self.anchors]
-        if not fronts:
+        # a scene's round anchors its object on given regions (interpret.scene)
+        hypotheses, verticals, frames = body_hypotheses(ctx, framed, self.anchors)
+        self.generated = (len(hypotheses), verticals, frames, len(framed))
+        if not hypotheses:
             hid = self.trace.create(concept, role, parent)
             anchor = framed[0].anchor_path
-            self.trace.reject(hid, f"no evidence for {anchor}: no vertical region seen")
+            leaf = next((x for x in framed[0].leaves if x.role == anchor), None)
+            where = (
+                f" ({leaf.concept}, oriented at {leaf.orient_span})"
+                if leaf is not None and leaf.orient_span is not None
+                else ""
+            )
+            self.trace.reject(
+                hid,
+                f"no evidence for {anchor}{where}: in {frames} frames under {verticals} "
+                "verticals no significant region fits it",
+            )
             return []
-        out: list[Pending] = []
-        for structure in framed:
-            for front in fronts:
-                frame = Frame.from_front(front.normal, ctx.up)
-                options = assignments(
-                    ctx, structure, frame, forced_by(structure, front), frozenset()
-                )
-                bound = options[0] if not isinstance(options, str) else {}
-                out.append(Pending(structure, front, unexplained(ctx, set(bound))))
-        return out
+        return [Pending(h) for h in hypotheses]
 
     def verify_body(self, pending: Pending, parent: int) -> tuple[Level, float] | None:
         """Verify one alternative of the main body; its level and cost, or None if rejected."""
-        ctx = self.context
-        frame = Frame.from_front(pending.front.normal, ctx.up)
+        h = pending.hypothesis
+        ctx = replace(self.context, up=h.frame.frame.up)
+        bound = ", ".join(f"{role}={rid}" for rid, role in sorted(h.binding.items()))
+        label = (
+            f"vertical {h.frame.vertical}, frame from {'/'.join(sorted(h.frame.sources))}; "
+            f"{bound or 'nothing bound'}"
+        )
+        try:
+            # cheap, before any solve: a part it inserts would face the camera
+            initial_planes(ctx, h.structure, h.frame.frame, h.binding, {}, {})
+        except UnseenError as exc:
+            root = h.structure.nodes[0]
+            what = "; ".join(x for x in (h.structure.describe(), label) if x)
+            hid = self.trace.create(root.concept, root.role, parent, f"[{what}]")
+            self.trace.reject(hid, f"[{what}] {exc}")
+            return None
+        self.verified_bodies += 1
         level = verify_alternative(
             ctx,
             self.trace,
-            pending.structure,
-            frame,
+            h.structure,
+            h.frame.frame,
             parent,
             {},
             {},
-            forced=forced_by(pending.structure, pending.front),
+            forced={},
+            bindings=[h.binding],
+            offered=h.offered,
+            label=label,
         )
         if level is None:
             return None
-        return level, level.misfit + _unexplained(ctx, [level])
+        return level, level.misfit + _unexplained(ctx, [level]) + h.prior
 
     # ---- level 1..: optional parts ----------------------------------------------------------
     def optional_alternatives(self, state: State, parent: int) -> list[tuple[Level, float]]:
         """Verified alternatives for one more optional part of the body, with their costs."""
-        ctx = self.context
+        ctx = replace(self.context, up=state.levels[0].frame.up)
         role, concept = ctx.body.role, ctx.body.concept
         used = {r for lv in state.levels for r in lv.binding}
         free = [
@@ -208,6 +240,8 @@ class Interpreter:
         def expand(state: State) -> list[tuple[State, float]]:
             self.trace.step += 1
             if state.pending is not None:
+                if self.verified_bodies >= MAX_BODY_VERIFICATIONS:
+                    return []
                 verified = self.verify_body(state.pending, goal_id)
                 if verified is None:
                     return []
@@ -224,10 +258,18 @@ class Interpreter:
             return successors
 
         result = best_first(start, expand, lambda s: s.done, max_expansions=MAX_EXPANSIONS)
+        generated, verticals, frames, structures = self.generated
+        searched = (
+            f"{generated} hypotheses of the body generated ({verticals} verticals, {frames} "
+            f"frames, {structures} specialisations), {self.verified_bodies} verified "
+            f"(at most {MAX_BODY_VERIFICATIONS}); {result.expanded} states expanded"
+        )
         if result.best is None:
-            self.trace.reject(goal_id, "no alternative of its realisation was verified")
+            self.trace.reject(
+                goal_id, f"no alternative of its realisation was verified: {searched}"
+            )
         else:
-            self.trace.verify(goal_id, f"verified with cost {result.cost:.3g}")
+            self.trace.verify(goal_id, f"verified with cost {result.cost:.3g}: {searched}")
         return result.best, result.expanded, goal_id
 
     def instances(self, state: State) -> list[Instance]:
