@@ -55,7 +55,8 @@ def test_every_specialisation_and_frame_is_generated_and_the_right_one_is_first(
     for h in hypotheses:
         anchor = h.structure.anchor_path
         bound = [rid for rid, role in h.binding.items() if role == anchor]
-        assert len(bound) == 1 and bound[0] in h.frame.sources
+        assert len(bound) == 1
+        assert bound[0] in h.frame.sources
         assert len(set(h.binding.values())) == len(h.binding)
     # best estimate first; the gable binding the three seen parts leaves only the ground
     estimates = [h.estimate for h in hypotheses]
