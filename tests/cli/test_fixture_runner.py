@@ -98,7 +98,7 @@ def test_a_wrong_verdict_a_part_called_inserted_and_a_rejection_that_did_not_hap
     rejection = _line(path, "reject body.roof of GableRoof")
     assert (
         f"{path}:{rejection}: expected body.roof of GableRoof rejected, got it verified: "
-        "[body.roof=GableRoof; front=00/1] cost "
+        "[body.roof=GableRoof; vertical 0, frame from "
     ) in out
 
 

@@ -27,7 +27,9 @@ def test_interpret_prints_tree_and_writes_json(
     assert "└── body: HouseBody  [con-of]" in text
     assert "back: Wall  <- inserted from knowledge" in text
     assert "rejected hypotheses:" in text
-    assert "[body.roof=HipRoof; front=00/2]" in text
+    # a rejected alternative names its roof, the vertical and frame it was generated in and
+    # its binding of regions to parts
+    assert "[body.roof=HipRoof; vertical 0, frame from 00/1/00/2/00/3; body.right=00/1" in text
     interp = read_interpretation(out)
     assert interp.accepted
     assert interp.model is not None
@@ -68,7 +70,9 @@ def test_explain_names_the_rejecting_constraint_and_its_cost(
     line = next(
         x
         for x in text.splitlines()
-        if "[body.roof=GableRoof; front=00/1]" in x and x.startswith("  #")
+        if "[body.roof=GableRoof; vertical 0, " in x
+        and "body.front=00/1" in x
+        and x.startswith("  #")
     )
     assert "rejected: constraint 'slopes' at " in line
     # the rejecting constraint's .kb line: in the trace line and as a note with the source line
