@@ -38,9 +38,10 @@ from aida_kb.kb.paths import RolePath
 # at most this many hypotheses of the main body are verified (adjusted), best estimate first;
 # the others are dropped (the trace says how many)
 MAX_BODY_VERIFICATIONS = 30
-# the search gives up (no interpretation) after expanding this many states: the body's
-# verifications, and a handful for its optional parts; more means they do not converge
-MAX_EXPANSIONS = MAX_BODY_VERIFICATIONS + 40
+# beyond one expansion for each generated hypothesis of the body, the search gives up (no
+# interpretation) after expanding this many states for the optional parts: a handful each;
+# more means they do not converge
+MAX_OPTIONAL_EXPANSIONS = 40
 
 __all__ = ["Interpreter", "Level", "Pending", "State", "Trace"]
 
@@ -236,6 +237,7 @@ class Interpreter:
         """Search; return the best complete state (or None), expansions, goal hypothesis id."""
         goal_id = self.trace.create(self.goal, "", None, "goal")
         start = State((), False, 0.0)
+        pending = self.body_candidates(goal_id)
 
         def expand(state: State) -> list[tuple[State, float]]:
             self.trace.step += 1
@@ -248,16 +250,21 @@ class Interpreter:
                 level, cost = verified
                 return [(State((level,), False, cost), cost)]
             if not state.levels:
-                return [
-                    (State((), False, p.estimate, p), p.estimate)
-                    for p in self.body_candidates(goal_id)
-                ]
+                return [(State((), False, p.estimate, p), p.estimate) for p in pending]
             successors = [(State(state.levels, True, state.cost), state.cost)]
             for level, cost in self.optional_alternatives(state, state.levels[0].hid):
                 successors.append((State((*state.levels, level), False, cost), cost))
             return successors
 
-        result = best_first(start, expand, lambda s: s.done, max_expansions=MAX_EXPANSIONS)
+        # every hypothesis of the body may be taken from the open list (those beyond the
+        # verification budget are dropped there): the budget of expansions counts them apart
+        # from the optional parts', so that a verified body is still reached
+        result = best_first(
+            start,
+            expand,
+            lambda s: s.done,
+            max_expansions=1 + len(pending) + MAX_OPTIONAL_EXPANSIONS,
+        )
         generated, verticals, frames, structures = self.generated
         searched = (
             f"{generated} hypotheses of the body generated ({verticals} verticals, {frames} "
