@@ -168,7 +168,7 @@ class Interpreter:
         )
         if level is None:
             return None
-        return level, level.misfit + _unexplained(ctx, [level]) + h.prior
+        return level, level.misfit + h.prior
 
     # ---- level 1..: optional parts ----------------------------------------------------------
     def optional_alternatives(self, state: State, parent: int) -> list[tuple[Level, float]]:
@@ -219,17 +219,8 @@ class Interpreter:
                         # a verified smaller part costs its misfit in proportion to the
                         # evidence it explains (the body's misfit counts whole): whether to
                         # add it is decided by that evidence, not by its few constraints
-                        levels = [*state.levels, level]
                         share = sum(self.evidence.regions[r].weight for r in level.binding)
-                        out.append(
-                            (
-                                level,
-                                state.cost
-                                - _unexplained(ctx, list(state.levels))
-                                + level.misfit * share / ctx.total_weight
-                                + _unexplained(ctx, levels),
-                            )
-                        )
+                        out.append((level, state.cost + level.misfit * share / ctx.total_weight))
         return out
 
     # ---- the search --------------------------------------------------------------------------
@@ -251,7 +242,12 @@ class Interpreter:
                 return [(State((level,), False, cost), cost)]
             if not state.levels:
                 return [(State((), False, p.estimate, p), p.estimate) for p in pending]
-            successors = [(State(state.levels, True, state.cost), state.cost)]
+            # a partial state costs its levels' misfits (it can only grow along a path); the
+            # evidence no level explains is charged when it is taken as complete, so that
+            # every verified body gets its optional parts before a completed rival is taken
+            # (a body and its wing, or the wing taken for the body and the body for its wing)
+            done = state.cost + _unexplained(self.context, list(state.levels))
+            successors = [(State(state.levels, True, done), done)]
             for level, cost in self.optional_alternatives(state, state.levels[0].hid):
                 successors.append((State((*state.levels, level), False, cost), cost))
             return successors
