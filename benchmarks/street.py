@@ -39,6 +39,26 @@ SCENES: tuple[tuple[str, dict[str, str]], ...] = (
 )
 
 
+def _figure(row: dict[str, object], key: str) -> float:
+    """A house's error figure (infinite when there is no comparison: no model to compare)."""
+    value = row.get(key)
+    return float(value) if isinstance(value, (int, float)) else float("inf")
+
+
+def _house(row: dict[str, object]) -> dict[str, object]:
+    """One true house: the object paired with it, the verdict, the errors, the doubts."""
+    return {
+        "truth": row["truth"],
+        "object": row["object"],
+        "outcome": row.get("outcome", "missed"),
+        "correct": bool(row.get("correct")),
+        "normal_deg": round(_figure(row, "max_normal_error_deg"), 3),
+        "vertex_pct": round(_figure(row, "max_vertex_error_pct"), 2),
+        "cause": row.get("cause", "missed"),
+        "doubts": row.get("doubts", []),
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="102", help="held-out seeds, comma-separated")
@@ -69,8 +89,8 @@ def main() -> None:
                     r for r in judged if r.get("truth") and r["status"] in ("found", "missed")
                 ]
                 found = [r for r in houses if r["status"] == "found"]
-                normals = [float(r["max_normal_error_deg"]) for r in found]  # type: ignore[arg-type]
-                vertices = [float(r["max_vertex_error_pct"]) for r in found]  # type: ignore[arg-type]
+                normals = [_figure(r, "max_normal_error_deg") for r in found]
+                vertices = [_figure(r, "max_vertex_error_pct") for r in found]
                 row = {
                     "scene": folder.name,
                     "houses": len(houses),
@@ -80,6 +100,7 @@ def main() -> None:
                     "twice": sum(1 for r in judged if r["status"] == "twice"),
                     "verdicts": [o.verdict for o in interp.objects],
                     "causes": [r.get("cause", "missed") for r in houses],
+                    "per_house": [_house(r) for r in houses],
                     "max_normal_error_deg": round(max(normals, default=0.0), 3),
                     "max_vertex_error_pct": round(max(vertices, default=0.0), 2),
                     "seconds": round(seconds, 1),
@@ -88,8 +109,8 @@ def main() -> None:
                 rows.append(row)
                 for key in totals:
                     totals[key] += int(row[key])  # type: ignore[call-overload]
-                worst_normal = max(worst_normal, *normals)
-                worst_vertex = max(worst_vertex, *vertices)
+                worst_normal = max([worst_normal, *normals])
+                worst_vertex = max([worst_vertex, *vertices])
     print(
         json.dumps(
             {
