@@ -2,15 +2,18 @@
 
 Renders each street preset (aida_kb.synth.street: streets of 2-5 houses, a terrace of three
 touching houses, a house half hidden behind another) with held-out seeds (never used while
-developing: the development seeds were 0 and 101), computes the evidence of view 00, interprets it
-against kb/street.kb (goal Street: aida_kb.interpret.scene) and pairs every true house with
-the reconstructed one nearest it (`evaluate_scene`). Reported per scene and in total: houses
-in the truth, found, correct (the verdict 'verified', specialisation right, normals within
-0.5 deg, vertices within 2 % of the house's size), invented (no true house near) and twice
-(a true house taken by two objects), the largest normal and vertex errors of the houses found,
-and the time. Ends with one JSON line.
+developing: the development seeds are below 3000 — 0, 7 and 101 were used; 102 was measured
+once, before the changes of session 7, and not debugged on), computes the evidence of view
+00, interprets it against kb/street.kb (goal Street: aida_kb.interpret.scene) and pairs
+every true house with the reconstructed one nearest it (`evaluate_scene`). Reported per
+scene and in total: houses in the truth, found, correct (the verdict 'verified',
+specialisation right, normals within 0.5 deg, vertices within 2 % of the house's size),
+within_tolerance (specialisation and geometry right, whatever the verdict), wrong_verified
+(verified but not correct: a wrong result reported as right), invented (no true house near)
+and twice (a true house taken by two objects), the largest normal and vertex errors of the
+houses found, and the time. Ends with one JSON line.
 
-    .venv/bin/python benchmarks/street.py [--seeds 102,103] [--quick]
+    .venv/bin/python benchmarks/street.py [--seeds 102,30219] [--quick]
 """
 
 from __future__ import annotations
@@ -37,6 +40,9 @@ SCENES: tuple[tuple[str, dict[str, str]], ...] = (
     ("terrace", {}),
     ("occluded", {}),
 )
+
+# a house's geometry and specialisations are right (`evaluate`'s cause): verified, or doubtful
+RIGHT = ("", "right but doubtful")
 
 
 def _figure(row: dict[str, object], key: str) -> float:
@@ -68,7 +74,15 @@ def main() -> None:
     assert kb is not None
     seeds = [int(s) for s in args.seeds.split(",")]
     rows = []
-    totals = {"houses": 0, "found": 0, "correct": 0, "invented": 0, "twice": 0}
+    totals = {
+        "houses": 0,
+        "found": 0,
+        "correct": 0,
+        "within_tolerance": 0,
+        "wrong_verified": 0,
+        "invented": 0,
+        "twice": 0,
+    }
     worst_normal = 0.0
     worst_vertex = 0.0
     total_seconds = 0.0
@@ -96,6 +110,10 @@ def main() -> None:
                     "houses": len(houses),
                     "found": len(found),
                     "correct": sum(1 for r in found if r.get("correct")),
+                    "within_tolerance": sum(1 for r in found if r.get("cause") in RIGHT),
+                    "wrong_verified": sum(
+                        1 for r in found if r.get("outcome") == "verified" and not r.get("correct")
+                    ),
                     "invented": sum(1 for r in judged if r["status"] == "invented"),
                     "twice": sum(1 for r in judged if r["status"] == "twice"),
                     "verdicts": [o.verdict for o in interp.objects],
