@@ -32,6 +32,7 @@ from aida_kb.batch.outcome import OUTCOME_FILE, SceneOutcome, Verdict, read_outc
 from aida_kb.batch.scenes import SceneRef
 from aida_kb.errors import AidaError, FormatError
 from aida_kb.interpret.pipeline import reconstruct_scene
+from aida_kb.interpret.verdict import NOTHING
 from aida_kb.io.atomic import make_dirs
 
 if TYPE_CHECKING:
@@ -72,6 +73,14 @@ def verdicts_of(interp: Interpretation) -> list[Verdict]:
             message=interp.message,
         )
     ]
+
+
+def found_objects(interp: Interpretation) -> int:
+    """How many objects the scene's result holds: accepted and not judged `nothing` (an
+    object the verdict rejects, e.g. for sizes outside the knowledge's ranges, is none)."""
+    if interp.objects:
+        return sum(1 for o in interp.objects if o.verdict != NOTHING)
+    return int(interp.accepted and interp.verdict != NOTHING)
 
 
 def scene_dir(out: Path, key: str) -> Path:
@@ -196,9 +205,10 @@ def run_scene(
                 end = time.perf_counter()
                 interp = result.interpretation
                 split = evidence_end[0] if evidence_end else None
+                found = found_objects(interp)
                 outcome = SceneOutcome(
-                    status="accepted" if interp.accepted else "nothing",
-                    objects=len(interp.objects) or (1 if interp.accepted else 0),
+                    status="accepted" if found else "nothing",
+                    objects=found,
                     verdicts=verdicts_of(interp),
                     seconds=end - start,
                     seconds_evidence=None if split is None else split - start,

@@ -12,7 +12,7 @@ from aida_kb.interpret.kbfile import write_interpretation_kb
 from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
-from aida_kb.interpret.verdict import judge, with_verdict
+from aida_kb.interpret.verdict import NOTHING, judge, with_verdict
 from aida_kb.io.atomic import check_outputs, check_publishable, output_lock, publish_dir
 from aida_kb.io.evidence import Evidence, write_evidence
 from aida_kb.io.export import Atlas, write_files
@@ -155,7 +155,9 @@ def _reconstruct(
         write_interpretation_kb(
             work / "interpretation.kb", kb, interp, kb.files[0] if kb.files else "", folder=out
         )
-        if interp.model is not None:
+        # a rejected object is no result: its model is not published (interpretation.json
+        # says why it was rejected), so no model file of a scene can be taken for a finding
+        if interp.model is not None and interp.verdict != NOTHING:
             write_model(work / "model.json", interp.model)
             if stage is not None:
                 stage("-", "texture and exports")

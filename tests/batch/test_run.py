@@ -47,17 +47,19 @@ def _check_published(out: Path, outcome: SceneOutcome) -> None:
     assert outcome.status in ("accepted", "nothing"), outcome.error
     assert read_outcome(folder / "outcome.json") == outcome
     interp = read_interpretation(folder / "interpretation.json")
-    assert outcome.verdicts[0].accepted == interp.accepted == (outcome.status == "accepted")
+    found = interp.accepted and interp.verdict != "nothing"
+    assert outcome.verdicts[0].accepted == interp.accepted
+    assert found == (outcome.status == "accepted")
     assert outcome.verdicts[0].message == interp.message
     assert outcome.verdicts[0].verdict == interp.verdict
-    assert outcome.objects == int(interp.accepted)
+    assert outcome.objects == int(found)
     assert outcome.seconds is not None
     assert outcome.seconds_evidence is not None
     assert 0 < outcome.seconds_evidence < outcome.seconds
     assert read_evidence(folder / "evidence.json").views[0].id == "00"
     model = folder / "model.obj"
-    assert model.exists() == interp.accepted
-    if interp.accepted:
+    assert model.exists() == found
+    if found:
         assert _closed(model.read_text())
     assert sorted(outcome.files) == sorted(p.name for p in folder.iterdir())
 
