@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from typing import Any
 
 EXAMPLE = """\
@@ -73,7 +74,6 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Register the view and print its pose and residual."""
-    import math
     import sys
 
     import numpy as np
@@ -134,6 +134,9 @@ def run(args: argparse.Namespace) -> int:
         "segments": reg.n_edges,
         "regions": reg.n_regions,
         "chamfer_cost": round(reg.cost, 4),
+        "turn_sigma_deg": _finite(reg.turn_sigma_deg, 4),
+        "rotation_sigma_deg": _finite(reg.rotation_sigma_deg, 4),
+        "centre_sigma_m": [_finite(math.sqrt(v), 6) for v in np.diag(reg.covariance)[3:]],
     }
     if args.json:
         print(json.dumps(out))
@@ -150,7 +153,16 @@ def run(args: argparse.Namespace) -> int:
         f"  residual: {reg.rms_px:.3f} px RMS over {reg.n_edges} segments"
         f" and {reg.n_regions} regions (chamfer cost {reg.cost:.3f})"
     )
+    print(
+        f"  uncertainty (1 sigma, from the adjustment): turn {reg.turn_sigma_deg:.4f} deg,"
+        f" rotation {reg.rotation_sigma_deg:.4f} deg about its least determined axis"
+    )
     return 0
+
+
+def _finite(value: float, digits: int) -> float | None:
+    """`value` rounded, or None (JSON null) when the evidence leaves it undetermined."""
+    return round(value, digits) if math.isfinite(value) else None
 
 
 def _vec(v: Any) -> str:

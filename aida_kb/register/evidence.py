@@ -43,7 +43,9 @@ class ViewMeasurements:
     """What registration uses of a view.
 
     K : (3, 3) left camera matrix; width, height : image size, pixels; p1, p2 : (S, 2)
-    undistorted segment end points, pixels; regions : plane fits in the left camera frame.
+    undistorted segment end points, pixels; regions : plane fits in the left camera frame;
+    sigma_px : (S,) the segments' edge-point sigmas from their edge fits (pixels) when they
+    were fitted to the image, else None.
     """
 
     view: str
@@ -53,6 +55,7 @@ class ViewMeasurements:
     p1: FloatArray
     p2: FloatArray
     regions: RegionMeasurements
+    sigma_px: FloatArray | None = None
 
 
 def measurements_of(
@@ -61,15 +64,18 @@ def measurements_of(
     """Segments and region plane fits of an evidence view, in its left camera's terms.
 
     With the view's left `image` (8-bit grey, as taken: the evidence's pixels), its segments
-    are first moved onto their edges (`aida_kb.vision.lines.refine_segments`).
+    are first moved onto their edges (`aida_kb.vision.lines.fit_segments`), which gives each
+    its edge-point sigma too.
     """
     K = np.array(view.left.K, dtype=np.float64)
     D = np.array(view.left.D, dtype=np.float64)
     ends = np.array([[s.p1, s.p2] for s in view.lines], dtype=np.float64).reshape(-1, 2, 2)
+    sigma = None
     if image is not None:
-        from aida_kb.vision.lines import refine_segments
+        from aida_kb.vision.lines import fit_segments
 
-        ends = refine_segments(image, ends.reshape(-1, 4)).reshape(-1, 2, 2)
+        fits = fit_segments(image, ends.reshape(-1, 4))
+        ends, sigma = fits.segments.reshape(-1, 2, 2), fits.sigma_px
     flat = undistort_pixels(ends.reshape(-1, 2), K, D).reshape(-1, 2, 2)
     R = np.array(view.left.R, dtype=np.float64)
     t = np.array(view.left.t, dtype=np.float64)
@@ -78,7 +84,7 @@ def measurements_of(
     rms = np.array([r.rms_m for r in view.regions], dtype=np.float64)
     regions = RegionMeasurements(n @ R.T, c @ R.T + t, rms)
     return ViewMeasurements(
-        view.id, K, view.image_width, view.image_height, flat[:, 0], flat[:, 1], regions
+        view.id, K, view.image_width, view.image_height, flat[:, 0], flat[:, 1], regions, sigma
     )
 
 
@@ -87,19 +93,20 @@ def right_segments(scene: Scene, view_id: str) -> StereoSegments:
 
     The evidence file holds the left image's segments only; the right image's are detected
     here with the same detector (`aida_kb.vision.lines.detect_segments`), each moved onto its
-    edge (``refine``).
+    edge with its edge-point sigma (`aida_kb.vision.lines.fit_segments`).
     """
-    from aida_kb.vision.lines import detect_segments
+    from aida_kb.vision.lines import detect_segments, fit_segments
 
     calib = scene.view(view_id).rig
     grey = read_image(scene.view(view_id).right, grey=True)
-    seg = detect_segments(grey, refine=True)
+    fits = fit_segments(grey, detect_segments(grey))
+    seg = fits.segments
     K2 = np.asarray(calib.K2, dtype=np.float64)
     D2 = np.asarray(calib.D2, dtype=np.float64).ravel()
     ends = undistort_pixels(seg.reshape(-1, 2), K2, D2).reshape(-1, 2, 2)
     w, h = calib.image_size
     rig = Rig(K2, np.asarray(calib.R, dtype=np.float64), np.asarray(calib.T).ravel(), w, h)
-    return StereoSegments(rig, ends[:, 0], ends[:, 1])
+    return StereoSegments(rig, ends[:, 0], ends[:, 1], fits.sigma_px)
 
 
 def camera_of(camera: ModelCamera) -> PinholeCamera:
@@ -192,6 +199,7 @@ def register_evidence_view(
             expected_turn_deg=expected_turn_deg,
             stereo=stereo,
             options=options,
+            sigma_px=m.sigma_px,
         )
     except SolveError as exc:
         raise SolveError(f"view {view.id}: {exc}") from exc

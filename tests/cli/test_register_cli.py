@@ -49,6 +49,9 @@ def test_register_finds_the_second_views_pose(
     assert abs(out["turn_deg"] + 45.0) < 0.5
     assert out["rms_px"] < 1.0
     assert out["segments"] >= 10
+    # the adjustment's uncertainty: the turn is determined to hundredths of a degree
+    assert 0.0 < out["turn_sigma_deg"] <= out["rotation_sigma_deg"] < 0.1
+    assert len(out["centre_sigma_m"]) == 3
 
 
 def test_register_prints_the_pose_and_residual(
@@ -61,6 +64,7 @@ def test_register_prints_the_pose_and_residual(
     assert "turn about the vertical: -4" in text
     assert "residual:" in text
     assert "px RMS over" in text
+    assert "uncertainty (1 sigma, from the adjustment): turn" in text
 
 
 def test_register_bad_input_is_one_line_and_non_zero(

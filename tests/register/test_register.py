@@ -24,7 +24,13 @@ from aida_kb.register import (
     turned,
     vertical_axis,
 )
-from aida_kb.register.pose import EdgeObservations, pose_factors
+from aida_kb.register.pose import (
+    MIN_POINT_SIGMA_PX,
+    SEGMENT_FLOOR_PX,
+    EdgeObservations,
+    point_sigma,
+    pose_factors,
+)
 from aida_kb.solve.problem import Evaluation, build_problem
 from aida_kb.testing.segments import simulated_segments
 
@@ -232,6 +238,41 @@ def test_stereo_registration_uses_both_images() -> None:
     assert both.n_edges > mono.n_edges  # the right image's segments count too
     assert abs(both.angle_deg - 50.0) < 0.05
     assert np.linalg.norm(both.camera.centre - truth.centre) < 0.003
+
+
+def test_segment_sigmas_weigh_each_segment_and_drop_the_far_ones() -> None:
+    model = _box()
+    ref = _reference()
+    up = vertical_axis(model, ref)
+    truth = turned(ref, up, model.centroid, math.radians(50.0))
+    rng = np.random.default_rng(4)
+    p1, p2 = simulated_segments(model, truth, rng, noise_px=0.1)
+    n = np.linalg.norm(p2 - p1, axis=1)
+    sigma = np.full(len(p1), 0.1)
+    # one long segment 1.5 px off its edge, known to be noisy or not
+    k = int(np.argmax(n))
+    normal = np.array([-(p2[k] - p1[k])[1], (p2[k] - p1[k])[0]]) / n[k]
+    p1[k] += 1.5 * normal
+    p2[k] += 1.5 * normal
+    plain = register_view(model, ref, p1, p2, init_angle_deg=45.0)
+    own = register_view(model, ref, p1, p2, init_angle_deg=45.0, sigma_px=sigma)
+    assert abs(own.angle_deg - 50.0) < 0.02
+    assert abs(own.angle_deg - 50.0) < abs(plain.angle_deg - 50.0)
+    with pytest.raises(SolveError, match="one per segment"):
+        register_view(model, ref, p1, p2, sigma_px=sigma[:-1])
+    # the noise model: a segment's mean offset is never known better than the floor
+    edges = EdgeObservations(
+        np.zeros((2, 2), np.intp),
+        np.zeros((2, 2)),
+        np.array([[100.0, 0.0], [10.0, 0.0]]),
+        np.array([0.1, 0.0]),
+    )
+    s = point_sigma(edges, 1.0)
+    np.testing.assert_allclose(
+        s / np.sqrt([100.0, 10.0]),
+        np.sqrt(np.array([0.1, MIN_POINT_SIGMA_PX]) ** 2 / [100.0, 10.0] + SEGMENT_FLOOR_PX**2),
+    )
+    assert point_sigma(EdgeObservations(edges.faces, edges.p1, edges.p2), 1.0).tolist() == [1, 1]
 
 
 def test_symmetry_order_of_boxes() -> None:

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from aida_kb.vision.lines import attach_segments, detect_segments, refine_segments
+from aida_kb.vision.lines import (
+    UNREFINED_SIGMA_PX,
+    attach_segments,
+    detect_segments,
+    fit_segments,
+    refine_segments,
+)
 from aida_kb.vision.segmentation import region_contours
 
 CORNERS = np.array([[40.3, 30.6], [150.7, 42.2], [140.2, 110.4], [52.6, 100.9]])
@@ -99,6 +105,25 @@ def test_refinement_moves_segments_onto_textured_edges() -> None:
     segs = detect_segments(img, min_length_px=30)
     assert float(_offsets(segs).max()) > 0.1  # LSD alone
     assert float(_offsets(detect_segments(img, min_length_px=30, refine=True)).max()) < 0.05
+
+
+def test_edge_fit_sigma_tells_clean_from_textured_edges() -> None:
+    img, _ = _quad_image()
+    clean = fit_segments(img, detect_segments(img, min_length_px=30))
+    assert np.all(clean.support > 30)
+    assert float(clean.sigma_px.max()) < 0.1  # a clean edge's points: hundredths of a pixel
+    textured = _textured_quad(0)
+    lsd = detect_segments(textured, min_length_px=15)
+    fits = fit_segments(textured, lsd[_offsets(lsd) < 2.0])
+    refined = fits.support > 0
+    assert np.median(fits.sigma_px[refined]) > 1.3 * float(clean.sigma_px.max())
+    assert float(fits.sigma_px[refined].max()) > 0.3  # edge points on a texture scatter
+    # a segment on no edge is kept as detected, with the unrefined sigma
+    flat = np.full((40, 60), 120, np.uint8)
+    kept = fit_segments(flat, np.array([[10.0, 20.0, 50.0, 20.0]]))
+    np.testing.assert_array_equal(kept.segments, [[10.0, 20.0, 50.0, 20.0]])
+    assert kept.sigma_px.tolist() == [UNREFINED_SIGMA_PX]
+    assert kept.support.tolist() == [0]
 
 
 def test_left_and_right_follow_the_direction() -> None:
