@@ -121,10 +121,11 @@ class FrameHypothesis:
 class BodyHypothesis:
     """One hypothesis of the main body: frame, structure, binding, optimistic cost.
 
-    ``offered``: the regions some part of the structure could have bound in this frame (those
-    it leaves out count against it, `plausibility.misfit`). ``unbound``: its parts no region
-    shows (they will be inserted from the knowledge). ``prior``: what its vertical costs
-    (`OTHER_VERTICAL_PENALTY`, 0 for the estimate), part of ``estimate``.
+    ``offered``: the regions some part of the structure could have bound in this frame with
+    this anchor's region (those it leaves out count against it, `plausibility.misfit`).
+    ``unbound``: its parts no region shows (they will be inserted from the knowledge).
+    ``prior``: what its vertical costs (`OTHER_VERTICAL_PENALTY`, 0 for the estimate), part
+    of ``estimate``.
     """
 
     frame: FrameHypothesis
@@ -302,12 +303,10 @@ def best_bindings(
     sources = [r for r in anchor_regions(ctx, anchors) if r.id in frame.sources]
     leaves = structure.leaves
     options: list[list[RegionView | None]] = []
-    offered: set[str] = set()
     for leaf in leaves:
         pool = sources if leaf.role == structure.anchor_path else regions
         found: list[RegionView | None] = []
         found += [r for r in pool if fits(leaf, r, frame.frame)][:MAX_CANDIDATES]
-        offered.update(r.id for r in found if r is not None)
         if leaf.role != structure.anchor_path:
             found.append(None)
         if not found:
@@ -361,6 +360,15 @@ def best_bindings(
     prior = OTHER_VERTICAL_PENALTY if frame.vertical else 0.0
     for _, _, _, chosen in sorted(kept, key=lambda e: (-e[0], e[2])):
         binding = {r.id: leaf.role for r, leaf in zip(chosen, leaves, strict=True) if r}
+        # what it could have bound: the candidates consistent with its anchor's region (the
+        # ground fits a flat roof's orientation, but lies below the anchor: not left out)
+        base = chosen[anchor] if anchor is not None else None
+        offered = {
+            r.id
+            for i, leaf in enumerate(leaves)
+            for r in options[i]
+            if r is not None and _level_fits(leaf, r, base, up)
+        }
         out.append(
             BodyHypothesis(
                 frame,

@@ -110,3 +110,22 @@ def test_frames_take_each_facing_direction_as_every_horizontal_direction(
     assert np.allclose(fronts @ occluded.up, 0.0, atol=1e-9)
     turns = [_deg(fronts[0], f) for f in fronts[:4]]
     assert sorted(round(t) for t in turns) == [0, 90, 90, 180]
+
+
+def test_evidence_below_the_anchor_is_not_offered_to_a_part_facing_upward(
+    occluded: Context,
+) -> None:
+    """The ground fits a flat roof's orientation but lies below the front: no flat-roofed
+    binding could bind it, so it is not counted as evidence that binding left out (it was:
+    a flat-roofed house lost to a gable that inserted its whole roof)."""
+    up = occluded.up
+    ground = [r for r in occluded.regions if float(r.normal @ up) > math.cos(math.radians(15))]
+    assert len(ground) == 1
+    hypotheses, *_ = body_hypotheses(occluded, _structures(occluded))
+    flat = [h for h in hypotheses if h.structure.describe() == "body.roof=FlatRoof"]
+    assert flat
+    for h in flat:
+        assert ground[0].id not in h.binding
+        assert ground[0].id not in h.offered
+        # what it does offer: the regions its parts fit, its own bound ones among them
+        assert set(h.binding) <= h.offered
