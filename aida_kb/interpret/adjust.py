@@ -19,7 +19,7 @@ from aida_kb.constraints import kind_of
 from aida_kb.interpret.closure import ClosingFace, settle_unseen
 from aida_kb.interpret.context import Context
 from aida_kb.interpret.edges import EdgeMatch, match_segments
-from aida_kb.interpret.hypotheses import Frame
+from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD, Frame
 from aida_kb.interpret.knowledge import Structure, join
 from aida_kb.interpret.unseen import Planes, closing_of, ground_of, initial_planes
 from aida_kb.interpret.verify import (
@@ -27,6 +27,7 @@ from aida_kb.interpret.verify import (
     Outcome,
     Verification,
     build_verification,
+    orientation_priors,
     position_data,
     tilt_constraints,
     verify,
@@ -91,6 +92,17 @@ def adjust(
     tilts = tilt_constraints(
         ctx.knowledge,
         [(leaf.role, leaf.concept) for leaf in structure.leaves],
+        ground_of(ctx, set(index)),
+        index,
+    )
+    # inserted parts the knowledge orients level keep that orientation (verify.orientation_priors)
+    level = {UPWARD: True, DOWNWARD: False}
+    tilts += orientation_priors(
+        [
+            (leaf.role, leaf.concept, level[leaf.direction], leaf.orient_span)
+            for leaf in structure.leaves
+            if leaf.role in initial.inserted and leaf.direction in level and not leaf.pitched
+        ],
         ground_of(ctx, set(index)),
         index,
     )

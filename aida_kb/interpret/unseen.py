@@ -12,6 +12,7 @@ structure's such parts are returned as *visible*, for `plausibility.unseen` to j
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,21 +92,37 @@ def initial_planes(
     planes: list[PlaneInit] = []
     inserted: list[str] = []
     visible: list[str] = []
+    # every part's plane first (unit normal, offset m): a part no evidence and no placement
+    # of the knowledge puts anywhere may be moved out to the least extent the knowledge allows
+    start: dict[str, tuple[FloatArray, float]] = {}
+    unplaced: set[str] = set()
     for leaf in structure.leaves:
         region = seen.get(leaf.role)
         if region is not None:
-            planes.append(PlaneInit(leaf.role, leaf.concept, region.normal, region.offset_m))
+            start[leaf.role] = (region.normal, region.offset_m)
             continue
-        inserted.append(leaf.role)
         tilt = leaf.tilt_deg if leaf.tilt_deg is not None else DEFAULT_PITCH_DEG
         n = predicted_normal(leaf, frame, pitch if pitch is not None else tilt)
         if len(points):
             d = support_offset(n, points)
         else:
             d = float(n @ evidence.camera.centre_m) - UNSUPPORTED_OFFSET_M
-        for placed in placed_by_knowledge(ctx, structure, leaf, n, frame, seen, fixed, choices):
+        placements = placed_by_knowledge(ctx, structure, leaf, n, frame, seen, fixed, choices)
+        for placed in placements:
             d = max(d, placed)
-        centre = points.mean(axis=0) if len(points) else evidence.camera.centre_m
+        if not placements:
+            unplaced.add(leaf.role)
+        start[leaf.role] = (n, d)
+    centre = points.mean(axis=0) if len(points) else evidence.camera.centre_m
+    if ctx.evidence.metric:  # a least extent in metres means nothing in a scene up to scale
+        start.update(least_extents(ctx, structure, frame, start, unplaced, centre))
+    for leaf in structure.leaves:
+        region = seen.get(leaf.role)
+        if region is not None:
+            planes.append(PlaneInit(leaf.role, leaf.concept, region.normal, region.offset_m))
+            continue
+        inserted.append(leaf.role)
+        n, d = start[leaf.role]
         on_plane = centre + (d - float(n @ centre)) * n
         # a face behind another object of the scene (`interpret.scene`) is not seen, rightly
         if faces_camera(n, on_plane, evidence.camera) and not ctx.hidden_by_others(on_plane):
@@ -122,6 +139,69 @@ def initial_planes(
     for role, (n, d) in sorted(fixed.items()):
         planes.append(PlaneInit(role, "", n, d, fixed=True))
     return Initial(planes, tuple(inserted), tuple(visible))
+
+
+# two parts bound the extent of their whole along an axis when their normals lie within this
+# of the axis and of each other's opposite (the front and back walls of a body)
+EXTENT_AXIS_DEG = 10.0
+LENGTH_AXES = ("height", "width", "depth")  # length measures taken along a frame axis
+
+
+def least_extents(
+    ctx: Context,
+    structure: Structure,
+    frame: Frame,
+    planes: Planes,
+    unplaced: set[str],
+    centre: FloatArray,
+) -> Planes:
+    """Inserted parts moved out to the least extent the knowledge gives their whole.
+
+    A part no region shows and no ``unseen`` placement of the knowledge puts anywhere starts
+    at the support of the seen points (`support_offset`): a back wall behind a front whose
+    roof no view shows lies on the front's own points, a body 0-15 cm deep (Herz-Jesu,
+    the castle courtyard), and the solid does not close. Where an attribute of the part's
+    whole measures its extent along the axis the part faces (``attribute depth: length in
+    [2 m, 60 m] is depth(self)``; height, width, depth along the frame's up, right, front),
+    the part is moved out to the range's low end from its opposite part — the least the
+    knowledge allows, and nothing more: the verdict names the part as not measured.
+    ``planes``: role path -> (unit normal (3,), offset m), every leaf of the structure;
+    ``centre``: (3,) a point inside the seen evidence, metres (which side the camera is on).
+    Returns the moved parts only.
+    """
+    axes = {"height": frame.up, "width": frame.right, "depth": frame.front}
+    cos_axis = math.cos(math.radians(EXTENT_AXIS_DEG))
+    camera = ctx.evidence.camera.centre_m
+    moved: Planes = {}
+    for node in structure.nodes:
+        for attribute in ctx.knowledge.concept(node.concept).attributes.values():
+            if attribute.measure not in LENGTH_AXES or attribute.measure_args != ("self",):
+                continue
+            if attribute.low is None or attribute.low <= 0:
+                continue
+            axis = axes[attribute.measure]
+            mine = [
+                r
+                for r in planes
+                if (not node.role or r == node.role or r.startswith(node.role + "."))
+                and abs(float(planes[r][0] @ axis)) > cos_axis
+            ]
+            for role in sorted(mine):
+                if role not in unplaced or role in moved:
+                    continue
+                n, d = planes[role]
+                opposite = [r for r in mine if float(planes[r][0] @ n) < -cos_axis]
+                if not opposite:
+                    continue
+                # the opposite part nearest the camera's side bounds the whole there
+                d_opp = min(planes[r][1] for r in opposite)
+                if d + d_opp >= attribute.low:
+                    continue
+                d_new = attribute.low - d_opp
+                if float(n @ camera) > d_new:
+                    continue  # moved out so far the camera would see it: leave it to fail
+                moved[role] = (n, d_new)
+    return moved
 
 
 def placed_by_knowledge(

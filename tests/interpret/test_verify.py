@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from aida_kb.constraints import Constraint, Origin
+from aida_kb.constraints import Constraint, EdgeData, Origin
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import CameraView, RegionView
@@ -16,6 +16,7 @@ from aida_kb.interpret.verify import (
     PlaneInit,
     Verification,
     build_verification,
+    fragment_scatter_px,
     position_data,
     tilt_constraints,
     verify,
@@ -106,8 +107,11 @@ def test_a_contradiction_over_the_threshold_is_flagged_and_fixed_parts_stay() ->
     assert worst.normalised_cost > worst.threshold
 
 
-def test_fragments_of_one_edge_share_one_verdict(buildings_kb: KnowledgeBase) -> None:
-    knowledge = Knowledge.from_kb(buildings_kb)
+def _corner_fragments(
+    knowledge: Knowledge, offsets_px: list[float]
+) -> tuple[Verification, tuple[PlaneInit, ...]]:
+    """A front and a left wall meeting at a vertical corner 20 m away, and fragments of the
+    corner line seen `offsets_px` to the side (x) of where the planes put it."""
     roles = ["body.front", "body.left"]
     normals = [np.array([0.0, 0.0, -1.0]), np.array([-1.0, 0.0, 0.0])]
     corner = np.array([-5.0, 0.0, 20.0])
@@ -116,23 +120,75 @@ def test_fragments_of_one_edge_share_one_verdict(buildings_kb: KnowledgeBase) ->
     ]
     cam = PinholeCamera(np.diag([800.0, 800.0, 1.0]), np.eye(3), np.zeros(3), 640, 480)
     x = cam.project(corner + np.array([[0, -2.0, 0], [0, 2.0, 0]]))
-    # two fragments of the vertical corner line: 1 px and 5 px off to the side
-    fragments = [x + np.array([1.0, 0.0]), x + np.array([5.0, 0.0])]
+    fragments = [x + np.array([dx, 0.0]) for dx in offsets_px]
     edges = [EdgeEvidence(("body.front", "body.left"), "body.front", 0, f) for f in fragments]
     v = build_verification(knowledge, "body", "HouseBody", planes, {}, {}, edges, set(), (cam,))
+    fixed = tuple(PlaneInit(p.role, p.concept, p.normal, p.offset_m, fixed=True) for p in planes)
+    return v, fixed
+
+
+def test_fragments_of_one_edge_share_one_verdict(buildings_kb: KnowledgeBase) -> None:
+    knowledge = Knowledge.from_kb(buildings_kb)
+    # two fragments on one line 4 px beside the model's corner: they agree with each other,
+    # not with the model
+    v, fixed = _corner_fragments(knowledge, [4.0, 4.0])
     assert [c.kind for c in v.constraints] == ["angle", "edge", "edge"]
     assert [str(c.source.owner) for c in v.constraints] == [
         "body",
         "body.front.region.contours[0]",
         "body.front.region.contours[1]",
     ]
-    fixed = tuple(PlaneInit(p.role, p.concept, p.normal, p.offset_m, fixed=True) for p in planes)
+    assert [c.sigma for c in v.constraints[1:]] == [1.0, 1.0]  # no scatter: the knowledge's
     out = verify(Verification(fixed, v.constraints, v.cameras))
     edge = [r for r in out.residuals if r.kind == "edge"]
     assert len(edge) == 1  # pooled: RMS over the fragments, summed costs and thresholds
-    assert edge[0].residual == pytest.approx(math.sqrt((2 * 1.0 + 2 * 25.0) / 2), rel=1e-3)
+    # each fragment's residual: both end points 4 px off
+    assert edge[0].residual == pytest.approx(math.sqrt(32.0), rel=1e-3)
     assert edge[0].threshold == pytest.approx(18.0)
-    assert edge[0].rejected  # 26 > 18: the 5 px fragment is too far even with the other
+    assert edge[0].rejected  # 64 > 18
+
+
+def test_fragments_that_scatter_widen_their_edge_tolerance(buildings_kb: KnowledgeBase) -> None:
+    # fragments 1 px and 5 px beside the corner: they scatter by 2.83 px about their common
+    # line (4 end points, 2 degrees of freedom left): the evidence cannot place the edge
+    # better than that, whatever the hypothesis
+    knowledge = Knowledge.from_kb(buildings_kb)
+    v, fixed = _corner_fragments(knowledge, [1.0, 5.0])
+    ends = [c.edge for c in v.constraints if c.edge is not None]
+    assert fragment_scatter_px(ends) == pytest.approx(math.sqrt(8.0), rel=1e-6)
+    sigma = math.sqrt(1.0 + 8.0)
+    assert [c.sigma for c in v.constraints[1:]] == pytest.approx([sigma, sigma])
+    assert [c.reject_above for c in v.constraints[1:]] == pytest.approx([3 * sigma, 3 * sigma])
+    out = verify(Verification(fixed, v.constraints, v.cameras))
+    (edge,) = [r for r in out.residuals if r.kind == "edge"]
+    # RMS over the fragments of their end points' residuals (1 and 5 px each)
+    assert edge.residual == pytest.approx(math.sqrt((2 * 1.0 + 2 * 25.0) / 2), rel=1e-3)
+    assert edge.normalised_cost == pytest.approx((2 * 1.0 + 2 * 25.0) / 9.0, rel=1e-3)
+    assert not edge.rejected  # 5.8 of 18: within what the fragments themselves show
+    # the same scatter 9 px beside the model still rejects
+    v, fixed = _corner_fragments(knowledge, [7.0, 11.0])
+    out = verify(Verification(fixed, v.constraints, v.cameras))
+    (edge,) = [r for r in out.residuals if r.kind == "edge"]
+    assert edge.rejected
+
+
+def test_a_fragment_across_the_edge_widens_nothing() -> None:
+    """Relief offsets lines parallel to an edge; a fragment 10 degrees across the others is
+    another line near the model's edge (a hip where the hypothesis has an eave), not relief."""
+    along = [
+        EdgeData(0, (100.0, 100.0), (100.0, 160.0)),
+        EdgeData(0, (104.0, 100.0), (104.0, 160.0)),
+    ]
+    assert fragment_scatter_px(along) == pytest.approx(math.sqrt(8.0), rel=1e-6)  # 4 x 2 px
+    tip = 90.0 * math.tan(math.radians(10.0))
+    across = [*along, EdgeData(0, (102.0, 280.0), (102.0 + tip, 370.0))]
+    assert fragment_scatter_px(across) == 0.0
+    # a short fragment's direction is known less well: 10 degrees off along 12 px is parallel
+    short = [
+        *along,
+        EdgeData(0, (102.0, 280.0), (102.0 + 12 * math.tan(math.radians(10.0)), 292.0)),
+    ]
+    assert fragment_scatter_px(short) > 0.0
 
 
 def test_constraints_come_from_the_knowledge_base(buildings_kb: KnowledgeBase) -> None:
