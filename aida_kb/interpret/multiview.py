@@ -71,6 +71,7 @@ from aida_kb.register.evidence import (
     right_segments,
 )
 from aida_kb.solve import ResidualReport, build_problem, constraints_from_kb, solve
+from aida_kb.solve.problem import Loss, Problem
 
 if TYPE_CHECKING:
     from aida_kb.kb.model import KnowledgeBase
@@ -80,6 +81,7 @@ FloatArray = npt.NDArray[np.float64]
 __all__ = [
     "JOINT_EDGE_SIGMA_PX",
     "joint_adjustment",
+    "joint_problem",
     "kb_constraints",
     "meeting_angles",
     "reconstruct_views",
@@ -94,6 +96,10 @@ JOINT_ANGLE_SIGMA_DEG = 0.3
 """The first shape's angles between adjacent parts, kept to this standard deviation."""
 PRIOR_ANGLE_SIGMA_DEG = 2.0
 """... or to this one, where the knowledge base's own constraints are in the adjustment."""
+JOINT_LOSS: Loss = "soft_l1"
+"""The robust loss of the joint adjustments' measurements (segments and regions) ..."""
+JOINT_F_SCALE = 2.0
+"""... acting beyond this many standard deviations of a factor's whitened block."""
 JOINT_MATCH_PX = 3.0
 """Segments within this distance of a projected model edge are its evidence."""
 FINAL_ROUNDS = 2
@@ -151,7 +157,37 @@ def joint_adjustment(
     internal: Sequence[Constraint] = (),
     stereo: Sequence[StereoSegments | None] = (),
 ) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...], ResidualReport]:
-    """Adjust the model's planes and the free cameras' poses to all views at once.
+    """Adjust the model's planes and the free cameras' poses to all views at once: the
+    problem of `joint_problem` (same parameters), solved with JOINT_LOSS / JOINT_F_SCALE.
+
+    Returns
+    -------
+    normals (P, 3), offsets (P,), the cameras at their adjusted poses and the residual report
+    of every factor of the adjustment (with its origin).
+
+    Raises
+    ------
+    SolveError
+        A degenerate problem.
+    """
+    problem = joint_problem(
+        model, cameras, views, free_cameras, angles=angles, internal=internal, stereo=stereo
+    )
+    result = solve(problem, loss=JOINT_LOSS, f_scale=JOINT_F_SCALE)
+    return result.normals, result.offsets, result.cameras[: len(cameras)], result.report
+
+
+def joint_problem(
+    model: RigidModel,
+    cameras: Sequence[PinholeCamera],
+    views: Sequence[ViewMeasurements],
+    free_cameras: Sequence[int],
+    *,
+    angles: Mapping[tuple[int, int], float] | None = None,
+    internal: Sequence[Constraint] = (),
+    stereo: Sequence[StereoSegments | None] = (),
+) -> Problem:
+    """The problem of adjusting the model's planes and the free cameras' poses to all views.
 
     Parameters
     ----------
@@ -169,8 +205,8 @@ def joint_adjustment(
 
     Returns
     -------
-    normals (P, 3), offsets (P,), the cameras at their adjusted poses and the residual report
-    of every factor of the adjustment (with its origin).
+    The problem (`aida_kb.solve.Problem`): every part free, the cameras of the views (and
+    of their right images) with `free_cameras` free.
 
     Raises
     ------
@@ -229,7 +265,7 @@ def joint_adjustment(
                 origin=Origin(f"first-shape angle({model.names[a]}, {model.names[b]})", "prior"),
             )
         )
-    problem = build_problem(
+    return build_problem(
         model.normals,
         model.offsets,
         cons,
@@ -238,8 +274,6 @@ def joint_adjustment(
         free_cameras=free_cameras,
         derived=derived,
     )
-    result = solve(problem, loss="soft_l1", f_scale=2.0)
-    return result.normals, result.offsets, result.cameras[: len(cameras)], result.report
 
 
 def _edge_factors(

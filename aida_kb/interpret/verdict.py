@@ -23,10 +23,11 @@ is **verified** only when it also
     there confirms the camera: a registration 100 degrees off passes every test for want
     of evidence), a view a reconstruction left without a camera (not registered: the
     result does not say where it was taken from; `judge(..., all_views=True)`), and a
-    registered view (not the first, which sets the world frame) whose camera its segments
-    on the model's edges fix only to more than
-    CAMERA_ANGLE_SD_MAX_DEG or CAMERA_CENTRE_SD_MAX of its distance (`camera_sd`: the
-    pose's covariance from those segments, the model held, at the scatter they show);
+    registered view (not the first, which sets the world frame) whose camera the
+    adjustment fixes only to more than CAMERA_ANGLE_SD_MAX_DEG or CAMERA_CENTRE_SD_MAX of
+    its distance (one standard deviation from the adjustment's covariance at the scatter its
+    measurements show, `aida_kb.interpret.uncertainty`: segments and regions of every view,
+    the model's planes unknowns too);
 (d) meets the knowledge's attribute ranges: every attribute of an instantiated concept that
     stands for a geometric measure (`is slope(self)`, `height(self)`, ...; docs/language.md
     3.10) is measured on the model and must lie in its range; and every part the knowledge
@@ -46,7 +47,8 @@ is **verified** only when it also
     taken for a gable; a floor square to the walls), not where the scene has it. A part
     placed by its edges is placed to POSITION_TOLERANCE of the model's size (one standard
     deviation of its offset, from how far a pixel across each edge moves it in the views
-    that see it: a wing's end from one edge seen at a grazing angle is not);
+    that see it, or the adjustment's covariance if larger: a wing's end from one edge seen
+    at a grazing angle is not);
 (f) lacks no surface joined to the object: a region outside the model's projection or in
     front of it, of at least ADJOINING_MIN_SHARE of the view's region pixels, whose outline
     meets a model face in 3-D along a quarter of the model's size, and which continues no
@@ -75,8 +77,9 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.interpret.result import INSERTED, Instance, Interpretation
+from aida_kb.interpret.uncertainty import Uncertainty, adjustment_uncertainty
 from aida_kb.io.evidence import Evidence, ViewEvidence
-from aida_kb.io.model import ModelCamera, ReconstructedModel
+from aida_kb.io.model import CameraSd, ModelCamera, PartSd, ReconstructedModel
 from aida_kb.kb.model import AttributeModel, KnowledgeBase, MeasureKind
 
 if TYPE_CHECKING:
@@ -136,10 +139,9 @@ COS_PARALLEL = math.cos(math.radians(EXACT_DEG))
 SIN_SQUARE = math.sin(math.radians(EXACT_DEG))
 EDGE_SIGMA_PX = 1.0  # an image line's ends scatter by a pixel across it (the knowledge's
 # `measure edge(...) +- 1 px`); how far that moves a plane through the edge is its uncertainty
-CAMERA_ANGLE_SD_MAX_DEG = 0.1  # (c): a registered view's camera is fixed by its segments to
+CAMERA_ANGLE_SD_MAX_DEG = 0.1  # (c): the adjustment fixes a registered view's camera to
 # 0.1 degree (one standard deviation; the accuracy asked of it, the paper's Table 1) ...
 CAMERA_CENTRE_SD_MAX = 0.01  # ... and its centre to 1 % of its distance from the model
-SEGMENT_SIGMA_FLOOR_PX = 0.2  # segment ends are never taken as better than a fifth of a pixel
 EDGE_SEEN_SHARE = 0.5  # an edge is seen in a view when segments lie along half its length
 EDGE_COVER_MIN = 0.5  # at least this share of the visible edges' length is seen as segments
 # (edges between faces of like brightness or under an occluder show no segment: a right
@@ -179,6 +181,7 @@ class Verdict:
     reasons: tuple[str, ...]
     views_not_explained: tuple[str, ...]
     checks: tuple[ViewCheck, ...]
+    uncertainty: Uncertainty | None = None  # the adjustment's standard deviations
 
 
 # ---- geometry of the model ---------------------------------------------------------------------
@@ -370,67 +373,29 @@ def edge_cover(
     return float(covered[sel].sum() / edges.length_px[sel].sum())
 
 
-def _skew(w: FloatArray) -> FloatArray:
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-
-
-def camera_sd(view: ViewEvidence, model: ReconstructedModel) -> tuple[float, float, int]:
-    """How well the view's segments fix its camera, the model held: the standard deviation
-    of its rotation (degrees, the root of the three angles' variances) and of its centre
-    (a fraction of its distance from the model's centre), and the number of segments on
-    model edges (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG). Each segment's two ends lie
-    across its edge's projected line with the scatter the matches show (at least
-    SEGMENT_SIGMA_FLOOR_PX); fewer than four segments leave the pose unfixed (inf)."""
-    from aida_kb.register.evidence import measurements_of
-    from aida_kb.register.match import match_segments
-
-    found = _edge_coverage(view, model)
-    camera = next((c for c in model.cameras if c.view == view.id), None)
-    if found is None or camera is None:
-        return math.inf, math.inf, 0
-    rigid, edges, _ = found
-    meas = measurements_of(view)
-    m = match_segments(
-        edges.a,
-        edges.b,
-        meas.p1,
-        meas.p2,
-        max_distance_px=EDGE_TOLERANCE_PX,
-        max_angle_rad=math.radians(EDGE_ANGLE_DEG),
-    )
-    if m.size < 4:
-        return math.inf, math.inf, int(m.size)
-    ends = rigid.edge_ends[edges.index[m.edge]]  # (M, 2, 3) world frame
-    px = np.concatenate([meas.p1[m.segment], meas.p2[m.segment]])  # (2M, 2)
-    K = np.asarray(camera.K, dtype=np.float64)
+def _camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None) -> list[str]:
+    """Check (c) for a registered view's camera (problems): the adjustment's covariance
+    (`aida_kb.interpret.uncertainty`) fixes its rotation to CAMERA_ANGLE_SD_MAX_DEG and its
+    centre to CAMERA_CENTRE_SD_MAX of its distance from the model's centre."""
+    camera = next((c for c in model.cameras if c.view == view), None)
+    if camera is None:
+        return []
+    if unc is None or view not in unc.cameras:
+        return ["camera: the adjustment's covariance could not be computed"]
+    angle, centre_m = unc.cameras[view]
+    corners = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
     R = np.asarray(camera.R, dtype=np.float64)
     C = -R.T @ np.asarray(camera.t, dtype=np.float64)
-
-    def across(x: FloatArray) -> FloatArray:
-        """Signed distances (2M,) of the segment ends from the edges' lines at pose step x
-        (rotation vector, radians; centre step, metres)."""
-        Rx = (np.eye(3) + _skew(x[:3])) @ R
-        tx = -Rx @ (C + x[3:])
-        y = (ends.reshape(-1, 3) @ Rx.T + tx) @ K.T
-        uv = (y[:, :2] / y[:, 2:3]).reshape(-1, 2, 2)
-        d = uv[:, 1] - uv[:, 0]
-        n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1)[:, None]
-        a2, n2 = np.concatenate([uv[:, 0], uv[:, 0]]), np.concatenate([n, n])
-        out: FloatArray = np.einsum("ij,ij->i", px - a2, n2)
-        return out
-
-    r0 = across(np.zeros(6))
-    h = 1e-6
-    J = np.stack([(across(h * e) - r0) / h for e in np.eye(6)], axis=1)  # (2M, 6)
-    sigma = max(math.sqrt(float(r0 @ r0) / (len(r0) - 6)), SEGMENT_SIGMA_FLOOR_PX)
-    info = J.T @ J
-    if np.linalg.cond(info) > 1e12:
-        return math.inf, math.inf, int(m.size)
-    cov = sigma**2 * np.linalg.inv(info)
-    distance = float(np.linalg.norm(C - rigid.edge_ends.reshape(-1, 3).mean(axis=0)))
-    angle = math.degrees(math.sqrt(float(np.trace(cov[:3, :3]))))
-    centre = math.sqrt(float(np.trace(cov[3:, 3:]))) / max(distance, 1e-9)
-    return angle, centre, int(m.size)
+    distance = float(np.linalg.norm(C - corners.mean(axis=0)))
+    centre = centre_m / max(distance, 1e-9)
+    if angle <= CAMERA_ANGLE_SD_MAX_DEG and centre <= CAMERA_CENTRE_SD_MAX:
+        return []
+    return [
+        f"camera is fixed by the adjustment only to +-{angle:.2f} deg and +-{100 * centre:.1f}% "
+        f"of its distance (at most {CAMERA_ANGLE_SD_MAX_DEG:g} deg and "
+        f"{100 * CAMERA_CENTRE_SD_MAX:g}%; {unc.measurements} measurements, their scatter "
+        f"{unc.variance_factor**0.5:.2f} of their noise model)"
+    ]
 
 
 def seen_edges(
@@ -734,6 +699,7 @@ def unmeasured_parts(
     evidence: Evidence,
     checks: tuple[ViewCheck, ...],
     kb: KnowledgeBase | None = None,
+    uncertainty: Uncertainty | None = None,
 ) -> list[str]:
     """The parts whose plane the evidence does not measure (reasons): inserted from
     knowledge, or bound to regions none of which lies on the part (a region bound but left
@@ -757,7 +723,8 @@ def unmeasured_parts(
     A part its edges measure must be placed by them to POSITION_TOLERANCE of the model's
     size: each edge, its ends good to EDGE_SIGMA_PX across it in each view that sees it,
     fixes the part's offset to `line_offset_sd` (an edge seen at a grazing angle, or along
-    the baseline of the two views that see it, hardly does)."""
+    the baseline of the two views that see it, hardly does) — and, with the adjustment's
+    `uncertainty`, its offset's standard deviation there, the larger of the two."""
     model = interp.model
     if model is None:
         return []
@@ -850,12 +817,15 @@ def unmeasured_parts(
                 continue
         if placed:
             sd = 1.0 / math.sqrt(information) if information > 0 else math.inf
+            if uncertainty is not None and part.role in uncertainty.parts:
+                sd = max(sd, uncertainty.parts[part.role][1])
             if sd > POSITION_TOLERANCE * size:
                 reasons.append(
                     f"{part.role} is placed by {lines} edge{'s' if lines != 1 else ''} only "
                     f"to +-{sd:.2f} m, more than "
                     f"{100 * POSITION_TOLERANCE:.0f}% of the model's size ({size:.1f} m; an "
-                    f"edge's ends good to {EDGE_SIGMA_PX:g} px in the views that see it)"
+                    f"edge's ends good to {EDGE_SIGMA_PX:g} px in the views that see it, or "
+                    "the adjustment's covariance)"
                 )
             continue
         how = "placed by the knowledge" if part.role in inserted else "bound to no region on it"
@@ -1068,6 +1038,7 @@ def judge(
     if interp.objects:  # a scene of several objects: each was judged alone (interpret.scene)
         return Verdict(interp.verdict or NOTHING, tuple(interp.doubts), (), ())
     reasons: list[str] = []
+    uncertainty = adjustment_uncertainty(kb, interp, evidence)
     # (a) every constraint of the knowledge (and every prior) under its threshold; the
     # evidence's own factors of a multi-view adjustment (segments, regions: robust, made by
     # code, rule "evidence") are judged by (b) and (c), not one by one — a stray region or
@@ -1112,14 +1083,8 @@ def judge(
                 f"(at least {100 * EDGE_COVER_MIN:.0f}% within {EDGE_TOLERANCE_PX:g} px)"
             )
         if view.id != evidence.views[0].id and check.inside_weight > 0:
-            # a registered view: its camera is fixed by its segments to what is asked of it
-            angle, centre, count = camera_sd(view, model)
-            if angle > CAMERA_ANGLE_SD_MAX_DEG or centre > CAMERA_CENTRE_SD_MAX:
-                problems.append(
-                    f"camera is fixed by its {count} segments on model edges only to "
-                    f"+-{angle:.2f} deg and +-{100 * centre:.1f}% of its distance (at most "
-                    f"{CAMERA_ANGLE_SD_MAX_DEG:g} deg and {100 * CAMERA_CENTRE_SD_MAX:g}%)"
-                )
+            # a registered view: the adjustment fixes its camera to what is asked of it
+            problems += _camera_doubts(view.id, model, uncertainty)
         standing = check.standing_out_weight / check.inside_weight if check.inside_weight else 0.0
         if standing > STANDING_OUT_SHARE_MAX:
             problems.append(
@@ -1149,7 +1114,7 @@ def judge(
     metric = evidence.units == "m"
     sizes = check_attributes(kb, interp, model, unit=SIZE_UNIT, metric=metric)
     if sizes:
-        return Verdict(NOTHING, tuple(sizes), tuple(not_explained), tuple(checks))
+        return Verdict(NOTHING, tuple(sizes), tuple(not_explained), tuple(checks), uncertainty)
     # (f) no large surface joined to the model that the model does not explain
     by_id = {v.id: v for v in evidence.views}
     for check in checks:
@@ -1165,12 +1130,12 @@ def judge(
                 f"regions {shown} near it are not its surfaces"
             )
     # (e) every part inserted from knowledge is measured by some evidence
-    reasons += unmeasured_parts(interp, evidence, tuple(checks), kb)
+    reasons += unmeasured_parts(interp, evidence, tuple(checks), kb, uncertainty)
     # (d) the knowledge's measured attributes
     reasons += check_attributes(kb, interp, model, metric=metric)
     reasons += check_orientations(kb, interp, model)
     verdict = DOUBTFUL if reasons else VERIFIED
-    return Verdict(verdict, tuple(reasons), tuple(not_explained), tuple(checks))
+    return Verdict(verdict, tuple(reasons), tuple(not_explained), tuple(checks), uncertainty)
 
 
 def with_verdict(interp: Interpretation, verdict: Verdict) -> Interpretation:
@@ -1180,6 +1145,48 @@ def with_verdict(interp: Interpretation, verdict: Verdict) -> Interpretation:
         message = f"{interp.goal} doubtful: {'; '.join(verdict.reasons)} (was: {message})"
     elif verdict.verdict == NOTHING and verdict.reasons:
         message = f"no {interp.goal} found: {'; '.join(verdict.reasons)} (was: {message})"
-    return interp.model_copy(
-        update={"verdict": verdict.verdict, "doubts": list(verdict.reasons), "message": message}
-    )
+    update: dict[str, object] = {
+        "verdict": verdict.verdict,
+        "doubts": list(verdict.reasons),
+        "message": message,
+    }
+    if interp.model is not None and verdict.uncertainty is not None:
+        update["model"] = with_deviations(interp.model, verdict.uncertainty)
+    return interp.model_copy(update=update)
+
+
+def _finite_or_none(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
+def with_deviations(model: ReconstructedModel, unc: Uncertainty) -> ReconstructedModel:
+    """`model` with the adjustment's standard deviations on its parts and cameras (model.json
+    `sd`: normal degrees and offset metres of each part, rotation degrees and centre metres
+    of each camera the adjustment moves; null where not fixed)."""
+    parts = [
+        p.model_copy(
+            update={
+                "sd": PartSd(
+                    normal_deg=_finite_or_none(unc.parts[p.role][0]),
+                    offset_m=_finite_or_none(unc.parts[p.role][1]),
+                )
+            }
+        )
+        if p.role in unc.parts
+        else p
+        for p in model.parts
+    ]
+    cameras = [
+        c.model_copy(
+            update={
+                "sd": CameraSd(
+                    rotation_deg=_finite_or_none(unc.cameras[c.view][0]),
+                    centre_m=_finite_or_none(unc.cameras[c.view][1]),
+                )
+            }
+        )
+        if c.view in unc.cameras
+        else c
+        for c in model.cameras
+    ]
+    return model.model_copy(update={"parts": parts, "cameras": cameras})

@@ -103,6 +103,36 @@ class Cahv(_Frozen):
     V: Vec3
 
 
+def _non_negative(value: float) -> float:
+    if value < 0:
+        raise ValueError("a standard deviation cannot be negative")
+    return value
+
+
+Deviation = Annotated[
+    float, BeforeValidator(number_only), AfterValidator(_finite), AfterValidator(_non_negative)
+]
+"""One standard deviation: finite and not negative."""
+
+
+class PartSd(_Frozen):
+    """How well the adjustment fixes a part: one standard deviation of its plane, from the
+    adjustment's covariance at the scatter of its measurements (`interpret.uncertainty`);
+    null where the evidence and the knowledge leave it open."""
+
+    normal_deg: Deviation | None = Field(description="the normal's direction, degrees")
+    offset_m: Deviation | None = Field(
+        description="the plane's offset at the part's centre, metres (the model's units)"
+    )
+
+
+class CameraSd(_Frozen):
+    """How well the adjustment fixes a view's camera (one standard deviation; null: open)."""
+
+    rotation_deg: Deviation | None = Field(description="its rotation, degrees")
+    centre_m: Deviation | None = Field(description="its centre, metres (the model's units)")
+
+
 class ModelCamera(_Frozen):
     """One view's left camera: x_cam = R·x_world + t (R_cam_world, t_cam_world in metres)."""
 
@@ -113,6 +143,11 @@ class ModelCamera(_Frozen):
     image_width: Int = Field(gt=0)
     image_height: Int = Field(gt=0)
     cahv: Cahv | None = None
+    sd: CameraSd | None = Field(
+        default=None,
+        description="how well the adjustment fixes this camera; null for the first view "
+        "(it sets the world frame) or a result not judged",
+    )
 
     @model_validator(mode="after")
     def _check(self) -> ModelCamera:
@@ -131,6 +166,7 @@ class ModelPart(_Frozen):
     normal: Vec3 = Field(description="unit normal, out of the solid")
     offset_m: Finite = Field(description="d in n·x = d, metres")
     polygon: list[Vec3] = Field(min_length=3, description="vertices in order, world frame, m")
+    sd: PartSd | None = Field(default=None, description="how well the adjustment fixes it")
 
     @model_validator(mode="after")
     def _unit_normal(self) -> ModelPart:

@@ -10,11 +10,15 @@ import numpy as np
 import pytest
 
 from aida_kb.interpret.result import Instance, Interpretation
+from aida_kb.interpret.uncertainty import (
+    adjustment_uncertainty,
+    covariance_of,
+    rotation_jacobian,
+)
 from aida_kb.interpret.verdict import (
     DOUBTFUL,
     NOTHING,
     VERIFIED,
-    camera_sd,
     contested,
     judge,
     line_offset_sd,
@@ -226,31 +230,64 @@ def test_an_edge_fixes_a_plane_through_it_as_far_as_its_pixels_move() -> None:
     assert line_offset_sd(ends, side, None, [cam]) == float("inf")
 
 
-def test_a_registered_camera_is_fixed_by_its_segments(
+def test_a_registered_camera_is_fixed_by_the_adjustment(
     buildings_kb: KnowledgeBase, interpreted: Get
 ) -> None:
-    # the house's one view: 11 segments lie on its model edges, fixing the camera to
-    # better than 0.1 degree; its first four segments fix it only to a few tenths, three
-    # not at all, and the same view registered as a second one is then doubtful
+    # the house's one view registered a second time (same camera, same evidence): the
+    # adjustment's covariance fixes that camera to better than 0.1 degree; with its first
+    # four segments only to a few tenths (doubtful, named), with three and no region not at
+    # all; the first view sets the world frame and has no deviation; model.json carries them
     interp = interpreted("house_correct.json")
     evidence = _evidence("house_correct.json")
     assert interp.model is not None
     view = evidence.views[0]
-    angle, centre, count = camera_sd(view, interp.model)
-    assert count == 11
-    assert 0.0 < angle < 0.1
-    assert 0.0 < centre < 0.01
-    few = view.model_copy(update={"lines": view.lines[:4]})
-    assert 0.1 < camera_sd(few, interp.model)[0] < 1.0
-    three = view.model_copy(update={"lines": view.lines[:3]})
-    assert camera_sd(three, interp.model) == (float("inf"), float("inf"), 3)
-    second = few.model_copy(update={"id": "01"})
     cameras = [*interp.model.cameras, interp.model.cameras[0].model_copy(update={"view": "01"})]
-    model = interp.model.model_copy(update={"cameras": cameras})
-    two = interp.model_copy(update={"model": model})
-    verdict = judge(buildings_kb, two, evidence.model_copy(update={"views": [view, second]}))
+    two = interp.model_copy(update={"model": interp.model.model_copy(update={"cameras": cameras})})
+
+    def second(k: int, regions: bool) -> Evidence:
+        again = view.model_copy(
+            update={"id": "01", "lines": view.lines[:k], "regions": view.regions * regions}
+        )
+        return evidence.model_copy(update={"views": [view, again]})
+
+    full = adjustment_uncertainty(buildings_kb, two, second(12, True))
+    assert full is not None
+    assert set(full.cameras) == {"01"}
+    angle, centre = full.cameras["01"]
+    assert 0.0 < angle < 0.1
+    assert 0.0 < centre < 0.1  # metres, the camera 20 m away
+    assert 0.0 < full.variance_factor < 1.0  # segments within a pixel: 4 px is loose
+    few = adjustment_uncertainty(buildings_kb, two, second(4, True))
+    assert few is not None
+    assert 0.1 < few.cameras["01"][0] < 1.0
+    three = adjustment_uncertainty(buildings_kb, two, second(3, False))
+    assert three is not None
+    assert three.cameras["01"][0] > 1.0
+    verdict = judge(buildings_kb, two, second(4, True))
     assert verdict.verdict == DOUBTFUL
-    assert any(r.startswith("view 01: ") and "camera is fixed by its" in r for r in verdict.reasons)
+    assert any(r.startswith("view 01: ") and "camera is fixed by the" in r for r in verdict.reasons)
+    assert judge(buildings_kb, two, second(12, True)).verdict == VERIFIED
+    model = with_verdict(two, verdict).model
+    assert model is not None
+    sds = {c.view: c.sd for c in model.cameras}
+    assert sds["00"] is None
+    assert sds["01"] is not None
+    assert sds["01"].rotation_deg == pytest.approx(few.cameras["01"][0])
+    assert all(p.sd is not None and p.sd.normal_deg is not None for p in model.parts)
+
+
+def test_the_covariance_is_infinite_only_where_the_information_leaves_a_direction_open() -> None:
+    # three unknowns: the first two measured (variances 1/4 and 1/2 with a correlation), the
+    # third in no row. A step of a rotation vector of 90 degrees turns the camera by its
+    # full size along the axis, by 2 sin(45 deg) / (pi / 2) = 0.90 of it across
+    info = np.array([[4.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 0.0]])
+    cov = covariance_of(info)
+    assert cov[:2, :2] == pytest.approx(np.linalg.inv(info[:2, :2]))
+    assert np.isinf(cov[2, 2])
+    assert np.isinf(cov[0, 2])
+    G = rotation_jacobian(np.array([0.0, 0.0, np.pi / 2]))
+    assert np.linalg.svd(G)[1] == pytest.approx([1.0, 0.9003, 0.9003], abs=1e-4)
+    assert rotation_jacobian(np.zeros(3)) == pytest.approx(np.eye(3), abs=1e-5)
 
 
 def test_a_surface_joined_to_the_model_that_it_lacks_is_named(

@@ -1,0 +1,222 @@
+"""How well the evidence fixes a model and its cameras: standard deviations from the adjustment.
+
+The model of a reconstruction is the solution of a least-squares adjustment of its planes
+and its later views' poses (`aida_kb.interpret.multiview.joint_problem`: every view's
+segments on the model's edges, its regions on the parts, the knowledge's constraints among
+the parts and the first shape's angles, loosely). At that solution, with J the Jacobian of
+the whitened (and robustly weighted) residuals, the covariance of the unknowns is
+
+    cov = (Σ_g J_gᵀ J_g / s_g² + J_kᵀ J_k)⁻¹,    s_g² = |r_g|² / (m_g (m - n) / m),
+
+J_g the rows of one kind of measurement (segments on edges, regions on parts: m_g of the m
+measurement rows; n unknowns) and J_k the knowledge's and the priors' rows (not measured,
+so not rescaled). s_g² is that kind's variance factor: its noise model
+(`JOINT_EDGE_SIGMA_PX` across an edge, a region's fit) scaled to the scatter its residuals
+show, each kind taking its share of the redundancy (with fewer than MIN_REDUNDANCY more
+measurements than unknowns the noise models stand as they are). A direction the evidence
+and the knowledge leave open (a part no factor reaches, a camera seeing one edge) has an
+infinite deviation.
+
+The deviations, one per part (its normal, degrees; its offset at its centre, metres) and
+one per camera of a view the adjustment moves (its rotation, degrees; its centre, metres),
+go into ``model.json`` (`aida_kb.io.model.PartSd`, `CameraSd`) and are what the verdict's
+checks (c) and (e) hold against the accuracy asked of them. The first view sets the world
+frame: its camera has none.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import AidaError
+
+if TYPE_CHECKING:
+    from aida_kb.interpret.result import Interpretation
+    from aida_kb.io.evidence import Evidence
+    from aida_kb.kb.model import KnowledgeBase
+
+FloatArray = npt.NDArray[np.float64]
+
+NULL_EIGEN_REL = 1e-12  # eigenvalues of the information below this share of the largest are
+# directions the adjustment leaves open (rounding level of a dense 64-bit normal matrix)
+NULL_LOADING = 1e-6  # an unknown loading an open direction by more than this (squared
+# component of the unit eigenvector) is not fixed: its deviation is infinite
+MIN_REDUNDANCY = 10  # the residuals' scatter estimates a variance factor from at least ten
+# more measurements than unknowns (with fewer its own standard error exceeds 30 %)
+FACTOR_FLOOR = 1e-4  # a variance factor is never taken below this (residuals at rounding
+# level on exact synthetic evidence would claim a model fixed to nothing)
+ROTATION_STEP_RAD = 1e-6  # numerical derivative of a rotation's angle by its rotation vector
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """Standard deviations of an adjusted model's parts and cameras.
+
+    parts : role -> (normal, degrees; offset at its centre, metres); inf: not fixed.
+    cameras : view id -> (rotation, degrees; centre, metres) of the views the adjustment
+        moves (not the first, which sets the world frame).
+    variance_factor : s², the measurements' residual scatter over their noise model (the
+        mean over their rows of each kind's factor).
+    factors : each kind of measurement's variance factor (``edge``, ``camera_position``).
+    edge_scatter_px : the scatter across an edge the segments show, pixels (the joint
+        adjustment's edge sigma times the root of the edges' own variance factor).
+    measurements, unknowns : rows of measurements (segments' and regions' residuals) and
+        unknowns of the adjustment.
+    """
+
+    parts: dict[str, tuple[float, float]] = field(default_factory=dict)
+    cameras: dict[str, tuple[float, float]] = field(default_factory=dict)
+    variance_factor: float = 1.0
+    factors: dict[str, float] = field(default_factory=dict)
+    edge_scatter_px: float = math.nan
+    measurements: int = 0
+    unknowns: int = 0
+
+
+def rotation_jacobian(rvec: FloatArray) -> FloatArray:
+    """(3, 3): d(rotation vector of R(rvec + d)·R(rvec)ᵀ)/d(d) at d = 0 — how a step of the
+    rotation vector turns the camera (radians per radian; the identity at rvec = 0)."""
+    from scipy.spatial.transform import Rotation
+
+    base = Rotation.from_rotvec(rvec)
+    cols = [
+        (Rotation.from_rotvec(rvec + ROTATION_STEP_RAD * e) * base.inv()).as_rotvec()
+        / ROTATION_STEP_RAD
+        for e in np.eye(3)
+    ]
+    return np.stack(cols, axis=1)
+
+
+def covariance_of(info: FloatArray) -> FloatArray:
+    """The inverse of a symmetric information matrix (n, n) on the directions it fixes;
+    the variances of unknowns that load an open direction are infinite."""
+    n = info.shape[0]
+    if n == 0:
+        return np.zeros((0, 0))
+    w, V = np.linalg.eigh(info)
+    top = float(w.max()) if w.size else 0.0
+    if top <= 0:
+        return np.full((n, n), np.inf)
+    null = w <= NULL_EIGEN_REL * top
+    keep = ~null
+    cov: FloatArray = (V[:, keep] / w[keep]) @ V[:, keep].T
+    open_ = (V[:, null] ** 2).sum(axis=1) > NULL_LOADING
+    cov[open_, :] = np.inf
+    cov[:, open_] = np.inf
+    return cov
+
+
+def adjustment_uncertainty(
+    kb: KnowledgeBase, interp: Interpretation, evidence: Evidence
+) -> Uncertainty | None:
+    """The standard deviations of `interp`'s model and cameras (module docstring); None
+    when there is no model, the first view has no camera or the problem cannot be built."""
+    from aida_kb.geometry.camera import PinholeCamera
+    from aida_kb.interpret.multiview import (
+        JOINT_EDGE_SIGMA_PX,
+        JOINT_F_SCALE,
+        JOINT_LOSS,
+        joint_problem,
+        kb_constraints,
+        meeting_angles,
+    )
+    from aida_kb.register import RigidModel
+    from aida_kb.register.evidence import measurements_of
+    from aida_kb.solve import Evaluation
+
+    model = interp.model
+    if model is None or not evidence.views:
+        return None
+    by_id = {v.id: v for v in evidence.views}
+    reference = evidence.views[0].id
+    cams_by_view = {c.view: c for c in model.cameras if c.view in by_id}
+    if reference not in cams_by_view:
+        return None
+    order = [reference] + [v for v in cams_by_view if v != reference]
+    try:
+        rigid = RigidModel.from_model(model)
+        cams = [
+            PinholeCamera(
+                np.asarray(cams_by_view[v].K, dtype=np.float64),
+                np.asarray(cams_by_view[v].R, dtype=np.float64),
+                np.asarray(cams_by_view[v].t, dtype=np.float64),
+                cams_by_view[v].image_width,
+                cams_by_view[v].image_height,
+            )
+            for v in order
+        ]
+        views = [measurements_of(by_id[v]) for v in order]
+        free = list(range(1, len(order)))
+        problem = joint_problem(
+            rigid,
+            cams,
+            views,
+            free,
+            angles=meeting_angles(rigid),
+            internal=kb_constraints(kb, interp, rigid.names),
+        )
+        P = rigid.n_parts
+        ev = Evaluation(
+            problem,
+            np.arange(P, dtype=np.intp),
+            free_cameras=np.asarray(free, dtype=np.intp),
+            loss=JOINT_LOSS,
+            f_scale=JOINT_F_SCALE,
+        )
+        r, J = ev.residuals_and_dense_jacobian(ev.x_from(np.zeros((P, 3)), cams))
+    except AidaError:
+        return None
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        return None
+    rows = [problem.constraints[int(c)] for c in ev.constraint_of_row]
+    measured = np.array([c.measurement for c in rows], dtype=bool)
+    kinds = np.array([c.kind if c.measurement else "" for c in rows])
+    m, n = int(measured.sum()), ev.n_params
+    # the variance factor of each kind of measurement (segments, regions: their noise models
+    # differ), each kind's rows taking their share of the redundancy m - n; without
+    # redundancy the noise models stand as they are
+    factors = {}
+    for kind in sorted(set(kinds[measured].tolist())):
+        sel = kinds == kind
+        share = int(sel.sum()) * (m - n) / m
+        factors[kind] = (
+            max(float(r[sel] @ r[sel]) / share, FACTOR_FLOOR) if m - n >= MIN_REDUNDANCY else 1.0
+        )
+    info = J[~measured].T @ J[~measured]
+    for kind, fk in factors.items():
+        sel = kinds == kind
+        info += J[sel].T @ J[sel] / fk
+    cov = covariance_of(info)
+    total = sum(factors[k] * int((kinds == k).sum()) for k in factors)
+    factor = total / m if m else 1.0
+    var = np.diag(cov)
+    parts = {}
+    for i, name in enumerate(rigid.names):
+        d, a, b = var[3 * i : 3 * i + 3]
+        parts[name] = (math.degrees(math.sqrt(a + b)), math.sqrt(d))
+    cameras = {}
+    for k, view in enumerate(order[1:]):
+        col = 3 * P + 6 * k
+        rot = cov[col : col + 3, col : col + 3]
+        if np.all(np.isfinite(rot)):
+            G = rotation_jacobian(cams[k + 1].pose[:3])
+            angle = math.degrees(math.sqrt(max(float(np.trace(G @ rot @ G.T)), 0.0)))
+        else:
+            angle = math.inf
+        centre = math.sqrt(max(float(np.trace(cov[col + 3 : col + 6, col + 3 : col + 6])), 0.0))
+        cameras[view] = (angle, centre if math.isfinite(angle) else math.inf)
+    edge = factors.get("edge")
+    return Uncertainty(
+        parts,
+        cameras,
+        factor,
+        factors,
+        JOINT_EDGE_SIGMA_PX * math.sqrt(edge) if edge is not None else math.nan,
+        m,
+        n,
+    )
