@@ -180,6 +180,8 @@ class CameraError:
     angle_deg: float
     centre_m: float
     distance_m: float  # from the true camera centre to the object's centre
+    sd_deg: float | None = None  # the adjustment's standard deviation of its rotation
+    # (model.json `sd`; None: the first view, not judged, or not fixed)
 
     @property
     def centre_rel(self) -> float:
@@ -226,6 +228,7 @@ class Evaluation:
                     "view": e.view,
                     "angle_deg": round(e.angle_deg, 4),
                     "centre_pct": round(100 * e.centre_rel, 3),
+                    "sd_deg": None if e.sd_deg is None else round(e.sd_deg, 4),
                 }
                 for e in self.cameras
             ],
@@ -258,7 +261,8 @@ def _camera_errors(model: ReconstructedModel, truth: SceneTruth) -> list[CameraE
         C_m = -R_m.T @ np.asarray(cam.t, dtype=np.float64)
         cos = (float(np.trace(R_m @ R_t.T)) - 1.0) / 2.0
         angle = math.degrees(math.acos(float(np.clip(cos, -1.0, 1.0))))
-        out.append(CameraError(pose.view, angle, float(np.linalg.norm(C_m - C_t)), dist))
+        sd = cam.sd.rotation_deg if cam.sd is not None else None
+        out.append(CameraError(pose.view, angle, float(np.linalg.norm(C_m - C_t)), dist, sd))
     return out
 
 
