@@ -20,14 +20,17 @@ none is guessed:
   four frames; directions within `FRONT_MERGE_DEG` of one already found merge.
 - **Bindings** (`best_bindings`): every part's candidates are the significant regions whose
   orientation and slope fit its prediction in the frame (`hypotheses.fits`: the ``orient``
-  declaration and the range of the part's slope attribute), or none (the part is inserted;
+  declaration and the range of the part's slope attribute), then the lighter ones that carry
+  at least `MIN_PART_WEIGHT_FRACTION` of the evidence (a side wall seen at a grazing angle,
+  whose outline tells a gable wall from a hip's or a shed's), or none (the part is inserted;
   whether the camera could miss it is checked before anything is solved,
   `unseen.initial_planes`); the frame's anchor (``frame from PART``)
   is always bound, to a region the frame was taken from: the frame is its evidence's (a
   region too light to be significant may be the anchor, `anchor_regions`). A binding binds
   each region once, puts a part facing upward above the anchor's region (one
-  facing downward below it), and leaves a part unbound only when none of its candidates is
-  free (evidence that fits a part is its evidence). Of all consistent bindings the
+  facing downward below it), and leaves a part unbound only when none of its significant
+  candidates is free (evidence that fits a part is its evidence; a light one may be clutter
+  facing its way: both are tried). Of all consistent bindings the
   `MAX_BINDINGS` that leave the least evidence weight unbound are kept (branch and bound).
 
 Each hypothesis carries the penalty for the evidence it leaves unbound
@@ -299,7 +302,17 @@ def best_bindings(
 ) -> list[BodyHypothesis]:
     """The `MAX_BINDINGS` consistent bindings of `structure` in `frame` that leave the least
     evidence weight unbound (see the module docstring), best first."""
-    regions = significant(ctx)
+    heavy = significant(ctx)
+    light = sorted(
+        (
+            r
+            for r in ctx.regions
+            if not ctx.significant(r) and ctx.significant(r, MIN_PART_WEIGHT_FRACTION)
+        ),
+        key=lambda r: (-r.weight, r.id),
+    )
+    regions = heavy + light
+    is_light = {r.id for r in light}
     sources = [r for r in anchor_regions(ctx, anchors) if r.id in frame.sources]
     leaves = structure.leaves
     options: list[list[RegionView | None]] = []
@@ -313,7 +326,8 @@ def best_bindings(
             return []
         options.append(found)
     # branch and bound over the parts, the anchor first, then fewest options first: keep the
-    # best MAX_BINDINGS. A part is left unbound only when none of its candidates is free.
+    # best MAX_BINDINGS. A part is left unbound only when none of its significant candidates
+    # is free (a light one may be clutter that happens to face its way).
     anchor = next((i for i, leaf in enumerate(leaves) if leaf.role == structure.anchor_path), None)
     order = sorted(range(len(leaves)), key=lambda i: (i != anchor, len(options[i]), i))
     best_rest = [0.0] * (len(order) + 1)
@@ -346,11 +360,10 @@ def best_bindings(
             for r in options[i]
             if r is not None and r.id not in used and _level_fits(leaves[i], r, base, up)
         ]
-        if free:
-            for r in free:
-                combo[i] = r
-                visit(k + 1, weight + r.weight, used | {r.id})
-        elif None in options[i]:
+        for r in free:
+            combo[i] = r
+            visit(k + 1, weight + r.weight, used | {r.id})
+        if all(r.id in is_light for r in free) and None in options[i]:
             combo[i] = None
             visit(k + 1, weight, used)
         combo[i] = None

@@ -17,6 +17,7 @@ from aida_kb.interpret.generate import (
     candidate_frames,
     candidate_ups,
 )
+from aida_kb.interpret.interpreter import INSERTED_PART_PENALTY, Interpreter
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
 from aida_kb.io.evidence import read_evidence
@@ -129,3 +130,43 @@ def test_evidence_below_the_anchor_is_not_offered_to_a_part_facing_upward(
         assert ground[0].id not in h.offered
         # what it does offer: the regions its parts fit, its own bound ones among them
         assert set(h.binding) <= h.offered
+
+
+def test_a_light_region_fitting_a_part_may_bind_it_or_be_left_out(occluded: Context) -> None:
+    """A region lighter than significant (a side wall at a grazing angle) is a candidate of the
+    part it fits, after the significant ones; a binding may also leave it out (it may be
+    clutter facing that way). A significant region fitting a free part is always bound."""
+    structures = _structures(occluded)
+    gable = [s for s in structures if s.describe() == "body.roof=GableRoof"]
+    normal, *_ = body_hypotheses(occluded, gable)
+    assert normal
+    assert all("00/2" in h.binding for h in normal if h.binding.get("00/1") == "body.front")
+    # the left wall 00/2 made light: between MIN_PART_WEIGHT_FRACTION and significant
+    wall = next(r for r in occluded.regions if r.id == "00/2")
+    light = replace(occluded, reference_weight=wall.weight / 0.015)
+    assert not light.significant(wall)
+    assert light.significant(next(r for r in occluded.regions if r.id == "00/1"))
+    found, *_ = body_hypotheses(light, gable)
+    fronted = [h for h in found if h.binding.get("00/1") == "body.front"]
+    assert any(h.binding.get("00/2") == "body.left" for h in fronted)
+    assert any("00/2" not in h.binding for h in fronted)
+    # leaving it out is no worse an estimate (it is not significant evidence), but it is
+    # offered: the adjustment's misfit counts it as left out
+    assert all("00/2" in h.offered for h in fronted)
+
+
+def test_a_verified_body_costs_each_part_it_inserts(buildings_kb: Any) -> None:
+    """Of two bodies explaining the same evidence as well, the one that guesses fewer parts
+    from the knowledge is preferred: each inserted part costs INSERTED_PART_PENALTY."""
+    evidence = read_evidence(FIXTURES / "house_occluded.json")
+    it = Interpreter(Knowledge.from_kb(buildings_kb), view_of(evidence, "occluded"), "House")
+    goal = it.trace.create("House", "", None, "goal")
+    candidates = it.body_candidates(goal)
+    gable = next(
+        p for p in candidates if p.hypothesis.structure.describe() == "body.roof=GableRoof"
+    )
+    verified = it.verify_body(gable, goal)
+    assert verified is not None
+    level, cost = verified
+    assert len(level.inserted) == 4  # back, right, floor, the back slope
+    assert cost == pytest.approx(level.misfit + INSERTED_PART_PENALTY * 4)
