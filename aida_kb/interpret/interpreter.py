@@ -27,7 +27,7 @@ from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, Context
 from aida_kb.interpret.generate import BodyHypothesis, body_hypotheses
 from aida_kb.interpret.hypotheses import Frame
 from aida_kb.interpret.knowledge import Knowledge, join
-from aida_kb.interpret.observe import EvidenceView
+from aida_kb.interpret.observe import EvidenceView, RegionView
 from aida_kb.interpret.plausibility import unexplained
 from aida_kb.interpret.result import INSERTED, Instance
 from aida_kb.interpret.search import best_first
@@ -204,10 +204,21 @@ class Interpreter:
             if slot.max is not None and count >= slot.max:
                 continue
             sub_role = str(multi.indexed(count))
+            # the parts of one slot are added from left to right along the body's front: one
+            # order of the same parts, not every permutation (and their indices do not depend
+            # on which the search happened to verify first)
+            rightward = state.levels[0].frame.direction("rightward")
+            before = [
+                float(_anchor_region(ctx, lv).centroid_m @ rightward)
+                for lv in state.levels[1:]
+                if RolePath.parse(lv.structure.root).fills(multi)
+            ]
             for structure in self.knowledge.structures(slot.concept, sub_role, role, "part-of"):
                 if structure.anchor is None:
                     continue
                 for front in ranked_fronts(walls, self.evidence):
+                    if before and float(front.centroid_m @ rightward) <= max(before):
+                        continue
                     frame = Frame.from_front(front.normal, ctx.up)
                     level = verify_alternative(
                         ctx,
@@ -321,6 +332,12 @@ class Interpreter:
                             )
                         )
         return out
+
+
+def _anchor_region(ctx: Context, level: Level) -> RegionView:
+    """The region a verified level's frame anchor is bound to."""
+    anchor = next(r for r, role in level.binding.items() if role == level.structure.anchor_path)
+    return ctx.evidence.regions[anchor]
 
 
 def _unexplained(ctx: Context, levels: list[Level]) -> float:
