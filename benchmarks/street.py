@@ -13,7 +13,10 @@ within_tolerance (specialisation and geometry right, whatever the verdict), wron
 and twice (a true house taken by two objects), the largest normal and vertex errors of the
 houses found, and the time. Ends with one JSON line.
 
-    .venv/bin/python benchmarks/street.py [--seeds 102,30219] [--quick]
+    .venv/bin/python benchmarks/street.py [--seeds 102,30219] [--quick] [--random 30300,30301]
+
+With ``--random SEEDS`` each seed is one randomised variant (`synth.street.random_street`: the
+preset, the number of houses, view 00's angle, the distance and the noise drawn from it).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from aida_kb.interpret.scene import evaluate_scene
 from aida_kb.io.scene import read_scene
 from aida_kb.kb.compiler import compile_path
 from aida_kb.synth.scenes import preset, render_scene
+from aida_kb.synth.street import random_street
 from aida_kb.vision.evidence import scene_evidence
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -69,10 +73,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="102", help="held-out seeds, comma-separated")
     parser.add_argument("--quick", action="store_true", help="only the first two scenes")
+    parser.add_argument(
+        "--random",
+        default="",
+        help="randomised street variants instead (synth.street.random_street), seeds "
+        "comma-separated; development seeds below 3000",
+    )
     args = parser.parse_args()
     kb = compile_path(ROOT / "kb" / "street.kb").kb
     assert kb is not None
-    seeds = [int(s) for s in args.seeds.split(",")]
+    seeds = [int(s) for s in (args.random or args.seeds).split(",")]
     rows = []
     totals = {
         "houses": 0,
@@ -88,7 +98,10 @@ def main() -> None:
     total_seconds = 0.0
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
-            for name, params in SCENES[:2] if args.quick else SCENES:
+            scenes = SCENES[:2] if args.quick else SCENES
+            if args.random:
+                scenes = (random_street(seed),)
+            for name, params in scenes:
                 folder = Path(tmp) / f"{name}{params.get('houses', '')}-{seed}"
                 render_scene(preset(name, seed=seed, params=params), folder)
                 start = time.perf_counter()
@@ -134,6 +147,7 @@ def main() -> None:
             {
                 "scenes": len(rows),
                 "seeds": seeds,
+                "random": bool(args.random),
                 **totals,
                 "max_normal_error_deg": round(worst_normal, 3),
                 "max_vertex_error_pct": round(worst_vertex, 2),

@@ -18,11 +18,16 @@ the goal, each object's instances, model parts and residuals under its role (``h
 ``houses[1]`` ...; the order found), the traces one after the other, and `objects` with every
 object's verdict; the scene is verified when every object is, doubtful when one is.
 
-Cost: round k searches with the regions of k objects removed, each round bounded like one
-object's search (`interpreter.MAX_EXPANSIONS` expansions, each over the remaining regions).
-With N objects there are at most N + 1 rounds (the last finds nothing), so the hypotheses
-expanded grow linearly with N (at most (N + 1) · MAX_EXPANSIONS), and each expansion's region
-matching with the regions left, at most R: O(N · R) in all, not the combinations of objects.
+Cost: round k searches with the regions of k objects removed; each round tries at most
+`ANCHORS_PER_ROUND` anchors, and each anchor's search is bounded like one object's: at most
+`interpreter.MAX_BODY_VERIFICATIONS` adjustments of the body (of the hypotheses
+`generate` enumerates from the anchor's neighbourhood, at most `NEIGHBOUR_HOPS` borders
+away, not from the whole view) and `interpreter.MAX_OPTIONAL_EXPANSIONS` for its optional
+parts. With N objects there are at most N + 1 rounds (the last finds nothing), so the
+adjustments grow linearly with N — at most (N + 1) · `ANCHORS_PER_ROUND` ·
+(`MAX_BODY_VERIFICATIONS` + `MAX_OPTIONAL_EXPANSIONS`) — each over the regions of one
+neighbourhood; only ranking the anchors and finding the neighbourhoods look at all R regions
+of the view each round (O(N · R²) cheap border tests). Never the combinations of objects.
 """
 
 from __future__ import annotations
@@ -76,7 +81,8 @@ ANCHORS_PER_ROUND = 3
 # an unbounded role ([1..*]) stops after this many objects: each round costs one search
 MAX_OBJECTS = 12
 # a region unbound by an object lies on one of its faces (and is explained by it) when its
-# plane's normal is within this angle of the face's ...
+# plane's normal (towards the camera, out of the solid) is within this angle of the face's
+# outward normal ...
 ON_FACE_ANGLE_DEG = 15.0
 # ... its centroid within this fraction of the object's size (bounding-box diagonal) of the
 # face's plane (stereo planes of small regions scatter by a few per cent) ...
@@ -267,7 +273,10 @@ def _on_face(
     cos = math.cos(math.radians(ON_FACE_ANGLE_DEG))
     for part in parts:
         n = np.asarray(part.normal, dtype=np.float64)
-        if abs(float(normal @ n)) < cos:
+        # facing the face's way: a region facing the other way on its plane is another
+        # object's face there (the neighbour's gable wall above a terrace house's roof, on its
+        # party wall's plane)
+        if float(normal @ n) < cos:
             continue
         if abs(float(n @ centroid_m) - part.offset_m) > ON_FACE_DISTANCE * size_m:
             continue

@@ -16,7 +16,9 @@ judge every house.
   about half of its front wall in view 00.
 
 The cameras stand on an arc in front of the row, far enough back for the whole row to fit
-the image.
+the image (``--set distance=M`` or ``distance_factor=F`` farther; ``angle=DEG`` view 00's
+place on the arc). `random_street(seed)` draws a randomised variant of the three presets
+(`benchmarks/street.py --random SEEDS`).
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ SCENE_OBJECT = "Street"  # truth.json's object: the scene concept of kb/street.k
 MEMBERS = "houses"  # the role of the houses in it
 ROOF_CYCLE = ("gable", "hip", "flat", "shed")
 MIN_HOUSES, MAX_HOUSES = 2, 5
-STREET_KEYS = {"houses", "distance", "gap"}
+STREET_KEYS = {"houses", "distance", "gap", "angle", "distance_factor"}
 # a house's share of the image width seen from view 00: the row's extent over this fraction
 # of the field of view sets the camera's distance
 FILL = 0.85
@@ -166,9 +168,9 @@ def street_spec(
     fov = 2 * math.atan(rig.size[0] / 2 / float(rig.K1[0, 0]))
     extent = float(hi[0] - lo[0])
     fit = extent / 2 / math.tan(FILL * fov / 2) + float(hi[2])
-    dist = _float(p, "distance", max(fit, 25.0))
+    dist = _float(p, "distance", max(fit, 25.0)) * _float(p, "distance_factor", 1.0)
     n = views or 1
-    first = OCCLUDED_ANGLE_DEG if name == "occluded" else STREET_ANGLE_DEG
+    first = _float(p, "angle", OCCLUDED_ANGLE_DEG if name == "occluded" else STREET_ANGLE_DEG)
     angles = [first + VIEW_STEP_DEG * k for k in range(n)]
     target = np.array([centre[0], 0.45 * float(hi[1]), centre[2]])
     poses = _orbit(target, dist, CAMERA_HEIGHT_M, angles)
@@ -182,3 +184,28 @@ def street_spec(
         noise_sigma=_float(p, "noise_sigma", 1.8),
         truth_concepts=concepts,
     )
+
+
+# randomised street variants (`random_street`): view 00's angle within this of the preset's,
+# the camera this much farther (a factor) and the image noise in this range (grey levels)
+RANDOM_ANGLE_DEG = 10.0
+RANDOM_DISTANCE = (1.0, 1.25)
+RANDOM_NOISE = (1.0, 2.5)
+
+
+def random_street(seed: int) -> tuple[str, dict[str, str]]:
+    """A randomised street variant: (preset name, its parameters) drawn from `seed` — a street
+    of 2-5 houses, a terrace of 2-5 or the occluded pair, view 00 turned by up to
+    `RANDOM_ANGLE_DEG` from the preset's, farther by a factor in `RANDOM_DISTANCE`, the
+    image noise in `RANDOM_NOISE`; the houses' sizes and pitches come from `preset(name,
+    seed=seed)` itself. The same seed always gives the same variant."""
+    rng = np.random.default_rng(seed + 7717)
+    name = ("street", "terrace", "occluded")[int(rng.integers(0, 3))]
+    params: dict[str, str] = {}
+    if name != "occluded":
+        params["houses"] = str(int(rng.integers(MIN_HOUSES, MAX_HOUSES + 1)))
+    base = OCCLUDED_ANGLE_DEG if name == "occluded" else STREET_ANGLE_DEG
+    params["angle"] = f"{base + float(rng.uniform(-RANDOM_ANGLE_DEG, RANDOM_ANGLE_DEG)):.2f}"
+    params["distance_factor"] = f"{float(rng.uniform(*RANDOM_DISTANCE)):.3f}"
+    params["noise_sigma"] = f"{float(rng.uniform(*RANDOM_NOISE)):.2f}"
+    return name, params

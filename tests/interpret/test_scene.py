@@ -150,3 +150,23 @@ def test_another_objects_region_hides_what_lies_behind_it(
     assert not ctx.hidden_by_others(in_front)
     # without other objects nothing is hidden
     assert not Context.build(knowledge, view, "House").hidden_by_others(behind)
+
+
+def test_random_street_variants_are_reproducible_presets() -> None:
+    from aida_kb.synth.street import (
+        OCCLUDED_ANGLE_DEG,
+        RANDOM_ANGLE_DEG,
+        STREET_ANGLE_DEG,
+        random_street,
+    )
+
+    drawn = [random_street(seed) for seed in range(12)]
+    assert drawn == [random_street(seed) for seed in range(12)]
+    assert {name for name, _ in drawn} == {"street", "terrace", "occluded"}
+    for seed, (name, params) in enumerate(drawn):
+        base = OCCLUDED_ANGLE_DEG if name == "occluded" else STREET_ANGLE_DEG
+        assert abs(float(params["angle"]) - base) <= RANDOM_ANGLE_DEG
+        spec = preset(name, seed=seed, params=params)
+        houses = int(spec.model.parameters["houses"])
+        assert houses == (2 if name == "occluded" else int(params["houses"]))
+        assert 2 <= houses <= 5
