@@ -137,6 +137,7 @@ def run(args: argparse.Namespace) -> int:
         "turn_sigma_deg": _finite(reg.turn_sigma_deg, 4),
         "rotation_sigma_deg": _finite(reg.rotation_sigma_deg, 4),
         "centre_sigma_m": [_finite(math.sqrt(v), 6) for v in np.diag(reg.covariance)[3:]],
+        "alternative_turns_deg": [round(a, 1) for a, _ in reg.alternatives],
     }
     if args.json:
         print(json.dumps(out))
@@ -157,6 +158,9 @@ def run(args: argparse.Namespace) -> int:
         f"  uncertainty (1 sigma, from the adjustment): turn {reg.turn_sigma_deg:.4f} deg,"
         f" rotation {reg.rotation_sigma_deg:.4f} deg about its least determined axis"
     )
+    if reg.alternatives:
+        turns = ", ".join(f"{a:.1f} deg (chamfer cost {c:.3f})" for a, c in reg.alternatives)
+        print(f"  ambiguous: the image fits turns of {turns} about as well")
     return 0
 
 

@@ -509,6 +509,12 @@ def reconstruct_views(
         except SolveError as exc:
             notes.append(f"not registered: {exc}")  # the message names the view
             continue
+        if reg.alternatives:  # the images leave the view's turn open: said, not hidden
+            turns = ", ".join(f"{a:.1f}" for a, _ in reg.alternatives)
+            notes.append(
+                f"view {v.id}: its images fit turns of {turns} deg about as well as the "
+                f"{reg.angle_deg:.1f} deg taken"
+            )
         turn = reg.angle_deg
         cams.append(reg.camera)
         views.append(measurements_of(v))

@@ -106,7 +106,21 @@ def right_segments(scene: Scene, view_id: str) -> StereoSegments:
     ends = undistort_pixels(seg.reshape(-1, 2), K2, D2).reshape(-1, 2, 2)
     w, h = calib.image_size
     rig = Rig(K2, np.asarray(calib.R, dtype=np.float64), np.asarray(calib.T).ravel(), w, h)
-    return StereoSegments(rig, ends[:, 0], ends[:, 1], fits.sigma_px)
+    pinhole = undistorted_image(grey, K2, D2)
+    return StereoSegments(rig, ends[:, 0], ends[:, 1], fits.sigma_px, pinhole)
+
+
+def undistorted_image(
+    grey: npt.NDArray[np.uint8], K: FloatArray, D: FloatArray
+) -> npt.NDArray[np.uint8]:
+    """The image as pinhole camera K sees it (its pixels those of `undistort_pixels`); the
+    image itself when D is empty or zero."""
+    if D.size == 0 or not np.any(D):
+        return grey
+    import cv2
+
+    out: npt.NDArray[np.uint8] = np.asarray(cv2.undistort(grey, K, D), dtype=np.uint8)
+    return out
 
 
 def camera_of(camera: ModelCamera) -> PinholeCamera:
@@ -187,6 +201,7 @@ def register_evidence_view(
     Raises SolveError naming the view when it cannot be registered.
     """
     m = measurements_of(view, image)
+    D = np.array(view.left.D, dtype=np.float64).ravel()
     try:
         return register_view(
             model,
@@ -200,6 +215,7 @@ def register_evidence_view(
             stereo=stereo,
             options=options,
             sigma_px=m.sigma_px,
+            image=None if image is None else undistorted_image(image, m.K, D),
         )
     except SolveError as exc:
         raise SolveError(f"view {view.id}: {exc}") from exc

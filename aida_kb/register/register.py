@@ -17,10 +17,14 @@ with depth) of a known model, without an initial guess:
 3. **Choice by residual**, among the poses the depth evidence does not contradict (their
    regions' normals agree with their parts', and they put about as many regions on the
    model's parts as the best pose does). The refined candidate with the smallest chamfer
-   cost wins; poses that explain the image equally well are decided by the smallest turn
-   from the start. A model that looks the same turned by 360/n degrees (a box, a gable
-   house: n = 2) is searched over 360/n degrees about the expected turn only: its images
-   cannot tell the others apart.
+   cost wins; only poses its model's symmetry makes alike are decided by the smallest turn
+   from the start, and poses far from it that explain the image about as well are reported
+   (`Registration.alternatives`). A model that looks the same turned by 360/n degrees (a box,
+   a gable house: n = 2) is searched over 360/n degrees about the expected turn only: its
+   images cannot tell the others apart.
+4. **Polish** (`polish`), when the view's images are given: the model's visible edges are
+   fitted to the image along their whole length at the chosen pose and the pose solved again
+   from them (a line detector gives fragments of an edge; the image holds all of it).
 """
 
 from __future__ import annotations
@@ -54,8 +58,10 @@ __all__ = [
     "RegistrationOptions",
     "StereoSegments",
     "angle_about",
+    "image_edges",
     "match_regions",
     "orbit_pivot",
+    "polish",
     "refine",
     "register_view",
     "symmetry_order",
@@ -92,8 +98,9 @@ class RegistrationOptions:
     round, pixels — every start is refined with each schedule (a tight one first: it ignores
     clutter; a wide one catches a start further off); max_angle_deg : the matching direction
     tolerance; tie_tolerance : refined candidates whose cost is within this fraction (plus
-    `tie_floor`) of the best are equally good (the one turned least from the start is taken,
-    then the cheapest within `span_deg` of it); sigma_px : the standard deviation of an edge
+    `tie_floor`) of the best explain the image about as well (the lowest cost is taken, or of
+    those the model's symmetry makes alike the one turned least from the start; the others are
+    the registration's ``alternatives``); sigma_px : the standard deviation of an edge
     point across its edge, pixels; min_segment_px : shorter segments are ignored;
     region_sigma_rel : the position constraints' distance sigma as a fraction of the model's
     size (at least the fit's RMS); region_sigma_deg : their normal's sigma;
@@ -131,7 +138,10 @@ class Registration:
     covariance : (6, 6) of the pose ``[rvec (rad), C (m)]`` from its final matches
     (`aida_kb.register.pose.pose_covariance`; infinite where undetermined). turn_sigma_deg :
     the standard deviation of ``angle_deg`` it implies; rotation_sigma_deg : of the rotation
-    about its least determined axis, degrees.
+    about its least determined axis, degrees. alternatives : (final angle, cost) of the refined
+    poses more than ``span_deg`` from this one whose cost is as low within the tie tolerance:
+    the images do not tell them apart (a symmetric model's twin, a look-alike); empty when the
+    pose is unambiguous.
     """
 
     camera: PinholeCamera
@@ -144,6 +154,7 @@ class Registration:
     covariance: FloatArray
     turn_sigma_deg: float
     rotation_sigma_deg: float
+    alternatives: tuple[tuple[float, float], ...] = ()
 
 
 def vertical_axis(model: RigidModel, reference: PinholeCamera) -> FloatArray:
@@ -226,6 +237,14 @@ def _wrap(deg: float) -> float:
     return (deg + 180.0) % 360.0 - 180.0
 
 
+def _symmetric_gap(a_deg: float, b_deg: float, order: int) -> float:
+    """The smallest |a - b - k·360/order| over k, degrees: how far apart two turns of a model
+    that looks the same turned by 360/order degrees are."""
+    step = 360.0 / order
+    d = _wrap(a_deg - b_deg) % step
+    return min(d, step - d)
+
+
 def match_regions(
     model: RigidModel, camera: PinholeCamera, regions: RegionMeasurements, opts: RegistrationOptions
 ) -> RegionObservations | None:
@@ -261,12 +280,14 @@ def match_regions(
 @dataclass(frozen=True)
 class StereoSegments:
     """The second image of a stereo view: its camera (`Rig`) and its segments (S, 2) pixels;
-    sigma_px : (S,) their edge-point sigmas (`aida_kb.vision.lines.fit_segments`) or None."""
+    sigma_px : (S,) their edge-point sigmas (`aida_kb.vision.lines.fit_segments`) or None;
+    image : the second image itself (8-bit grey, pinhole pixels) for `polish`, or None."""
 
     rig: Rig
     p1: FloatArray
     p2: FloatArray
     sigma_px: FloatArray | None = None
+    image: npt.NDArray[np.uint8] | None = None
 
 
 def _score(
@@ -466,6 +487,7 @@ def register_view(
     stereo: StereoSegments | None = None,
     options: RegistrationOptions | None = None,
     sigma_px: npt.ArrayLike | None = None,
+    image: npt.NDArray[np.uint8] | None = None,
 ) -> Registration:
     """The pose of a new view of a fixed model, found with no initial guess.
 
@@ -489,6 +511,9 @@ def register_view(
         (`aida_kb.vision.lines.fit_segments`; with them the noise model of the edge factors is
         the segments' own, the second image's too: `aida_kb.register.pose.point_sigma`), or
         None: ``options.sigma_px`` for all.
+    image : (H, W) the view's image, 8-bit grey, in the pinhole camera's (undistorted) pixels,
+        or None; with it the chosen pose is polished against the image (`polish`; with
+        ``stereo.image`` against both), and the covariance is that of the polished edges.
 
     Raises
     ------
@@ -596,18 +621,36 @@ def register_view(
         results = [r for r, n in zip(results, on, strict=True) if n >= most - PLANE_SLACK]
     inside = [r for r in results if abs(_wrap(r[1] - centre)) <= half]
     results = inside or results
-    best = min(r[0] for r in results)
-    ties = [r for r in results if r[0] <= best * (1.0 + opts.tie_tolerance) + opts.tie_floor]
-    # equally good poses far apart (a symmetric object): the smallest turn from the start;
-    # then, near it, the lowest cost
-    near = min(ties, key=lambda r: (abs(_wrap(r[1] - centre)), r[0]))[1]
+    best = min(results, key=lambda r: r[0])
+    ties = [r for r in results if r[0] <= best[0] * (1.0 + opts.tie_tolerance) + opts.tie_floor]
+    # the evidence decides: the lowest cost wins, unless the model's own symmetry makes poses
+    # turned by 360/n degrees from it alike (their images cannot differ): of those, the one
+    # nearest the expected turn; then, near it, the lowest cost
+    order = symmetry_order(model, up, model.centroid)  # the model's own axis
+    twins = [r for r in ties if _symmetric_gap(r[1], best[1], order) <= opts.span_deg]
+    near = min(twins, key=lambda r: (abs(_wrap(r[1] - centre)), r[0]))[1]
     local = [r for r in results if abs(_wrap(r[1] - near)) <= opts.span_deg]
     cost, final, cam, rms, ne, nr, _ = min(local, key=lambda r: r[0])
+    # poses far from the chosen one that explain the image about as well: the view is
+    # ambiguous between them (reported, not hidden)
+    others: dict[float, float] = {}
+    for r in ties:
+        if abs(_wrap(r[1] - final)) > opts.span_deg:
+            key = round(r[1], 1)
+            others[key] = min(others.get(key, math.inf), r[0])
+    alternatives = tuple(sorted(others.items()))
     cands = tuple((r[6], r[1], r[0]) for r in results)
-    cov, turn_sd, rot_sd = _uncertainty(
-        model, reference, cam, up, q1, q2, regions, opts, stereo, sig
-    )
-    return Registration(cam, final, rms, cost, ne, nr, cands, cov, turn_sd, rot_sd)
+    polished = None if image is None else polish(model, cam, image, regions, opts, stereo)
+    if polished is not None:
+        cam, rms, cov = polished
+        final = angle_about(reference, cam, up)
+        cost = _score(model, cam, q1, q2, 2.0, max_angle, stereo)
+        turn_sd, rot_sd = _turn_sigma(reference, cam, up, cov)
+    else:
+        cov, turn_sd, rot_sd = _uncertainty(
+            model, reference, cam, up, q1, q2, regions, opts, stereo, sig
+        )
+    return Registration(cam, final, rms, cost, ne, nr, cands, cov, turn_sd, rot_sd, alternatives)
 
 
 def _uncertainty(
@@ -644,8 +687,17 @@ def _uncertainty(
         sigma_px=opts.sigma_px,
         f_scale=3.0,
     )
+    turn_sd, rot_sd = _turn_sigma(reference, camera, up, cov)
+    return cov, turn_sd, rot_sd
+
+
+def _turn_sigma(
+    reference: PinholeCamera, camera: PinholeCamera, up: FloatArray, cov: FloatArray
+) -> tuple[float, float]:
+    """The standard deviations (degrees) of a pose's turn about `up` relative to `reference`
+    and of its rotation about the least determined axis, from its covariance (6, 6)."""
     if not np.all(np.isfinite(cov)):
-        return cov, math.inf, math.inf
+        return math.inf, math.inf
     x = camera.pose
     grad = np.zeros(6)
     for i in range(6):
@@ -656,8 +708,133 @@ def _uncertainty(
         grad[i] = _wrap(plus - minus) / (2.0 * TURN_STEP)
     turn_sd = math.sqrt(max(float(grad @ cov @ grad), 0.0))
     rot_sd = math.degrees(math.sqrt(max(float(np.linalg.eigvalsh(cov[:3, :3]).max()), 0.0)))
-    return cov, turn_sd, rot_sd
+    return turn_sd, rot_sd
 
 
 TURN_STEP = 1e-6
 """Step of the central differences of the turn angle, in pose units (rad, m)."""
+
+
+POLISH_ROUNDS = 3
+"""Rounds of `polish`: project the model's edges, fit each to the image, solve the pose."""
+POLISH_MIN_EDGE_PX = 20.0
+"""Projected model edges shorter than this (pixels) are not fitted to the image."""
+POLISH_MARGIN_PX = 4.0
+"""Edges are clipped to the image shrunk by this (pixels): a profile across the edge must fit
+inside (`aida_kb.vision.lines.PROFILE_HALF_PX`)."""
+POLISH_SEPARATION_PX = 6.0
+"""An edge with another visible, nearly parallel edge (within `POLISH_SEPARATION_DEG`) closer
+than this (pixels) is not fitted: the profile across it may hold the other one's step (a face
+seen at a grazing angle, a corner)."""
+POLISH_SEPARATION_DEG = 15.0
+
+
+def _separated(a: FloatArray, b: FloatArray) -> npt.NDArray[np.bool_]:
+    """(E,) the projected edges (E, 2) a -> b with no other nearly parallel edge near them.
+
+    Distances are from samples along each edge to the other edges (point to segment)."""
+    E = a.shape[0]
+    if E < 2:
+        return np.ones(E, dtype=bool)
+    d = b - a
+    length = np.maximum(np.linalg.norm(d, axis=1), 1e-9)
+    u = d / length[:, None]
+    s = np.linspace(0.1, 0.9, 9)
+    pts = a[:, None, :] + s[None, :, None] * d[:, None, :]  # (E, K, 2)
+    rel = pts[:, :, None, :] - a[None, None, :, :]  # (E, K, E, 2)
+    t = np.clip(np.einsum("ikjc,jc->ikj", rel, u), 0.0, length[None, None, :])
+    closest = a[None, None, :, :] + t[..., None] * u[None, None, :, :]
+    dist = np.linalg.norm(pts[:, :, None, :] - closest, axis=3).min(axis=1)  # (E, E)
+    sin = np.abs(u[:, None, 0] * u[None, :, 1] - u[:, None, 1] * u[None, :, 0])
+    near = (dist < POLISH_SEPARATION_PX) & (sin < math.sin(math.radians(POLISH_SEPARATION_DEG)))
+    np.fill_diagonal(near, False)
+    out: npt.NDArray[np.bool_] = ~near.any(axis=1)
+    return out
+
+
+def image_edges(
+    model: RigidModel, camera: PinholeCamera, grey: npt.NDArray[np.uint8]
+) -> EdgeObservations:
+    """The model's visible edges at `camera`, each fitted to the image along its whole length.
+
+    Every visible edge (`RigidModel.visible_edges`, at least `POLISH_MIN_EDGE_PX` long, away
+    from others: `POLISH_SEPARATION_PX`) is moved onto the image edge within
+    `aida_kb.vision.lines.SEARCH_PX` of its projection (`aida_kb.vision.lines.fit_segments`:
+    subpixel edge points across it, a robust line fit, its points' sigma). Edges the image
+    does not show there (too few edge points) are left out. The observations know their edge:
+    no matching.
+
+    grey : (H, W) 8-bit image in the camera's pinhole (undistorted) pixels.
+    """
+    from aida_kb.vision.lines import fit_segments
+
+    vis = model.visible_edges(camera, min_length_px=POLISH_MIN_EDGE_PX, margin_px=POLISH_MARGIN_PX)
+    apart = _separated(vis.a, vis.b)
+    a, b, index = vis.a[apart], vis.b[apart], vis.index[apart]
+    fits = fit_segments(grey, np.concatenate([a, b], axis=1))
+    ok = fits.support > 0
+    seg = fits.segments[ok]
+    return EdgeObservations(model.edge_faces[index[ok]], seg[:, :2], seg[:, 2:], fits.sigma_px[ok])
+
+
+def polish(
+    model: RigidModel,
+    camera: PinholeCamera,
+    grey: npt.NDArray[np.uint8],
+    regions: RegionMeasurements | None = None,
+    options: RegistrationOptions | None = None,
+    stereo: StereoSegments | None = None,
+) -> tuple[PinholeCamera, float, FloatArray] | None:
+    """The pose refined against the image itself: every visible model edge fitted to the image
+    along its whole length (`image_edges`), not only where a line detector found fragments.
+
+    `POLISH_ROUNDS` times: fit the edges at the current pose, solve the pose with each edge
+    weighted by its own fit (`aida_kb.register.pose.point_sigma`), edges off by more than
+    `REJECT_SIGMAS` dropped. With `stereo` and its ``image``, the second image's edges too.
+    Returns the camera, its RMS edge residual (pixels) and its covariance
+    (`aida_kb.register.pose.pose_covariance`), or None when fewer than
+    `MIN_POLISH_EDGES` edges are found (the pose is then the segments').
+    """
+    opts = options or RegistrationOptions()
+    cov: FloatArray = np.full((6, 6), np.inf)
+    rms = math.inf
+    for _ in range(POLISH_ROUNDS):
+        edges = image_edges(model, camera, grey)
+        if edges.size < MIN_POLISH_EDGES:
+            return None
+        right = None
+        rig = None
+        if stereo is not None and stereo.image is not None:
+            rig = stereo.rig
+            right = image_edges(model, rig.right_of(camera), stereo.image)
+        obs = match_regions(model, camera, regions, opts) if regions is not None else None
+        try:
+            fit = fit_pose(
+                model,
+                camera,
+                edges,
+                obs,
+                rig=rig,
+                right_edges=right,
+                sigma_px=opts.sigma_px,
+                f_scale=3.0,
+                reject_sigmas=REJECT_SIGMAS,
+            )
+        except (SolveError, GeometryError):
+            return None
+        camera, rms = fit.camera, fit.rms_px
+        cov = pose_covariance(
+            model,
+            camera,
+            edges,
+            obs,
+            rig=rig,
+            right_edges=right,
+            sigma_px=opts.sigma_px,
+            f_scale=3.0,
+        )
+    return camera, rms, cov
+
+
+MIN_POLISH_EDGES = 4
+"""`polish` needs at least this many model edges found in the image."""

@@ -26,6 +26,7 @@ from aida_kb.register import (
 )
 from aida_kb.register.pose import (
     MIN_POINT_SIGMA_PX,
+    SCATTER_BIAS,
     SEGMENT_FLOOR_PX,
     EdgeObservations,
     point_sigma,
@@ -182,6 +183,18 @@ def test_registration_without_a_guess_recovers_the_turn(turn_deg: float) -> None
     assert np.linalg.norm(reg.camera.centre - truth.centre) < 0.005  # metres, at 1.4 m
     assert reg.rms_px < 0.5
     assert reg.n_edges >= 6
+    # the box looks the same turned by a half turn: that twin, and nothing else, is as good
+    assert all(abs((a - turn_deg) % 360.0 - 180.0) < 0.5 for a, _ in reg.alternatives)
+
+
+def test_symmetric_gap_measures_turns_modulo_the_symmetry() -> None:
+    from aida_kb.register.register import _symmetric_gap
+
+    assert _symmetric_gap(10.0, 190.0, 2) == pytest.approx(0.0)
+    assert _symmetric_gap(10.0, 100.0, 2) == pytest.approx(90.0)
+    assert _symmetric_gap(10.0, 100.0, 4) == pytest.approx(0.0)
+    assert _symmetric_gap(-175.0, 170.0, 1) == pytest.approx(15.0)
+    assert _symmetric_gap(5.0, 100.0, 1) == pytest.approx(95.0)
 
 
 def test_registration_with_a_guess_searches_near_it() -> None:
@@ -268,9 +281,10 @@ def test_segment_sigmas_weigh_each_segment_and_drop_the_far_ones() -> None:
         np.array([0.1, 0.0]),
     )
     s = point_sigma(edges, 1.0)
+    own = np.array([0.1, MIN_POINT_SIGMA_PX])
     np.testing.assert_allclose(
         s / np.sqrt([100.0, 10.0]),
-        np.sqrt(np.array([0.1, MIN_POINT_SIGMA_PX]) ** 2 / [100.0, 10.0] + SEGMENT_FLOOR_PX**2),
+        np.sqrt(own**2 / [100.0, 10.0] + SEGMENT_FLOOR_PX**2 + (SCATTER_BIAS * own) ** 2),
     )
     assert point_sigma(EdgeObservations(edges.faces, edges.p1, edges.p2), 1.0).tolist() == [1, 1]
 
@@ -344,3 +358,70 @@ def test_regions_that_disagree_with_the_model_reveal_a_wrong_pose() -> None:
     off = turned(truth, np.array([0.0, -1.0, 0.0]), model.centroid, math.radians(10.0))
     assert region_disagreement_deg(model, off, regions, opts) == pytest.approx(10.0, abs=0.5)
     assert region_disagreement_deg(model, truth, None, opts) is None
+
+
+def _box_image(model: RigidModel, camera: PinholeCamera, supersample: int = 6) -> np.ndarray:
+    """An 8-bit image of the box's faces turned to `camera`, each its own grey, on a mid grey
+    background: each pixel the mean of `supersample`² samples inside it, a sample taking the
+    grey of the (convex) face it falls in, then a slight blur."""
+    import cv2
+
+    s = (np.arange(supersample) + 0.5) / supersample - 0.5
+    ys = (np.arange(camera.height)[:, None] + s[None, :]).ravel()
+    xs = (np.arange(camera.width)[:, None] + s[None, :]).ravel()
+    big = np.full((ys.size, xs.size), 90.0)
+    front = model.front_facing(camera.centre)
+    greys = (200.0, 150.0, 60.0, 230.0, 120.0, 30.0)
+    for i, poly in enumerate(model.polygons):
+        if not front[i]:
+            continue
+        q = camera.project(poly)
+        # the samples of the face's bounding box only
+        r0, r1 = np.searchsorted(ys, [q[:, 1].min(), q[:, 1].max()])
+        c0, c1 = np.searchsorted(xs, [q[:, 0].min(), q[:, 0].max()])
+        X, Y = np.meshgrid(xs[c0:c1], ys[r0:r1])
+        sides = [
+            (b[0] - a[0]) * (Y - a[1]) - (b[1] - a[1]) * (X - a[0])
+            for a, b in zip(q, np.roll(q, -1, axis=0), strict=True)
+        ]
+        inside = np.all([c >= 0 for c in sides], axis=0) | np.all([c <= 0 for c in sides], axis=0)
+        big[r0:r1, c0:c1][inside] = greys[i % len(greys)]
+    small = big.reshape(camera.height, supersample, camera.width, supersample).mean(axis=(1, 3))
+    return np.asarray(np.clip(cv2.GaussianBlur(small, (0, 0), 0.7) + 0.5, 0, 255), dtype=np.uint8)
+
+
+def test_polish_fits_the_model_edges_to_the_image() -> None:
+    from aida_kb.register import image_edges, polish
+
+    model = _box()
+    ref = _reference()
+    up = vertical_axis(model, ref)
+    truth = turned(ref, up, model.centroid, math.radians(50.0))
+    grey = _box_image(model, truth)
+    # at the true pose every visible edge is found within a few hundredths of a pixel
+    obs = image_edges(model, truth, grey)
+    vis = model.visible_edges(truth)
+    assert obs.size >= 6
+    lines = {
+        tuple(f): (a, b) for f, a, b in zip(model.edge_faces[vis.index], vis.a, vis.b, strict=True)
+    }
+    for f, p1, p2 in zip(obs.faces, obs.p1, obs.p2, strict=True):
+        a, b = lines[tuple(f)]
+        u = (b - a) / np.linalg.norm(b - a)
+        off = [abs(float((p - a) @ np.array([-u[1], u[0]]))) for p in (p1, p2)]
+        assert max(off) < 0.08, (f, off)
+    # from a pose 0.3 degrees and 4 mm off, the image brings it back
+    start = turned(truth, up, model.centroid, math.radians(0.3))
+    start = PinholeCamera(
+        K, start.R_cam_world, start.t_cam_world + np.array([0.004, 0.0, 0.0]), 640, 480
+    )
+    out = polish(model, start, grey)
+    assert out is not None
+    cam, rms, cov = out
+    assert abs(angle_about(truth, cam, up)) < 0.05  # one image: turn and shift correlate
+    assert np.linalg.norm(cam.centre - truth.centre) < 0.001
+    assert rms < 0.1
+    assert np.all(np.isfinite(cov))
+    assert np.all(np.linalg.eigvalsh(cov) > 0)
+    # a blank image holds no edges: nothing to polish with
+    assert polish(model, start, np.full_like(grey, 90)) is None
