@@ -373,12 +373,18 @@ def best_bindings(
     prior = OTHER_VERTICAL_PENALTY if frame.vertical else 0.0
     for _, _, _, chosen in sorted(kept, key=lambda e: (-e[0], e[2])):
         binding = {r.id: leaf.role for r, leaf in zip(chosen, leaves, strict=True) if r}
-        # what it could have bound: the candidates consistent with its anchor's region (the
-        # ground fits a flat roof's orientation, but lies below the anchor: not left out)
+        # what it could have bound: its regions, and the candidates of the parts it leaves
+        # unbound that are consistent with its anchor's region (the ground fits a flat roof's
+        # orientation, but lies below the anchor: not left out). A bound part's other
+        # candidates are not left out: a plane has one region (the knowledge's cardinality);
+        # a second wall facing the front's way is a wing's or an oriel's, whose level binds
+        # it (lshape preset seed 0: charged to the body, the wing's walls made the wing the
+        # cheaper body, 38 deg off)
         base = chosen[anchor] if anchor is not None else None
-        offered = {
+        offered = set(binding) | {
             r.id
             for i, leaf in enumerate(leaves)
+            if chosen[i] is None
             for r in options[i]
             if r is not None and _level_fits(leaf, r, base, up)
         }

@@ -28,7 +28,7 @@ from aida_kb.interpret.generate import BodyHypothesis, body_hypotheses
 from aida_kb.interpret.hypotheses import Frame
 from aida_kb.interpret.knowledge import Knowledge, join
 from aida_kb.interpret.observe import EvidenceView, RegionView
-from aida_kb.interpret.plausibility import unexplained
+from aida_kb.interpret.plausibility import UNEXPLAINED_PENALTY, unexplained
 from aida_kb.interpret.result import INSERTED, Instance
 from aida_kb.interpret.search import best_first
 from aida_kb.interpret.trace import Trace
@@ -57,11 +57,17 @@ class Pending:
     """An alternative of the main body waiting to be verified, with its optimistic cost."""
 
     hypothesis: BodyHypothesis
+    # what optional parts may still explain of the evidence it leaves unbound (the penalty
+    # for the free significant walls, where the body's concept has optional parts)
+    optional: float = 0.0
 
     @property
     def estimate(self) -> float:
-        """The penalty for the evidence it leaves unbound (`generate`)."""
-        return self.hypothesis.estimate
+        """The penalty for the evidence it leaves unbound that no optional part may explain
+        (`generate`): optimistic, a completed state with its optional parts costs at least
+        that (an L-shape's wing taken for the body, its wing the body, completed cheaper than
+        the true body's estimate of all it left unbound, which was then never verified)."""
+        return self.hypothesis.estimate - self.optional
 
 
 @dataclass(frozen=True)
@@ -138,7 +144,18 @@ class Interpreter:
                 "verticals no significant region fits it",
             )
             return []
-        return [Pending(h) for h in hypotheses]
+        optional = any(
+            slot.link == "part-of" and not slot.obligatory
+            for slot in self.knowledge.concept(concept).slots
+        )
+        if not optional:
+            return [Pending(h) for h in hypotheses]
+        out: list[Pending] = []
+        for h in hypotheses:
+            free = [r for r in ctx.regions if r.id not in h.binding and ctx.significant(r)]
+            walls = sum(r.weight for r in vertical(free, h.frame.frame.up))
+            out.append(Pending(h, UNEXPLAINED_PENALTY * walls / ctx.total_weight))
+        return sorted(out, key=lambda p: p.estimate)  # stable: ties in the order generated
 
     def verify_body(self, pending: Pending, parent: int) -> tuple[Level, float] | None:
         """Verify one alternative of the main body; its level and cost, or None if rejected."""

@@ -170,3 +170,20 @@ def test_a_verified_body_costs_each_part_it_inserts(buildings_kb: Any) -> None:
     level, cost = verified
     assert len(level.inserted) == 4  # back, right, floor, the back slope
     assert cost == pytest.approx(level.misfit + INSERTED_PART_PENALTY * 4)
+
+
+def test_a_pending_body_expects_optional_parts_to_explain_the_free_walls(
+    buildings_kb: Any,
+) -> None:
+    """The estimate a body is verified by leaves out the free walls a wing or an oriel may
+    explain: an L-shape's arms each leave the other's walls free, and the one taken for the
+    body must not be decided by that before both are verified."""
+    evidence = read_evidence(FIXTURES / "wing_90.json")
+    it = Interpreter(Knowledge.from_kb(buildings_kb), view_of(evidence, "wing"), "House")
+    pending = it.body_candidates(it.trace.create("House", "", None, "goal"))
+    assert any(p.optional > 0.0 for p in pending)
+    for p in pending:
+        assert 0.0 <= p.optional <= p.hypothesis.estimate + 1e-12
+        assert p.estimate == pytest.approx(p.hypothesis.estimate - p.optional)
+    estimates = [p.estimate for p in pending]
+    assert estimates == sorted(estimates)
