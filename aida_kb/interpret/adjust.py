@@ -73,6 +73,7 @@ def adjust(
     fixed: Planes,
     choices: dict[str, str],
     guessed: frozenset[str] = frozenset(),
+    verified: frozenset[str] = frozenset(),
 ) -> Adjusted:
     """Initialise, match segments, adjust twice (re-matching in between).
 
@@ -81,6 +82,13 @@ def adjust(
     that segment but is not taken as a measurement: its position would measure the guess
     (a wing's foot on the body's inserted floor, seen at a grazing angle, moved the wing's
     seen front wall 1.7 m away from its own stereo evidence).
+    ``verified``: the regions verified levels bound. A segment between one of them and a
+    region of this structure is where the two meet (a wing's front wall running into the
+    body's, its roof into the body's roof): no part's adjacency declares that edge, and the
+    level that bound the other region already counted it unexplained; it is not counted
+    again in ``loose`` (charged to the wing, the 135-degree L-shape's true wing, binding less
+    evidence than the body, paid that junction as a larger fraction of its segments than
+    the body taken for the wing did: the arms came out swapped).
 
     Raises `unseen.UnseenError` when an inserted part of the main body would face the camera,
     AidaError when the problem cannot be built or solved.
@@ -153,7 +161,9 @@ def adjust(
     bordering = [
         s
         for s in ctx.segments
-        if s.length_px >= MIN_BORDER_SEGMENT_PX and any(r in binding for r in s.regions)
+        if s.length_px >= MIN_BORDER_SEGMENT_PX
+        and any(r in binding for r in s.regions)
+        and not verified.intersection(s.regions)
     ]
     total = sum(s.length_px for s in bordering)
     loose = sum(s.length_px for s in bordering if s.id not in matched)

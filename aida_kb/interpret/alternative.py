@@ -64,6 +64,7 @@ def verify_alternative(
     forced: dict[str, RegionView],
     exclude: set[str] | frozenset[str] = frozenset(),
     guessed: frozenset[str] = frozenset(),
+    junctions: frozenset[str] = frozenset(),
     bindings: list[dict[str, str]] | None = None,
     offered: frozenset[str] | None = None,
     label: str = "",
@@ -71,8 +72,10 @@ def verify_alternative(
     """Verify a structure in `frame` with its anchor bound to `forced`; its level, or None.
 
     ``fixed``: the planes of verified levels (non-empty for a smaller part, paper §5);
-    ``choices``: their is-a choices; ``exclude``: regions they bound; ``guessed``: their
-    inserted parts (`adjust.adjust`). The hypothesis is recorded in `trace` under `parent`.
+    ``choices``: their is-a choices; ``exclude``: regions they bound; ``junctions``: free
+    regions of parts it may meet later (their segments along it are not loose, `adjust`);
+    ``guessed``: their inserted parts (`adjust.adjust`). The hypothesis is recorded in
+    `trace` under `parent`.
     ``bindings``: the region assignments to try (None: `assign.assignments` finds them from
     the anchor's region `forced`); ``offered``: the regions the structure could have bound
     (None: those of the bindings); ``label``: how the hypothesis was generated, for the trace.
@@ -92,6 +95,8 @@ def verify_alternative(
         trace.reject(hid, f"[{what}] {options}")
         return None
     best: Level | None = None
+    # the regions of the parts this one meets: segments to them are no loose evidence
+    met = frozenset(exclude) | junctions
     # why each assignment fell; the trace names the first that a constraint felled (the
     # assignments come heaviest evidence first), else the first. A contradiction's culprit
     # is searched for (`blame`, many solves) only when its reason is the one reported.
@@ -99,7 +104,7 @@ def verify_alternative(
     offered_ids = set(offered) if offered is not None else {rid for b in options for rid in b}
     for binding in options:
         try:
-            adjusted = adjust(ctx, structure, frame, binding, fixed, choices, guessed)
+            adjusted = adjust(ctx, structure, frame, binding, fixed, choices, guessed, met)
         except UnseenError as exc:
             reasons.append((str(exc), None))
             continue

@@ -60,6 +60,9 @@ class Pending:
     # what optional parts may still explain of the evidence it leaves unbound (the penalty
     # for the free significant walls, where the body's concept has optional parts)
     optional: float = 0.0
+    # those free walls (region ids): a segment between one and the body is where a part
+    # meets it, not an unexplained segment of the body (`adjust.adjust`, ``verified``)
+    walls: frozenset[str] = frozenset()
 
     @property
     def estimate(self) -> float:
@@ -153,8 +156,15 @@ class Interpreter:
         out: list[Pending] = []
         for h in hypotheses:
             free = [r for r in ctx.regions if r.id not in h.binding and ctx.significant(r)]
-            walls = sum(r.weight for r in vertical(free, h.frame.frame.up))
-            out.append(Pending(h, UNEXPLAINED_PENALTY * walls / ctx.total_weight))
+            walls = vertical(free, h.frame.frame.up)
+            weight = sum(r.weight for r in walls)
+            out.append(
+                Pending(
+                    h,
+                    UNEXPLAINED_PENALTY * weight / ctx.total_weight,
+                    frozenset(r.id for r in walls),
+                )
+            )
         return sorted(out, key=lambda p: p.estimate)  # stable: ties in the order generated
 
     def verify_body(self, pending: Pending, parent: int) -> tuple[Level, float] | None:
@@ -187,11 +197,18 @@ class Interpreter:
             forced={},
             bindings=[h.binding],
             offered=h.offered,
+            junctions=pending.walls,
             label=label,
         )
         if level is None:
             return None
-        return level, level.misfit + h.prior + INSERTED_PART_PENALTY * len(level.inserted)
+        # its misfit counts in proportion to the evidence it explains, as an optional part's
+        # does: which of two arms is taken for the body and which for its wing must not change
+        # what the pair's misfits cost (counted whole, the arm binding more evidence, with
+        # more residuals, was cheaper as the wing: the 135-degree L-shape's arms swapped)
+        share = sum(self.evidence.regions[r].weight for r in level.binding)
+        misfit = level.misfit * share / ctx.total_weight
+        return level, misfit + h.prior + INSERTED_PART_PENALTY * len(level.inserted)
 
     # ---- level 1..: optional parts ----------------------------------------------------------
     def optional_alternatives(self, state: State, parent: int) -> list[tuple[Level, float]]:

@@ -20,6 +20,7 @@ from aida_kb.interpret.generate import (
 from aida_kb.interpret.interpreter import INSERTED_PART_PENALTY, Interpreter
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
+from aida_kb.interpret.plausibility import UNEXPLAINED_PENALTY
 from aida_kb.io.evidence import read_evidence
 
 from .conftest import FIXTURES  # type: ignore[import-not-found]
@@ -157,7 +158,8 @@ def test_a_light_region_fitting_a_part_may_bind_it_or_be_left_out(occluded: Cont
 
 def test_a_verified_body_costs_each_part_it_inserts(buildings_kb: Any) -> None:
     """Of two bodies explaining the same evidence as well, the one that guesses fewer parts
-    from the knowledge is preferred: each inserted part costs INSERTED_PART_PENALTY."""
+    from the knowledge is preferred: each inserted part costs INSERTED_PART_PENALTY. Its
+    misfit counts in proportion to the evidence it binds."""
     evidence = read_evidence(FIXTURES / "house_occluded.json")
     it = Interpreter(Knowledge.from_kb(buildings_kb), view_of(evidence, "occluded"), "House")
     goal = it.trace.create("House", "", None, "goal")
@@ -169,7 +171,10 @@ def test_a_verified_body_costs_each_part_it_inserts(buildings_kb: Any) -> None:
     assert verified is not None
     level, cost = verified
     assert len(level.inserted) == 4  # back, right, floor, the back slope
-    assert cost == pytest.approx(level.misfit + INSERTED_PART_PENALTY * 4)
+    # its misfit in proportion to the evidence it explains, as an optional part's
+    share = sum(it.evidence.regions[r].weight for r in level.binding) / it.context.total_weight
+    assert 0.0 < share < 1.0
+    assert cost == pytest.approx(level.misfit * share + INSERTED_PART_PENALTY * 4)
 
 
 def test_a_pending_body_expects_optional_parts_to_explain_the_free_walls(
@@ -185,5 +190,9 @@ def test_a_pending_body_expects_optional_parts_to_explain_the_free_walls(
     for p in pending:
         assert 0.0 <= p.optional <= p.hypothesis.estimate + 1e-12
         assert p.estimate == pytest.approx(p.hypothesis.estimate - p.optional)
+        # the free walls whose segments along the body are where a part meets it
+        assert not p.walls & set(p.hypothesis.binding)
+        weight = sum(it.evidence.regions[r].weight for r in p.walls)
+        assert p.optional == pytest.approx(UNEXPLAINED_PENALTY * weight / it.context.total_weight)
     estimates = [p.estimate for p in pending]
     assert estimates == sorted(estimates)
