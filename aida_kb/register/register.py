@@ -327,6 +327,27 @@ def _matched(
     )
 
 
+def _right_matched(
+    model: RigidModel,
+    camera: PinholeCamera,
+    stereo: StereoSegments | None,
+    tol: float,
+    max_angle: float,
+    own_sigma: bool,
+) -> EdgeObservations | None:
+    """The second image's segments matched to the model edges it sees (None without a
+    stereo partner); weighed by their own edge fits when `own_sigma`."""
+    if stereo is None:
+        return None
+    sigma = stereo.sigma_px if own_sigma else None
+    right_cam = stereo.rig.right_of(camera)
+    return _matched(model, right_cam, stereo.p1, stereo.p2, tol, max_angle, sigma)
+
+
+POSE_F_SCALE = 3.0
+"""Scale of the robust loss of the pose fits, in units of each segment's sigma: a match
+more than about three sigmas off its edge (a wrong or fragmentary segment) is down-weighted."""
+
 OWN_SIGMA_TOLERANCE_PX = 2.0
 """Rounds of `refine` that match within this distance (pixels: the last, where the matches
 no longer change) weigh each segment by its own edge fit; earlier rounds give every segment
@@ -377,11 +398,7 @@ def refine(
         edges = _matched(model, camera, p1, p2, tol, max_angle, sigma_px if own else None)
         if edges.size < 3:
             raise SolveError(f"registration: only {edges.size} segments match the model edges")
-        right = None
-        if stereo is not None:
-            right_cam = stereo.rig.right_of(camera)
-            right_sigma = stereo.sigma_px if own else None
-            right = _matched(model, right_cam, stereo.p1, stereo.p2, tol, max_angle, right_sigma)
+        right = _right_matched(model, camera, stereo, tol, max_angle, own)
         obs = match_regions(model, camera, regions, opts) if regions is not None else None
         fit = fit_pose(
             model,
@@ -391,7 +408,7 @@ def refine(
             rig=None if stereo is None else stereo.rig,
             right_edges=right,
             sigma_px=opts.sigma_px,
-            f_scale=3.0,
+            f_scale=POSE_F_SCALE,
             reject_sigmas=REJECT_SIGMAS if own else None,
         )
         camera = fit.camera
@@ -671,11 +688,7 @@ def _uncertainty(
     tol = opts.schedules_px[0][-1]
     max_angle = math.radians(opts.max_angle_deg)
     edges = _matched(model, camera, p1, p2, tol, max_angle, sigma_px)
-    right = None
-    if stereo is not None:
-        right_sigma = None if sigma_px is None else stereo.sigma_px
-        right_cam = stereo.rig.right_of(camera)
-        right = _matched(model, right_cam, stereo.p1, stereo.p2, tol, max_angle, right_sigma)
+    right = _right_matched(model, camera, stereo, tol, max_angle, sigma_px is not None)
     obs = match_regions(model, camera, regions, opts) if regions is not None else None
     cov = pose_covariance(
         model,
@@ -685,7 +698,7 @@ def _uncertainty(
         rig=None if stereo is None else stereo.rig,
         right_edges=right,
         sigma_px=opts.sigma_px,
-        f_scale=3.0,
+        f_scale=POSE_F_SCALE,
     )
     turn_sd, rot_sd = _turn_sigma(reference, camera, up, cov)
     return cov, turn_sd, rot_sd
@@ -817,7 +830,7 @@ def polish(
                 rig=rig,
                 right_edges=right,
                 sigma_px=opts.sigma_px,
-                f_scale=3.0,
+                f_scale=POSE_F_SCALE,
                 reject_sigmas=REJECT_SIGMAS,
             )
         except (SolveError, GeometryError):
@@ -831,7 +844,7 @@ def polish(
             rig=rig,
             right_edges=right,
             sigma_px=opts.sigma_px,
-            f_scale=3.0,
+            f_scale=POSE_F_SCALE,
         )
     return camera, rms, cov
 
