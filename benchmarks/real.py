@@ -35,11 +35,14 @@ Per scene (the ground truth only measures; the tool never reads it):
   ``evidence_s``, ``interpret_s``: wall times;
 - ``front_part``: the model part bound to the main wall region, and how close it lies to the
   wall's stereo points (every 3-D point of the depth map within FRONT_ON_WALL_M of the main
-  wall region's plane): ``front_vertex_to_wall_points_max_m``
-  over its vertices inside the left image, ``front_vertex_to_wall_plane_max_m`` over all
-  (`_front_on_wall`); ``done_when_front_on_wall_0p3m``: on every scene where something was
-  found, the part bound to the main wall has both within FRONT_ON_WALL_M (issue 15: a found
-  front is the real main wall), ``done_when_not_nothing``: no scene ends with nothing found.
+  wall region's plane): ``front_vertex_to_wall_points_max_m`` over its vertices stereo could
+  measure (inside both images by the matcher's half window: ``front_vertices_measurable``;
+  each vertex's distance in ``front_vertex_to_wall_points_m``), ``front_vertex_to_wall_plane_max_m``
+  over all (`_front_on_wall`); ``done_when_front_on_wall_0p3m``: no VERIFIED object whose
+  front has either beyond FRONT_ON_WALL_M (issue 15: "no verified object whose front is not
+  the real main wall"), ``found_front_on_wall_0p3m`` the same for every object found,
+  verified or doubtful (stricter), ``done_when_not_nothing``: no scene ends with nothing
+  found.
 
 Motorcycle (Middlebury 2014, as scikit-image ships it: 741x500, disparity with inf = unknown;
 read from the installed package, never downloaded): aida's NCC (window 11, range found from
@@ -81,7 +84,7 @@ from stereo import at_density, opencv_disparity
 
 from aida_kb.interpret.observe import estimate_up, slope_deg, view_of
 from aida_kb.interpret.run import interpret
-from aida_kb.interpret.verdict import NOTHING, judge, with_verdict
+from aida_kb.interpret.verdict import NOTHING, VERIFIED, judge, with_verdict
 from aida_kb.io.scene import read_labels, read_scene
 from aida_kb.kb import compile_path
 from aida_kb.vision.disprange import disparity_range
@@ -241,27 +244,50 @@ def real_scene(
     out["accepted"] = result.accepted
     out["outcome"] = result.verdict or NOTHING
     if walls:
-        out |= _front_on_wall(result, main, prod, evidence)
+        out |= _front_on_wall(result, main, prod, evidence, scene.views[0].rig)
     out["verdict"] = result.message
     out["evidence_s"] = round(t_evidence, 2)
     return out
 
 
 FRONT_ON_WALL_M = 0.3  # issue 15: the found front's vertices within this of the wall's points
+# a vertex is measured against the wall's stereo points only where stereo could have measured
+# it: inside both images by at least the block matcher's half window (nearer the border no
+# window fits, so no point can lie there however right the vertex is)
+STEREO_MARGIN_PX = VisionParams().window // 2
 
 
-def _front_on_wall(result: Any, main: Any, prod: Any, evidence: Any) -> dict[str, Any]:
+def _in_image(pix_h: np.ndarray, width: int, height: int, margin: float) -> np.ndarray:
+    """(N,) bool: homogeneous pixels (N, 3), in front of the camera and at least `margin`
+    pixels inside a width x height image."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x, y = pix_h[:, 0] / pix_h[:, 2], pix_h[:, 1] / pix_h[:, 2]
+    inside: np.ndarray = (
+        (pix_h[:, 2] > 0)
+        & (x >= margin)
+        & (x <= width - 1 - margin)
+        & (y >= margin)
+        & (y <= height - 1 - margin)
+    )
+    return inside
+
+
+def _front_on_wall(result: Any, main: Any, prod: Any, evidence: Any, rig: Any) -> dict[str, Any]:
     """Whether the model's part bound to the main wall region is the real main wall.
 
-    Its closed polygon's vertices that the left image shows (``front_vertices_in_view`` of
-    ``front_vertices``) must lie near the wall's stereo points: the largest distance to the
-    nearest one, ``front_vertex_to_wall_points_max_m`` (a face reaching beyond the measured
-    wall, or off it, shows here). A vertex outside the image has no stereo point near it
-    however right it is (the wall goes on beyond the photo): it is measured against the
-    region's plane only, as every vertex is in ``front_vertex_to_wall_plane_max_m``; where
-    such a vertex lies along the wall, no view tells (the verdict names those parts as
-    placed by the knowledge). No model or no part bound to the region: ``front_part``
-    null and no distances."""
+    Its closed polygon's vertices that stereo could measure — inside the left and the right
+    image by STEREO_MARGIN_PX (``front_vertices_measurable`` of ``front_vertices``) — must lie
+    near the wall's stereo points: the largest distance to the nearest one,
+    ``front_vertex_to_wall_points_max_m`` (a face reaching beyond the measured wall, or off
+    it, shows here); ``front_vertex_to_wall_points_m`` lists each vertex's (null: not
+    measurable). A vertex the right camera does not see (the left image's strip beyond the
+    right camera's view, a disparity wide: 57-284 px on the castle) or outside the left
+    image has no stereo point near it however right it is (the wall goes on beyond the
+    photo): it is measured against the region's plane only, as every vertex is in
+    ``front_vertex_to_wall_plane_max_m``; where such a vertex lies along the wall, no view
+    tells (the verdict names those parts as placed by the knowledge). No model or no part
+    bound to the region: ``front_part`` null and no distances. ``rig``: the scene's first
+    view's stereo calibration (the world frame is its left camera's)."""
     from scipy.spatial import cKDTree
 
     parts = {p.role: p for p in result.model.parts} if result.model is not None else {}
@@ -286,26 +312,31 @@ def _front_on_wall(result: Any, main: Any, prod: Any, evidence: Any) -> dict[str
     offset = float(main.normal @ main.centroid_m)
     points = points[np.abs(points @ main.normal - offset) <= FRONT_ON_WALL_M]
     cam = polygon @ R.T + t
-    pix = cam @ np.asarray(view.left.K, float).T
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x, y = pix[:, 0] / pix[:, 2], pix[:, 1] / pix[:, 2]
-    shown = (
-        (cam[:, 2] > 0)
-        & (x >= 0)
-        & (x <= view.image_width - 1)
-        & (y >= 0)
-        & (y <= view.image_height - 1)
+    shown = _in_image(
+        cam @ np.asarray(view.left.K, float).T, view.image_width, view.image_height, 0.0
     )
-    plane = np.abs(polygon @ main.normal - float(main.normal @ main.centroid_m))
+    right = cam @ np.asarray(rig.R, float).T + np.asarray(rig.T, float).ravel()
+    W, H = rig.image_size
+    measurable = _in_image(
+        cam @ np.asarray(view.left.K, float).T,
+        view.image_width,
+        view.image_height,
+        STEREO_MARGIN_PX,
+    ) & _in_image(right @ np.asarray(rig.K2, float).T, W, H, STEREO_MARGIN_PX)
+    plane = np.abs(polygon @ main.normal - offset)
     out: dict[str, Any] = {
         "front_part": bound[0],
         "front_vertices": len(polygon),
         "front_vertices_in_view": int(shown.sum()),
+        "front_vertices_measurable": int(measurable.sum()),
         "front_vertex_to_wall_plane_max_m": round(float(plane.max()), 3),
     }
-    if shown.any():
-        dist, _ = cKDTree(points).query(polygon[shown])
-        out["front_vertex_to_wall_points_max_m"] = round(float(dist.max()), 3)
+    dist, _ = cKDTree(points).query(polygon)
+    out["front_vertex_to_wall_points_m"] = [
+        round(float(d), 3) if m else None for d, m in zip(dist, measurable, strict=True)
+    ]
+    if measurable.any():
+        out["front_vertex_to_wall_points_max_m"] = round(float(dist[measurable].max()), 3)
     return out
 
 
@@ -462,17 +493,21 @@ def main() -> None:
             s.get("main_wall_tilt_err_deg", 90.0) <= 1.0 for s in scenes
         )
         judged = [s for s in scenes if "outcome" in s]  # large_photo: vision figures only
-        # a found object's front is the real main wall (its vertices on the wall's points),
-        # and no photograph of a measured wall ends "nothing found"
-        out["done_when_front_on_wall_0p3m"] = all(
-            s["outcome"] == NOTHING
-            or (
+
+        # no VERIFIED object whose front is not the real main wall (issue 15's wording: a
+        # doubtful one says it may be wrong); ``found_front_on_wall_0p3m``, stricter: the
+        # front of every object found, verified or doubtful, on the wall
+        def on_wall(s: dict[str, Any]) -> bool:
+            return (
                 s.get("front_part") is not None
                 and s["front_vertex_to_wall_plane_max_m"] <= FRONT_ON_WALL_M
                 and s.get("front_vertex_to_wall_points_max_m", 0.0) <= FRONT_ON_WALL_M
             )
-            for s in judged
+
+        out["done_when_front_on_wall_0p3m"] = all(
+            s["outcome"] != VERIFIED or on_wall(s) for s in judged
         )
+        out["found_front_on_wall_0p3m"] = all(s["outcome"] == NOTHING or on_wall(s) for s in judged)
         out["done_when_not_nothing"] = all(s["outcome"] != NOTHING for s in judged)
         labelled_scenes = [s for s in scenes if "wall_label_coverage" in s]
         if labelled_scenes:  # one region covering 80 % of the wall (only labels can tell)
