@@ -31,7 +31,7 @@ from aida_kb.interpret.hypotheses import (
     predicted_normal,
     support_offset,
 )
-from aida_kb.interpret.knowledge import Structure
+from aida_kb.interpret.knowledge import Attribute, Node, Structure
 from aida_kb.interpret.observe import RegionView, slope_deg
 from aida_kb.interpret.verify import PlaneInit
 
@@ -114,8 +114,11 @@ def initial_planes(
             unplaced.add(leaf.role)
         start[leaf.role] = (n, d)
     centre = points.mean(axis=0) if len(points) else evidence.camera.centre_m
-    if ctx.evidence.metric:  # a least extent in metres means nothing in a scene up to scale
-        start.update(least_extents(ctx, structure, frame, start, unplaced, centre))
+    # in a scene up to scale a length in metres is a length in units only at some scale:
+    # the largest the seen parts' extents allow gives the least extent in units
+    unit_m = 1.0 if evidence.metric else largest_unit_m(ctx, structure, frame, binding)
+    if math.isfinite(unit_m):
+        start.update(least_extents(ctx, structure, frame, start, unplaced, centre, unit_m))
     for leaf in structure.leaves:
         region = seen.get(leaf.role)
         if region is not None:
@@ -147,6 +150,54 @@ EXTENT_AXIS_DEG = 10.0
 LENGTH_AXES = ("height", "width", "depth")  # length measures taken along a frame axis
 
 
+def largest_unit_m(
+    ctx: Context, structure: Structure, frame: Frame, binding: dict[str, str]
+) -> float:
+    """The most metres one length unit of a scene up to scale can stand for (inf: no bound).
+
+    A part's seen points span at least as much as the part: where an attribute measures a
+    length of it along a frame axis with an upper bound (``attribute height: length in [2 m,
+    30 m] is height(self)``), its seen extent of E units is at most HIGH metres, so a unit is
+    at most HIGH / E metres. The least of these over the structure's attributes bounds the
+    scale; a length the knowledge requires to be at least LOW metres is then at least
+    LOW / that units long (`least_extents`): the least the knowledge allows at any scale the
+    seen parts admit (a wall seen 15 units tall is at most 30 m: a unit at most 2 m, a body
+    at least 2 m deep at least 1 unit deep). ``binding``: region id -> role path.
+    """
+    points_of = {role: ctx.evidence.points_on(rid) for rid, role in binding.items()}
+    unit_m = math.inf
+    for node, attribute, axis in _extent_attributes(ctx, structure, frame):
+        if attribute.high is None or attribute.high <= 0:
+            continue
+        seen = [p for role, p in points_of.items() if _within(role, node.role)]
+        if not seen:
+            continue
+        along = np.concatenate(seen) @ axis
+        extent = float(along.max() - along.min())
+        if extent > 0:
+            unit_m = min(unit_m, attribute.high / extent)
+    return unit_m
+
+
+def _within(role: str, whole: str) -> bool:
+    """Whether role path `role` is `whole` or lies below it ('' is the structure's root)."""
+    return not whole or role == whole or role.startswith(whole + ".")
+
+
+def _extent_attributes(
+    ctx: Context, structure: Structure, frame: Frame
+) -> list[tuple[Node, Attribute, FloatArray]]:
+    """(node, attribute, frame axis (3,)) of every attribute of the structure's nodes that
+    measures the node's extent along an axis of the frame (``is height(self)`` ...)."""
+    axes = {"height": frame.up, "width": frame.right, "depth": frame.front}
+    return [
+        (node, attribute, axes[attribute.measure])
+        for node in structure.nodes
+        for attribute in ctx.knowledge.concept(node.concept).attributes.values()
+        if attribute.measure in LENGTH_AXES and attribute.measure_args == ("self",)
+    ]
+
+
 def least_extents(
     ctx: Context,
     structure: Structure,
@@ -154,6 +205,7 @@ def least_extents(
     planes: Planes,
     unplaced: set[str],
     centre: FloatArray,
+    unit_m: float = 1.0,
 ) -> Planes:
     """Inserted parts moved out to the least extent the knowledge gives their whole.
 
@@ -166,41 +218,37 @@ def least_extents(
     the part is moved out to the range's low end from its opposite part — the least the
     knowledge allows, and nothing more: the verdict names the part as not measured.
     ``planes``: role path -> (unit normal (3,), offset m), every leaf of the structure;
-    ``centre``: (3,) a point inside the seen evidence, metres (which side the camera is on).
-    Returns the moved parts only.
+    ``centre``: (3,) a point inside the seen evidence, metres (which side the camera is on);
+    ``unit_m``: metres per unit of the scene's lengths (1 in a metric scene; in one up to
+    scale the most the seen parts allow, `largest_unit_m`). Returns the moved parts only.
     """
-    axes = {"height": frame.up, "width": frame.right, "depth": frame.front}
     cos_axis = math.cos(math.radians(EXTENT_AXIS_DEG))
     camera = ctx.evidence.camera.centre_m
     moved: Planes = {}
-    for node in structure.nodes:
-        for attribute in ctx.knowledge.concept(node.concept).attributes.values():
-            if attribute.measure not in LENGTH_AXES or attribute.measure_args != ("self",):
+    for node, attribute, axis in _extent_attributes(ctx, structure, frame):
+        if attribute.low is None or attribute.low <= 0:
+            continue
+        mine = [
+            r
+            for r in planes
+            if _within(r, node.role) and abs(float(planes[r][0] @ axis)) > cos_axis
+        ]
+        for role in sorted(mine):
+            if role not in unplaced or role in moved:
                 continue
-            if attribute.low is None or attribute.low <= 0:
+            n, d = planes[role]
+            opposite = [r for r in mine if float(planes[r][0] @ n) < -cos_axis]
+            if not opposite:
                 continue
-            axis = axes[attribute.measure]
-            mine = [
-                r
-                for r in planes
-                if (not node.role or r == node.role or r.startswith(node.role + "."))
-                and abs(float(planes[r][0] @ axis)) > cos_axis
-            ]
-            for role in sorted(mine):
-                if role not in unplaced or role in moved:
-                    continue
-                n, d = planes[role]
-                opposite = [r for r in mine if float(planes[r][0] @ n) < -cos_axis]
-                if not opposite:
-                    continue
-                # the opposite part nearest the camera's side bounds the whole there
-                d_opp = min(planes[r][1] for r in opposite)
-                if d + d_opp >= attribute.low:
-                    continue
-                d_new = attribute.low - d_opp
-                if float(n @ camera) > d_new:
-                    continue  # moved out so far the camera would see it: leave it to fail
-                moved[role] = (n, d_new)
+            # the opposite part nearest the camera's side bounds the whole there
+            d_opp = min(planes[r][1] for r in opposite)
+            low = attribute.low / unit_m  # in the scene's units
+            if d + d_opp >= low:
+                continue
+            d_new = low - d_opp
+            if float(n @ camera) > d_new:
+                continue  # moved out so far the camera would see it: leave it to fail
+            moved[role] = (n, d_new)
     return moved
 
 
