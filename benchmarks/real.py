@@ -17,12 +17,16 @@ Per scene (the ground truth only measures; the tool never reads it):
 - ``wall_regions``: regions coplanar with the main wall (normals within 5 deg, centroids
   within 0.5 m of its plane), and ``wall_largest_share``: the main wall region's share of their
   pixels (1.0 = one region covers the wall); where the scene has ``reference_labels.png``
-  (label 1 = main wall), ``wall_label_coverage``: the share of that label covered by the main
-  wall region (``done_when_wall_one_region_0p8_labelled``: at least 0.8 on every labelled
-  scene), ``wall_region_outside_label``: the share of that region outside the label (what it
-  claims that is not the main wall), ``wall_label_share_in_both_images``: the share of the
-  label whose point on the main wall's plane the right camera sees too (stereo can measure
-  nothing elsewhere), and
+  (label 1 = main wall) or a hand-drawn outline in ``benchmarks/data/real_wall_outlines.json``
+  (Herz-Jesu: drawn for this benchmark in the castle labels' convention — the facade's
+  outline with its openings, portals and relief, without sky, roof, steps and ground;
+  ``wall_labels`` says which), ``wall_label_coverage``: the share of that label covered by
+  the main wall region (``done_when_wall_one_region_0p8_labelled``: at least 0.8 on every
+  labelled scene), ``wall_surface_coverage`` (outlines only, information): the same without
+  the deep openings drawn inside the outline, ``wall_region_outside_label``: the share of
+  that region outside the label (what it claims that is not the main wall),
+  ``wall_label_share_in_both_images``: the share of the label whose point on the main wall's
+  plane the right camera sees too (stereo can measure nothing elsewhere), and
   ``wall_label_coverage_in_both_images``: the coverage of that part;
 - ``lines``: the evidence's line segments by kind (structural, texture, unknown); with
   reference labels, ``label_boundary_lines`` (the kinds of the lines between two labels:
@@ -105,6 +109,8 @@ WALL_WINDOW_DEG = 30.0  # a wall candidate's normal within this of horizontal (e
 COPLANAR_DEG = 5.0  # regions of the main wall: normals within this ...
 COPLANAR_M = 0.5  # ... and centroids within this of its plane
 WALL_COVERAGE_DONE = 0.8  # issue 15: the main wall one region covering 80 % of its area
+OUTLINES = ROOT / "benchmarks" / "data" / "real_wall_outlines.json"  # hand-drawn, no labels
+OPENING_LABEL = 4  # an opening inside a hand-drawn wall outline (counted as wall, see below)
 MOTORCYCLE_WINDOW = 11
 SGBM_PARAMS: dict[str, Any] = {
     "blockSize": 5,
@@ -175,6 +181,28 @@ def _line_kinds_against_labels(lines: Any, labels: np.ndarray) -> dict[str, Any]
     return {"label_boundary_lines": boundary, "wall_interior_lines": inside}
 
 
+def _wall_labels(path: Path, shape: tuple[int, int]) -> tuple[np.ndarray, str] | None:
+    """The main wall's reference labels of view 00 (1 = wall) and where they come from:
+    the scene's ``reference_labels.png``, else a hand-drawn outline of `OUTLINES` (openings
+    inside it labelled `OPENING_LABEL`), rasterised at the image's `shape` (rows, columns);
+    None when the scene has neither."""
+    labels_file = path / "reference_labels.png"
+    if labels_file.is_file():
+        return read_labels(labels_file), "reference_labels.png"
+    outline = json.loads(OUTLINES.read_text()).get(path.name)
+    if outline is None:
+        return None
+    if tuple(outline["size"]) != (shape[1], shape[0]):
+        raise SystemExit(f"{OUTLINES}: {path.name}: drawn on {outline['size']}, image {shape}")
+    labels = np.zeros(shape, np.uint8)
+    cv2.fillPoly(labels, [np.asarray(outline["wall"], np.int32)], 1)
+    openings = [np.asarray(o, np.int32) for o in outline["openings"]]
+    holes = np.zeros(shape, np.uint8)
+    cv2.fillPoly(holes, openings, 1)
+    labels[(labels == 1) & (holes == 1)] = OPENING_LABEL
+    return labels.astype(np.int32), f"hand outline ({OUTLINES.relative_to(ROOT)})"
+
+
 def real_scene(
     path: Path, kb: Any, matcher: str = "ncc", *, both_images: bool = True
 ) -> dict[str, Any]:
@@ -215,12 +243,19 @@ def real_scene(
         ]
         out["wall_regions"] = len(same)
         out["wall_largest_share"] = round(main.area_px / sum(r.area_px for r in same), 3)
-        if labels_file.is_file():
-            wall = read_labels(labels_file) == 1
+        reference = _wall_labels(path, prod.regions.shape)
+        if reference is not None:
+            labels, out["wall_labels"] = reference
+            wall = (labels == 1) | (labels == OPENING_LABEL)
             rid = int(main.id.split("/")[1])
             mine = prod.regions == rid
             covered = wall & mine
             out["wall_label_coverage"] = round(float(np.count_nonzero(covered) / wall.sum()), 3)
+            if np.any(labels == OPENING_LABEL):  # the wall's surface alone, openings out
+                surface = labels == 1
+                out["wall_surface_coverage"] = round(
+                    float(np.count_nonzero(surface & mine) / surface.sum()), 3
+                )
             out["wall_region_outside_label"] = round(
                 float(np.count_nonzero(mine & ~wall) / max(1, np.count_nonzero(mine))), 3
             )
@@ -564,7 +599,7 @@ def main() -> None:
         out["found_front_on_wall_0p3m"] = all(s["outcome"] == NOTHING or on_wall(s) for s in judged)
         out["done_when_not_nothing"] = all(s["outcome"] != NOTHING for s in judged)
         labelled_scenes = [s for s in scenes if "wall_label_coverage" in s]
-        if labelled_scenes:  # one region covering 80 % of the wall (only labels can tell)
+        if labelled_scenes:  # one region covering 80 % of the wall (labels or outlines tell)
             out["done_when_wall_one_region_0p8_labelled"] = all(
                 s["wall_label_coverage"] >= WALL_COVERAGE_DONE for s in labelled_scenes
             )
