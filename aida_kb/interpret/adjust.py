@@ -10,13 +10,15 @@ accepted interpretation is solved once more as a whole from it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
 
 from aida_kb.constraints import kind_of
-from aida_kb.interpret.closure import ClosingFace, settle_unseen
+from aida_kb.errors import GeometryError
+from aida_kb.interpret.closure import ClosingFace, close, settle_unseen
 from aida_kb.interpret.context import Context
 from aida_kb.interpret.edges import EdgeMatch, match_segments
 from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD, Frame
@@ -32,12 +34,18 @@ from aida_kb.interpret.verify import (
     tilt_constraints,
     verify,
 )
+from aida_kb.register.match import match_segments as match_finite
+from aida_kb.register.model import RigidModel
 
 FloatArray = npt.NDArray[np.float64]
 
 # segments are matched to the initial model within the first distance, then re-matched to
 # the adjusted model within the next (outliers of the first matching drop out)
 MATCH_DISTANCES_PX = (25.0, 8.0)
+# a segment along an edge of an inserted part facing the camera (`_facing_matches`) runs
+# within this of the projected edge's direction (the edge is found, not predicted by a region
+# border: a tighter angle than `edges.MAX_ANGLE_DEG`)
+FACING_ANGLE_DEG = 6.0
 # a segment shorter than this does not count as evidence an alternative leaves unexplained
 # (short segments are texture and noise as often as edges)
 MIN_BORDER_SEGMENT_PX = 8.0
@@ -74,6 +82,8 @@ def adjust(
     choices: dict[str, str],
     guessed: frozenset[str] = frozenset(),
     verified: frozenset[str] = frozenset(),
+    *,
+    seen_by_edges: bool = False,
 ) -> Adjusted:
     """Initialise, match segments, adjust twice (re-matching in between).
 
@@ -90,11 +100,16 @@ def adjust(
     evidence than the body, paid that junction as a larger fraction of its segments than
     the body taken for the wing did: the arms came out swapped).
 
-    Raises `unseen.UnseenError` when an inserted part of the main body would face the camera,
-    AidaError when the problem cannot be built or solved.
+    ``seen_by_edges``: an inserted part of the main body may face the camera (it is returned
+    in ``visible``, to be judged by the segments along its edges, `unseen.initial_planes`).
+
+    Raises `unseen.UnseenError` when an inserted part of the main body would face the camera
+    (unless ``seen_by_edges``), AidaError when the problem cannot be built or solved.
     """
     evidence = ctx.evidence
-    initial = initial_planes(ctx, structure, frame, binding, fixed, choices)
+    initial = initial_planes(
+        ctx, structure, frame, binding, fixed, choices, seen_by_edges=seen_by_edges
+    )
     planes = initial.planes
     index = {p.role: i for i, p in enumerate(planes)}
     tilts = tilt_constraints(
@@ -132,11 +147,14 @@ def adjust(
     current = {p.role: (p.normal, p.offset_m) for p in planes}
     last: tuple[Outcome, Verification] | None = None
     matches: list[EdgeMatch] = []
+    outline: list[EdgeEvidence] = []
+    facing = frozenset(initial.visible) if seen_by_edges else frozenset()
     for distance_px in MATCH_DISTANCES_PX:
         rematched = _matches(ctx, binding, current, adj, distance_px)
-        if last is not None and _same_matches(rematched, matches):
+        found = _facing_matches(ctx, structure, closing, current, facing, distance_px)
+        if last is not None and _same_matches(rematched, matches) and _same(found, outline):
             break
-        matches = rematched
+        matches, outline = rematched, found
         verification = build_verification(
             ctx.knowledge,
             ctx.body.role,
@@ -144,7 +162,8 @@ def adjust(
             planes,
             fillers,
             positions,
-            _edge_evidence(ctx, [m for m in matches if not guessed.intersection(m.parts)], binding),
+            _edge_evidence(ctx, [m for m in matches if not guessed.intersection(m.parts)], binding)
+            + outline,
             declared,
             ctx.pinholes,
             tilts,
@@ -231,6 +250,83 @@ def declared_edges(ctx: Context, structure: Structure) -> set[tuple[str, str]]:
             a, b = (join(node.role, x) for x in spec.args)
             out.add((a, b) if a <= b else (b, a))
     return out
+
+
+def _facing_matches(
+    ctx: Context,
+    structure: Structure,
+    closing: list[ClosingFace],
+    planes: Planes,
+    facing: frozenset[str],
+    max_distance_px: float,
+) -> list[EdgeEvidence]:
+    """The reference image's segments along the edges of inserted parts facing the camera.
+
+    Such a part has no region (a dark, low-texture roof), so no segment borders it in the
+    evidence: its outline against the sky or its neighbours is found among all the image's
+    segments (`EvidenceView.lines_px`) that border no bound region, matched to its projected
+    edges of the closed solid at the current planes (finite edges: a whole line would take
+    the horizon for an eave) within ``max_distance_px`` and `FACING_ANGLE_DEG`. Empty when
+    there is no such part or the planes do not close.
+    """
+    if not facing:
+        return []
+    faces = [(leaf.role, *planes[leaf.role]) for leaf in structure.leaves]
+    faces += [(c.role, c.normal, c.offset_m) for c in closing]
+    pairs = [*structure.adjacency, *((c.role, n) for c in closing for n in c.neighbours)]
+    try:
+        polygons = close(faces, pairs)
+        names = [role for role, _, _ in faces]
+        rigid = RigidModel.from_polygons(
+            names,
+            [n for _, n, _ in faces],
+            [d for _, _, d in faces],
+            [polygons[r] for r in names],
+        )
+    except GeometryError:
+        return []
+    camera = ctx.evidence.camera
+    edges = rigid.visible_edges(camera.pinhole, min_length_px=MIN_BORDER_SEGMENT_PX)
+    parts = [(rigid.names[int(a)], rigid.names[int(b)]) for a, b in rigid.edge_faces[edges.index]]
+    keep = [i for i, p in enumerate(parts) if facing.intersection(p)]
+    lines = ctx.evidence.lines_px.get(camera.view)
+    if not keep or lines is None or not len(lines):
+        return []
+    bordering = {tuple(np.round(s.ends_px, 6).ravel()) for s in ctx.segments}
+    free = np.array(
+        [
+            tuple(np.round(e, 6).ravel()) not in bordering
+            and float(np.linalg.norm(e[1] - e[0])) >= MIN_BORDER_SEGMENT_PX
+            for e in lines
+        ],
+        dtype=bool,
+    )
+    if not free.any():
+        return []
+    segs = lines[free]
+    m = match_finite(
+        edges.a[keep],
+        edges.b[keep],
+        segs[:, 0],
+        segs[:, 1],
+        max_distance_px=max_distance_px,
+        max_angle_rad=math.radians(FACING_ANGLE_DEG),
+    )
+    view = ctx.views.index(camera.view)
+    out: list[EdgeEvidence] = []
+    for e, k in zip(m.edge, m.segment, strict=True):
+        a, b = parts[keep[int(e)]]
+        owner = a if a in facing else b
+        out.append(EdgeEvidence((a, b) if a <= b else (b, a), owner, view, segs[int(k)]))
+    return out
+
+
+def _same(a: list[EdgeEvidence], b: list[EdgeEvidence]) -> bool:
+    """True if two lists of edge evidence pair the same segments with the same edges."""
+    if len(a) != len(b):
+        return False
+    pairs = zip(a, b, strict=True)
+    return all(x.parts == y.parts and np.array_equal(x.ends_px, y.ends_px) for x, y in pairs)
 
 
 def _same_matches(a: list[EdgeMatch], b: list[EdgeMatch]) -> bool:

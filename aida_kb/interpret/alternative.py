@@ -5,7 +5,7 @@ plausible one of least misfit kept as a verified level, or the reason none is, i
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
@@ -29,6 +29,7 @@ from aida_kb.interpret.plausibility import (
     outside,
     unseen,
 )
+from aida_kb.interpret.support import EdgeSupport, edge_support, overflow
 from aida_kb.interpret.trace import Trace
 from aida_kb.interpret.unseen import Planes, UnseenError
 from aida_kb.interpret.verify import Outcome, Verification
@@ -50,6 +51,35 @@ class Level:
     closing: tuple[ClosingFace, ...]  # faces of its solid from the levels it belongs to
     verification: Verification  # the problem it was verified by (its last adjustment)
     misfit: float  # adjustment cost plus the penalty for unexplained segments of bound regions
+    # the closed solid's edges the reference camera sees and what segments show of them, and
+    # the weight of its bound regions lying outside their faces (`support`)
+    edges: EdgeSupport = field(default_factory=EdgeSupport.empty)
+    overflow: float = 0.0
+    # inserted parts of the main body facing the camera, shown by the segments along their
+    # edges though no region fits them (`unseen_by_edges`)
+    visible: tuple[str, ...] = ()
+
+
+# a part of the main body inserted facing the camera (no region fits it: a dark, low-texture
+# roof gives stereo none) is seen when segments lie along at least this share of its visible
+# edges' length in the reference image: most of its outline, not the one edge it shares with
+# a bound part (a flat roof's eave is the front wall's top edge too)
+VISIBLE_SEEN_MIN = 0.6
+
+
+def unseen_by_edges(ctx: Context, visible: tuple[str, ...], edges: EdgeSupport) -> str:
+    """Why an inserted part of the main body facing the camera is not seen ('' if each is):
+    segments lie along less than `VISIBLE_SEEN_MIN` of its visible edges' length."""
+    for role in visible:
+        share = edges.share(frozenset((role,)))
+        if share is None or share < VISIBLE_SEEN_MIN:
+            shown = "none" if share is None else f"{100 * share:.0f}%"
+            return (
+                f"{role} would face camera {ctx.evidence.camera.view} but no region fits it, "
+                f"and segments show {shown} of its edges' length "
+                f"(at least {100 * VISIBLE_SEEN_MIN:.0f}%)"
+            )
+    return ""
 
 
 def verify_alternative(
@@ -68,6 +98,7 @@ def verify_alternative(
     bindings: list[dict[str, str]] | None = None,
     offered: frozenset[str] | None = None,
     label: str = "",
+    seen_by_edges: bool = False,
 ) -> Level | None:
     """Verify a structure in `frame` with its anchor bound to `forced`; its level, or None.
 
@@ -79,6 +110,8 @@ def verify_alternative(
     ``bindings``: the region assignments to try (None: `assign.assignments` finds them from
     the anchor's region `forced`); ``offered``: the regions the structure could have bound
     (None: those of the bindings); ``label``: how the hypothesis was generated, for the trace.
+    ``seen_by_edges``: a part of the main body inserted facing the camera is accepted when
+    segments lie along `VISIBLE_SEEN_MIN` of its visible edges' length (`unseen_by_edges`).
     """
     root = structure.nodes[0]
     what = "; ".join(
@@ -104,7 +137,17 @@ def verify_alternative(
     offered_ids = set(offered) if offered is not None else {rid for b in options for rid in b}
     for binding in options:
         try:
-            adjusted = adjust(ctx, structure, frame, binding, fixed, choices, guessed, met)
+            adjusted = adjust(
+                ctx,
+                structure,
+                frame,
+                binding,
+                fixed,
+                choices,
+                guessed,
+                met,
+                seen_by_edges=seen_by_edges and not smaller,
+            )
         except UnseenError as exc:
             reasons.append((str(exc), None))
             continue
@@ -134,9 +177,14 @@ def verify_alternative(
         solid.update({c.role: (c.normal, c.offset_m) for c in closing})
         corners = np.concatenate(list(polygons.values()))
         size = float(np.max(np.ptp(corners, axis=0)))
+        edges = edge_support(ctx, solid, polygons)
         why = (
             outside(ctx, binding, polygons)
-            or unseen(ctx, adjusted.visible, polygons, anchor_of(forced))
+            or (
+                unseen(ctx, adjusted.visible, polygons, anchor_of(forced))
+                if smaller
+                else unseen_by_edges(ctx, adjusted.visible, edges)
+            )
             or hidden_inside(ctx, solid, set(binding) | set(exclude), size)
         )
         if why:
@@ -154,6 +202,9 @@ def verify_alternative(
             closing,
             adjusted.verification,
             misfit(ctx, outcome.cost, adjusted.loose, offered_ids - set(binding)),
+            edges,
+            overflow(ctx, binding, polygons),
+            adjusted.visible,
         )
         if best is None or level.misfit < best.misfit:
             best = level

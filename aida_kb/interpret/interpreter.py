@@ -19,8 +19,10 @@ evidence left unexplained; it is deterministic and counts the hypotheses it expa
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
+from aida_kb.errors import AidaError
 from aida_kb.interpret.alternative import Level, verify_alternative
 from aida_kb.interpret.assign import forced_by, ranked_fronts, vertical
 from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, Context
@@ -42,12 +44,31 @@ MAX_BODY_VERIFICATIONS = 30
 # interpretation) after expanding this many states for the optional parts: a handful each;
 # more means they do not converge
 MAX_OPTIONAL_EXPANSIONS = 40
-# a verified body costs this much more for each part it inserts from the knowledge (no region
-# shows it): of two alternatives that explain the same evidence equally well, the one that
-# guesses less is preferred (a gable and a hip roof over the same front slope and gable wall:
-# their adjustments differ by noise, 1e-4). Small against the evidence: the penalty for
-# leaving 1.25 % of the evidence weight unexplained (`plausibility.UNEXPLAINED_PENALTY`)
+# a verified body costs up to this much more for each part it inserts from the knowledge (no
+# region shows it): of two alternatives that explain the same regions equally well, the one
+# that guesses less is preferred (a gable and a hip roof over the same front slope and gable
+# wall: their adjustments differ by noise, 1e-4). Small against the evidence: the penalty for
+# leaving 1.25 % of the evidence weight unexplained (`plausibility.UNEXPLAINED_PENALTY`).
+# An inserted part whose edges the reference image shows is not guessed: it costs only the
+# share of its visible edges' length no segment lies along (`support.edge_support`; a part
+# no camera sees costs it whole). A gable's roof planes over a dark roof with no region, its
+# rakes and ridge seen, cost less than a flat roof's top, whose edges across the gable end
+# wall are not seen.
 INSERTED_PART_PENALTY = 0.05
+# a body that inserts a part facing the camera (no region fits it; accepted only where the
+# image's segments show its outline, `alternative.unseen_by_edges`) costs this much more for
+# each: a face in view gives stereo a region far more often than not (a dark, low-texture
+# roof is the exception)
+FACING_INSERTED_PENALTY = 0.05
+# a verified body explaining the same regions in the same frame as the accepted one, with
+# other choices along is-a, is a tie when its cost is within this of the accepted body's:
+# two guessed parts' worth (`INSERTED_PART_PENALTY`). A gable seen square to its front and a
+# shed whose back wall stands under the ridge show the same edges; where the two differ only
+# by where the knowledge placed unseen walls (their costs then scatter by a few hundredths),
+# the evidence does not decide, and the result names the other (`Interpretation.ties`)
+TIE_MARGIN = 2 * INSERTED_PART_PENALTY
+# whether a body may insert a part facing the camera at all (False: rejected before any solve)
+FACING_INSERTED = True
 
 __all__ = ["Interpreter", "Level", "Pending", "State", "Trace"]
 
@@ -63,6 +84,11 @@ class Pending:
     # those free walls (region ids): a segment between one and the body is where a part
     # meets it, not an unexplained segment of the body (`adjust.adjust`, ``verified``)
     walls: frozenset[str] = frozenset()
+    # its parts that would be inserted facing the camera (`unseen.initial_planes`): verified
+    # only where segments show them (`alternative.unseen_by_edges`); a rejection for want of
+    # them does not count against `MAX_BODY_VERIFICATIONS`, as it did not when such bodies
+    # were rejected before any solve
+    facing: tuple[str, ...] = ()
 
     @property
     def estimate(self) -> float:
@@ -109,6 +135,8 @@ class Interpreter:
         # hypotheses of the body generated, verticals, frames, structures; verified so far
         self.generated: tuple[int, int, int, int] = (0, 0, 0, 0)
         self.verified_bodies = 0
+        # every verified body with its cost (`ties`)
+        self.bodies: list[tuple[Level, float]] = []
 
     # ---- level 0: the main body --------------------------------------------------------------
     def body_candidates(self, parent: int) -> list[Pending]:
@@ -151,10 +179,12 @@ class Interpreter:
             slot.link == "part-of" and not slot.obligatory
             for slot in self.knowledge.concept(concept).slots
         )
-        if not optional:
-            return [Pending(h) for h in hypotheses]
         out: list[Pending] = []
         for h in hypotheses:
+            facing = self._facing(h)
+            if not optional:
+                out.append(Pending(h, facing=facing))
+                continue
             free = [r for r in ctx.regions if r.id not in h.binding and ctx.significant(r)]
             walls = vertical(free, h.frame.frame.up)
             weight = sum(r.weight for r in walls)
@@ -163,9 +193,23 @@ class Interpreter:
                     h,
                     UNEXPLAINED_PENALTY * weight / ctx.total_weight,
                     frozenset(r.id for r in walls),
+                    facing,
                 )
             )
         return sorted(out, key=lambda p: p.estimate)  # stable: ties in the order generated
+
+    def _facing(self, h: BodyHypothesis) -> tuple[str, ...]:
+        """The parts `h` would insert facing the reference camera (cheap geometry, before any
+        solve: `unseen.initial_planes` from the knowledge's placements); () when there are
+        none or its planes cannot be placed (then `verify_body` says why)."""
+        ctx = replace(self.context, up=h.frame.frame.up)
+        try:
+            initial = initial_planes(
+                ctx, h.structure, h.frame.frame, h.binding, {}, {}, seen_by_edges=True
+            )
+        except AidaError:
+            return ()
+        return initial.visible
 
     def verify_body(self, pending: Pending, parent: int) -> tuple[Level, float] | None:
         """Verify one alternative of the main body; its level and cost, or None if rejected."""
@@ -177,8 +221,11 @@ class Interpreter:
             f"{bound or 'nothing bound'}"
         )
         try:
-            # cheap, before any solve: a part it inserts would face the camera
-            initial_planes(ctx, h.structure, h.frame.frame, h.binding, {}, {})
+            # cheap, before any solve: a part it inserts would face the camera; such a body
+            # is verified only where segments show that part (`FACING_INSERTED`)
+            initial_planes(
+                ctx, h.structure, h.frame.frame, h.binding, {}, {}, seen_by_edges=FACING_INSERTED
+            )
         except UnseenError as exc:
             root = h.structure.nodes[0]
             what = "; ".join(x for x in (h.structure.describe(), label) if x)
@@ -199,8 +246,11 @@ class Interpreter:
             offered=h.offered,
             junctions=pending.walls,
             label=label,
+            seen_by_edges=FACING_INSERTED,
         )
         if level is None:
+            if pending.facing:
+                self.verified_bodies -= 1
             return None
         # its misfit counts in proportion to the evidence it explains, as an optional part's
         # does: which of two arms is taken for the body and which for its wing must not change
@@ -208,7 +258,10 @@ class Interpreter:
         # more residuals, was cheaper as the wing: the 135-degree L-shape's arms swapped)
         share = sum(self.evidence.regions[r].weight for r in level.binding)
         misfit = level.misfit * share / ctx.total_weight
-        return level, misfit + h.prior + INSERTED_PART_PENALTY * len(level.inserted)
+        facing = FACING_INSERTED_PENALTY * len(level.visible)
+        cost = misfit + h.prior + facing + body_evidence_cost(ctx, level)
+        self.bodies.append((level, cost))
+        return level, cost
 
     # ---- level 1..: optional parts ----------------------------------------------------------
     def optional_alternatives(self, state: State, parent: int) -> list[tuple[Level, float]]:
@@ -326,6 +379,30 @@ class Interpreter:
             self.trace.verify(goal_id, f"verified with cost {result.cost:.3g}: {searched}")
         return result.best, result.expanded, goal_id
 
+    def ties(self, state: State) -> list[str]:
+        """The other choices along is-a of the accepted body (``ROLE=CONCEPT``, sorted) that
+        the evidence does not decide against: a verified body binding the same regions in
+        the same frame, its cost within `TIE_MARGIN` of the accepted body's."""
+        if not state.levels:
+            return []
+        body = state.levels[0]
+        own = next((c for lv, c in self.bodies if lv is body), None)
+        if own is None:
+            return []
+        chosen = dict(body.structure.choices)
+        out: set[str] = set()
+        for level, cost in self.bodies:
+            if level is body or cost > own + TIE_MARGIN:
+                continue
+            if set(level.binding) != set(body.binding):
+                continue
+            if not _same_frame(level.frame, body.frame):
+                continue
+            for role, concept in level.structure.choices:
+                if chosen.get(role) != concept:
+                    out.add(f"{role}={concept}")
+        return sorted(out)
+
     def instances(self, state: State) -> list[Instance]:
         """The instance nodes of an accepted state (goal, body, parts, image-layer regions)."""
         goal_node = self.context.body.goal_node
@@ -366,6 +443,38 @@ class Interpreter:
                             )
                         )
         return out
+
+
+def guessed(level: Level) -> float:
+    """How many of a level's inserted parts are guessed: each counts the share of its
+    visible edges' length in the reference image that no segment lies along (1: none seen,
+    or it has no visible edge; `support.EdgeSupport`)."""
+    out = 0.0
+    for role in level.inserted:
+        seen = level.edges.share(frozenset((role,)))
+        out += 1.0 if seen is None else 1.0 - seen
+    return out
+
+
+def body_evidence_cost(ctx: Context, level: Level) -> float:
+    """What a verified body costs beyond its misfit: `INSERTED_PART_PENALTY` for each part
+    it guesses (`guessed`), and the evidence weight of its bound regions that lies outside
+    their faces (`support.overflow`; a gable end wall's triangle above a flat roof's eave) at
+    the rate of unexplained evidence (`plausibility.UNEXPLAINED_PENALTY`)."""
+    return (
+        INSERTED_PART_PENALTY * guessed(level)
+        + UNEXPLAINED_PENALTY * level.overflow / ctx.total_weight
+    )
+
+
+# two frames are one when their axes agree to this (the frames of one region's facing
+# direction under one vertical are identical; the adjustment does not move a level's frame)
+SAME_FRAME_COS = math.cos(math.radians(1.0))
+
+
+def _same_frame(a: Frame, b: Frame) -> bool:
+    """True if two instance frames have the same front and up (to `SAME_FRAME_COS`)."""
+    return float(a.front @ b.front) >= SAME_FRAME_COS and float(a.up @ b.up) >= SAME_FRAME_COS
 
 
 def _anchor_region(ctx: Context, level: Level) -> RegionView:

@@ -101,6 +101,14 @@ class Interpretation(_Frozen):
         default_factory=list,
         description="a goal holding several objects: each object found, with its own verdict",
     )
+    ties: list[str] = Field(
+        default_factory=list,
+        description=(
+            "other choices along is-a that explain the same evidence about as well as the "
+            "accepted one (aida_kb.interpret.interpreter.TIE_MARGIN), e.g. "
+            "'body.roof=ShedRoof': the evidence does not decide between them"
+        ),
+    )
 
     def instance(self, role: str) -> Instance:
         """The instance with role path `role` (KeyError if none)."""

@@ -189,13 +189,15 @@ def interpretation_of(
         level.structure.describe() for level in state.levels if level.structure.describe()
     )
     inserted = sum(len(level.inserted) for level in state.levels)
+    ties = interpreter.ties(state)
+    undecided = f"; the evidence does not decide it from {', '.join(ties)}" if ties else ""
     return Interpretation(
         goal=goal,
         accepted=True,
         message=(
             f"{goal} verified ({choices or 'no alternatives'}); "
             f"{sum(len(lv.structure.leaves) for lv in state.levels)} planar parts, "
-            f"{inserted} inserted from knowledge; {expanded} hypotheses expanded"
+            f"{inserted} inserted from knowledge; {expanded} hypotheses expanded{undecided}"
         ),
         instances=interpreter.instances(state),
         model=model_of(state, evidence),
@@ -203,4 +205,5 @@ def interpretation_of(
         trace=trace,
         expanded=expanded,
         cost=state.cost,
+        ties=ties,
     )

@@ -71,11 +71,15 @@ def initial_planes(
     binding: dict[str, str],
     fixed: Planes,
     choices: dict[str, str],
+    *,
+    seen_by_edges: bool = False,
 ) -> Initial:
     """The planes an alternative's adjustment starts from (see the module docstring).
 
     Raises UnseenError when a part of the main body (no ``fixed`` planes) would be inserted
-    facing the reference camera.
+    facing the reference camera, unless ``seen_by_edges``: then it is inserted and returned
+    as *visible*, for the caller to judge by the image's segments along its edges (a dark,
+    low-texture roof that gives stereo no region, `interpret.support`).
     """
     evidence = ctx.evidence
     seen = {role: evidence.regions[rid] for rid, role in binding.items()}
@@ -129,7 +133,7 @@ def initial_planes(
         on_plane = centre + (d - float(n @ centre)) * n
         # a face behind another object of the scene (`interpret.scene`) is not seen, rightly
         if faces_camera(n, on_plane, evidence.camera) and not ctx.hidden_by_others(on_plane):
-            if fixed:
+            if fixed or seen_by_edges:
                 visible.append(leaf.role)
                 planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
                 continue

@@ -1134,8 +1134,18 @@ def judge(
     # (d) the knowledge's measured attributes
     reasons += check_attributes(kb, interp, model, metric=metric)
     reasons += check_orientations(kb, interp, model)
+    reasons += undecided(interp)
     verdict = DOUBTFUL if reasons else VERIFIED
     return Verdict(verdict, tuple(reasons), tuple(not_explained), tuple(checks), uncertainty)
+
+
+def undecided(interp: Interpretation) -> list[str]:
+    """The choices along is-a the evidence does not decide (`Interpretation.ties`, from the
+    interpreter: another specialisation explains the same evidence about as well)."""
+    return [
+        f"the evidence does not decide {tie.split('=')[0]}: {tie} explains it about as well"
+        for tie in interp.ties
+    ]
 
 
 def with_verdict(interp: Interpretation, verdict: Verdict) -> Interpretation:

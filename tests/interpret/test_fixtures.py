@@ -33,6 +33,7 @@ CONVERTED = (
     "house_correct",
     "house_asymmetric_roof",
     "house_occluded",
+    "house_dark_roof",
     "wing_90",
     "wing_135",
     "oriel",

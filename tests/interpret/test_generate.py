@@ -17,7 +17,7 @@ from aida_kb.interpret.generate import (
     candidate_frames,
     candidate_ups,
 )
-from aida_kb.interpret.interpreter import INSERTED_PART_PENALTY, Interpreter
+from aida_kb.interpret.interpreter import INSERTED_PART_PENALTY, Interpreter, guessed
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
 from aida_kb.interpret.plausibility import UNEXPLAINED_PENALTY
@@ -158,8 +158,9 @@ def test_a_light_region_fitting_a_part_may_bind_it_or_be_left_out(occluded: Cont
 
 def test_a_verified_body_costs_each_part_it_inserts(buildings_kb: Any) -> None:
     """Of two bodies explaining the same evidence as well, the one that guesses fewer parts
-    from the knowledge is preferred: each inserted part costs INSERTED_PART_PENALTY. Its
-    misfit counts in proportion to the evidence it binds."""
+    from the knowledge is preferred: each inserted part costs INSERTED_PART_PENALTY, less the
+    share of its visible edges the image's segments show. Its misfit counts in proportion to
+    the evidence it binds."""
     evidence = read_evidence(FIXTURES / "house_occluded.json")
     it = Interpreter(Knowledge.from_kb(buildings_kb), view_of(evidence, "occluded"), "House")
     goal = it.trace.create("House", "", None, "goal")
@@ -174,7 +175,13 @@ def test_a_verified_body_costs_each_part_it_inserts(buildings_kb: Any) -> None:
     # its misfit in proportion to the evidence it explains, as an optional part's
     share = sum(it.evidence.regions[r].weight for r in level.binding) / it.context.total_weight
     assert 0.0 < share < 1.0
-    assert cost == pytest.approx(level.misfit * share + INSERTED_PART_PENALTY * 4)
+    # the evidence's segments show nearly every visible edge of the four inserted parts (the
+    # back, the right wall, the floor and the back slope): they are barely guessed
+    shares = [level.edges.share(frozenset((role,))) for role in level.inserted]
+    assert all(s is not None and s > 0.95 for s in shares)
+    assert 0.0 < guessed(level) < 0.2
+    assert level.overflow == 0.0  # every bound region lies on its face
+    assert cost == pytest.approx(level.misfit * share + INSERTED_PART_PENALTY * guessed(level))
 
 
 def test_a_pending_body_expects_optional_parts_to_explain_the_free_walls(

@@ -1,0 +1,175 @@
+"""What the reference image says for and against one closed alternative, beyond its regions.
+
+Two alternatives may bind the same regions and fit them equally well (a gable and a flat roof
+over a front wall and a gable end wall when the roof shows no region of its own): the
+adjustment cannot tell them apart, the image can.
+
+- **Edges seen** (`edge_support`): every edge of the closed solid the reference camera sees
+  (`register.model.RigidModel.visible_edges`: a face turned towards the camera, not hidden by
+  another), projected, and how much of its length image line segments lie along (all the
+  image's segments, not only those bordering bound regions: a roof's rake against the sky
+  borders no roof region). A gable's rakes and ridge are seen, a flat roof's top edges across
+  the gable end wall are not.
+- **Outline overflow** (`overflow`): how much of each bound region's outline lies outside the
+  projection of the face it is bound to. A gable end wall's triangle reaching above a flat
+  roof's eave is evidence the flat roof leaves unexplained, though the region's centre lies
+  on the face (`plausibility.outside`).
+
+The interpreter charges both (`interpreter.Interpreter.verify_body`); they are computed for
+every verified alternative of the main body: a rasterisation of a few polygons and one
+vectorised segment-to-edge matching (`register.match.match_segments`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.errors import GeometryError
+from aida_kb.interpret.context import Context
+from aida_kb.register.match import match_segments
+from aida_kb.register.model import RigidModel
+
+FloatArray = npt.NDArray[np.float64]
+
+# a segment shows a projected model edge within this distance (both ends) and angle: the
+# verdict's tolerance (`verdict.EDGE_TOLERANCE_PX`, 3 px) widened by a pixel, since an
+# alternative is judged at its interpretation's adjustment, before the multi-view refinement
+EDGE_TOLERANCE_PX = 4.0
+EDGE_ANGLE_DEG = 4.0
+# projected edges shorter than this are not judged (a few segment pixels decide nothing)
+EDGE_MIN_LENGTH_PX = 25.0
+# a region's outline may reach this far beyond its face's projection (segmentation borders
+# are good to a few pixels; the plane fit and the adjustment move the face by about as much)
+OVERFLOW_MARGIN_PX = 4.0
+# up to this share of a region's area may lie outside its face without counting: the faces
+# an alternative inserts are placed by the knowledge (least extents) and segmentation bleeds
+# over corners, leaving a few per cent outside (a gable end wall's triangle above a flat
+# roof's eave is a fifth to a half of the wall's region)
+OVERFLOW_FREE = 0.1
+# outlines are rasterised at this fraction of the image's resolution (a share of an area is
+# wanted, not its pixels)
+RASTER_SCALE = 0.5
+
+
+@dataclass(frozen=True)
+class EdgeSupport:
+    """The edges of a closed alternative the reference camera sees, and what segments show.
+
+    parts : (E, 2) role paths of each edge's two faces; length_px : (E,) projected visible
+    length, pixels; seen_px : (E,) of it the length image segments lie along, pixels.
+    """
+
+    parts: tuple[tuple[str, str], ...]
+    length_px: FloatArray
+    seen_px: FloatArray
+
+    @classmethod
+    def empty(cls) -> EdgeSupport:
+        """No edge seen or visible."""
+        return cls((), np.zeros(0), np.zeros(0))
+
+    def share(self, roles: frozenset[str] | None = None) -> float | None:
+        """The seen share of the visible length of the edges with a face in `roles` (None:
+        of every edge); None when there is no such edge."""
+        sel = np.array(
+            [roles is None or bool(roles.intersection(p)) for p in self.parts], dtype=bool
+        )
+        if not sel.any():
+            return None
+        total = float(self.length_px[sel].sum())
+        return float(self.seen_px[sel].sum()) / total if total > 0 else None
+
+
+def edge_support(
+    ctx: Context, planes: dict[str, tuple[FloatArray, float]], polygons: dict[str, FloatArray]
+) -> EdgeSupport:
+    """The closed solid's edges the reference camera sees and the segments along them.
+
+    planes : role path -> (unit outward normal (3,), offset m), world frame; polygons : role
+    path -> closed face (K, 3), metres, world frame (only faces with both are used).
+    """
+    names = [r for r in polygons if r in planes and len(polygons[r]) >= 3]
+    empty = EdgeSupport.empty()
+    if len(names) < 2:
+        return empty
+    try:
+        rigid = RigidModel.from_polygons(
+            names,
+            [planes[r][0] for r in names],
+            [planes[r][1] for r in names],
+            [polygons[r] for r in names],
+        )
+    except GeometryError:
+        return empty
+    camera = ctx.evidence.camera
+    edges = rigid.visible_edges(camera.pinhole, min_length_px=EDGE_MIN_LENGTH_PX)
+    parts = tuple(
+        (rigid.names[int(a)], rigid.names[int(b)]) for a, b in rigid.edge_faces[edges.index]
+    )
+    seen = np.zeros(edges.index.size)
+    lines = ctx.evidence.lines_px.get(camera.view)
+    if edges.index.size and lines is not None and len(lines):
+        p1, p2 = lines[:, 0, :], lines[:, 1, :]
+        m = match_segments(
+            edges.a,
+            edges.b,
+            p1,
+            p2,
+            max_distance_px=EDGE_TOLERANCE_PX,
+            max_angle_rad=math.radians(EDGE_ANGLE_DEG),
+        )
+        if m.size:
+            a, b = edges.a[m.edge], edges.b[m.edge]
+            length = edges.length_px[m.edge]
+            u = (b - a) / np.maximum(length, 1e-12)[:, None]
+            t1 = np.einsum("mk,mk->m", p1[m.segment] - a, u)
+            t2 = np.einsum("mk,mk->m", p2[m.segment] - a, u)
+            lo = np.clip(np.minimum(t1, t2), 0.0, length)
+            hi = np.clip(np.maximum(t1, t2), 0.0, length)
+            np.add.at(seen, m.edge, hi - lo)  # pieces of one edge rarely overlap
+    return EdgeSupport(parts, edges.length_px, np.minimum(seen, edges.length_px))
+
+
+def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArray]) -> float:
+    """The evidence weight of the bound regions lying outside their faces' projections.
+
+    For each bound region (``binding``: region id -> role path), the share of its outline's
+    area (reference image) farther than `OVERFLOW_MARGIN_PX` outside its face's projection
+    (``polygons``: role path -> (K, 3), metres, world) beyond `OVERFLOW_FREE`, times its
+    weight; summed. Regions
+    without an outline, or whose face is not wholly in front of the camera, count 0.
+    """
+    camera = ctx.evidence.camera
+    pinhole = camera.pinhole
+    scale = RASTER_SCALE
+    width = max(1, math.ceil(camera.width_px * scale))
+    height = max(1, math.ceil(camera.height_px * scale))
+    margin = max(1, round(OVERFLOW_MARGIN_PX * scale))
+    kernel = np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)
+    total = 0.0
+    for rid, role in sorted(binding.items()):
+        outlines = ctx.evidence.outlines.get(rid, ())
+        face = polygons.get(role)
+        region = ctx.evidence.regions.get(rid)
+        if not outlines or face is None or len(face) < 3 or region is None:
+            continue
+        depth = face @ camera.R_cam_world[2] + camera.t_cam_world[2]
+        if not np.all(depth > 0):
+            continue
+        face_px = np.clip(pinhole.project(face), -1e6, 1e6)
+        mask = np.zeros((height, width), np.uint8)
+        cv2.fillPoly(mask, [np.round(o * scale).astype(np.int32) for o in outlines], 1)
+        area = int(mask.sum())
+        if area == 0:
+            continue
+        face_mask = np.zeros_like(mask)
+        cv2.fillPoly(face_mask, [np.round(face_px * scale).astype(np.int32)], 1)
+        near = cv2.dilate(face_mask, kernel) > 0
+        outside = int(np.count_nonzero((mask > 0) & ~near))
+        total += region.weight * max(0.0, outside / area - OVERFLOW_FREE)
+    return total
