@@ -70,6 +70,7 @@ compiled knowledge base and the files: no concept or attribute of a particular .
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -828,9 +829,9 @@ def unmeasured_parts(
                     "the adjustment's covariance)"
                 )
             continue
-        how = "placed by the knowledge" if part.role in inserted else "bound to no region on it"
+        how = PLACED_BY_KNOWLEDGE if part.role in inserted else BOUND_TO_NOTHING
         reasons.append(
-            f"{part.role} is {how}, not measured: no region lies on it and "
+            f"{part.role} is {how}{NOT_MEASURED}: no region lies on it and "
             f"{lines} of its edges are measured ({MEASURED_LINES} needed: seen in two views, "
             "or in one along a neighbour a region measures)"
         )
@@ -1015,6 +1016,24 @@ def check_attributes(
 
 
 # ---- the verdict -----------------------------------------------------------------------
+def unconfirmed(evidence: Evidence, model: ReconstructedModel) -> str | None:
+    """The reason why no other view confirms the model, or None: the evidence has views
+    besides the one interpreted (the first) and the model has a camera for none of them
+    (the reconstruction registered none: the model's edges matched in no other image). An
+    object that stands there would be found from 20-45 degrees further round; development
+    scenes: 2 of 57 houses seen in several views (both doubtful for other reasons), and
+    every object-less scene accepted in one view."""
+    first = evidence.views[0].id
+    others = [v.id for v in evidence.views[1:]]
+    cameras = {c.view for c in model.cameras}
+    if not others or first not in cameras or cameras & set(others):
+        return None
+    return (
+        f"seen in view {first} alone: none of the other views ({', '.join(others)}) could "
+        "be registered to the model (no other view confirms the object)"
+    )
+
+
 def _bound_parts(interp: Interpretation) -> set[str]:
     """Roles of the parts bound to evidence: an instance bound to regions, or the whole
     its bound con-of realisation (the region) hangs on."""
@@ -1115,6 +1134,13 @@ def judge(
     sizes = check_attributes(kb, interp, model, unit=SIZE_UNIT, metric=metric)
     if sizes:
         return Verdict(NOTHING, tuple(sizes), tuple(not_explained), tuple(checks), uncertainty)
+    # an object no other view confirms: the scene has other views, and none of them could be
+    # registered to the model (its edges are nowhere in those images) — what one view took
+    # for the object is not there as the model has it (a tree's box-shaped crown taken for a
+    # small house)
+    alone = unconfirmed(evidence, model) if all_views else None
+    if alone is not None:
+        return Verdict(NOTHING, (alone,), tuple(not_explained), tuple(checks), uncertainty)
     # (f) no large surface joined to the model that the model does not explain
     by_id = {v.id: v for v in evidence.views}
     for check in checks:
@@ -1148,11 +1174,67 @@ def undecided(interp: Interpretation) -> list[str]:
     ]
 
 
+# The wording of (e)'s reasons for a part no evidence measures; `summary_reasons` says those
+# of several parts once
+PLACED_BY_KNOWLEDGE = "placed by the knowledge"
+BOUND_TO_NOTHING = "bound to no region on it"
+NOT_MEASURED = ", not measured"
+_UNMEASURED = re.compile(
+    rf"^(\S+) is ({re.escape(PLACED_BY_KNOWLEDGE)}|{re.escape(BOUND_TO_NOTHING)})"
+    rf"{re.escape(NOT_MEASURED)}: "
+)
+
+
+def _roles_once(roles: list[str]) -> str:
+    """Roles joined, each after the first written from its last dot when it shares the
+    first's owner: ``body.back, .left, .floor``."""
+    owner = roles[0].rsplit(".", 1)[0] + "." if "." in roles[0] else None
+    rest = [
+        r[len(owner) - 1 :]
+        if owner is not None and r.startswith(owner) and "." not in r[len(owner) :]
+        else r
+        for r in roles[1:]
+    ]
+    return ", ".join([roles[0], *rest])
+
+
+def summary_reasons(reasons: tuple[str, ...] | list[str]) -> list[str]:
+    """The reasons as the summary line gives them: what (e) says of each part no evidence
+    measures (placed by the knowledge, or bound to no region on it) said once for all those
+    parts, where the first of them stood (``body.back, .left, .floor placed by the knowledge:
+    no view measures them``); the other reasons as they are. `Verdict.reasons` (the result's
+    doubts) keep each part's own reason, with its count of measured edges."""
+    groups: dict[str, list[str]] = {}
+    out: list[str] = []
+    for reason in reasons:
+        m = _UNMEASURED.match(reason)
+        if m is None:
+            out.append(reason)
+            continue
+        how = m.group(2)
+        if how not in groups:
+            groups[how] = []
+            out.append("\0" + how)  # the group's place
+        groups[how].append(m.group(1))
+    said = []
+    for reason in out:
+        if not reason.startswith("\0"):
+            said.append(reason)
+            continue
+        how = reason[1:]
+        roles = groups[how]
+        what = "them" if len(roles) > 1 else "it"
+        said.append(f"{_roles_once(roles)} {how}: no view measures {what}")
+    return said
+
+
 def with_verdict(interp: Interpretation, verdict: Verdict) -> Interpretation:
-    """`interp` carrying the verdict; a doubtful one's summary line says so first."""
+    """`interp` carrying the verdict; a doubtful one's summary line says so first, with
+    the reasons of `summary_reasons` (the doubts keep every reason in full)."""
     message = interp.message
     if verdict.verdict == DOUBTFUL:
-        message = f"{interp.goal} doubtful: {'; '.join(verdict.reasons)} (was: {message})"
+        shown = "; ".join(summary_reasons(verdict.reasons))
+        message = f"{interp.goal} doubtful: {shown} (was: {message})"
     elif verdict.verdict == NOTHING and verdict.reasons:
         message = f"no {interp.goal} found: {'; '.join(verdict.reasons)} (was: {message})"
     update: dict[str, object] = {

@@ -371,7 +371,9 @@ def _merge_coplanar(
     ids = np.array([r.id for r in plane_regions], np.int64)
     normals = np.array([R_w @ np.array(r.n_init) for r in plane_regions])
     centroids = np.array([R_w @ np.array(r.c_init) + t_w for r in plane_regions])
-    merged = merge_coplanar(regions, ids, normals, centroids)
+    merged = merge_coplanar(
+        regions, ids, normals, centroids, points=depth.points, focal_px=float(calib.K1[0, 0])
+    )
     if np.array_equal(merged, regions):
         return regions, plane_regions
     refit = _plane_regions(

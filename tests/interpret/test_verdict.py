@@ -168,6 +168,10 @@ def test_a_part_no_evidence_measures_is_named(
         r.split(" ")[0] for r in verdict.reasons if "placed by the knowledge, not measured" in r
     ]
     assert named == ["body.back", "body.right", "body.floor"]
+    # the summary line says it once for the three
+    summary = with_verdict(interp, verdict).message
+    assert "body.back, .right, .floor placed by the knowledge: no view measures them" in summary
+    assert summary.count("placed by the knowledge") == 1
 
 
 def test_an_orientation_that_is_the_choice_itself_is_contested(
@@ -445,3 +449,26 @@ def test_outlines_crossing_a_hidden_face_do_not_measure_it() -> None:
     )
     assert _spread(floor_edges, 7.2) == 2
     assert _spread(floor_edges[:20], 7.2) == 1
+
+
+def test_a_tree_crown_taken_for_a_house_is_nothing_found(buildings_kb: KnowledgeBase) -> None:
+    """Development clutter scene 2021 (`random_scene(2021, kind="clutter")`: ground and
+    occluders, no object; evidence kept with the longer lines of view 00): a tree's
+    box-shaped crown, two faces seen, is a small flat-roofed house to view 00 alone (it was
+    verified there). Neither other view of the scene could be registered to it: no view
+    confirms the object, and a reconstruction, which stands for every view, finds nothing."""
+    from aida_kb.interpret.run import interpret
+
+    evidence = read_evidence(Path(__file__).parent / "data" / "clutter_tree_crown.json")
+    assert [v.id for v in evidence.views] == ["00", "01", "02"]
+    interp = interpret(buildings_kb, evidence, goal="House")
+    assert interp.accepted and interp.model is not None
+    assert {c.view for c in interp.model.cameras} == {"00"}
+    verdict = judge(buildings_kb, interp, evidence, all_views=True)
+    assert verdict.verdict == NOTHING
+    assert verdict.reasons == (
+        "seen in view 00 alone: none of the other views (01, 02) could be registered to the "
+        "model (no other view confirms the object)",
+    )
+    # `aida-kb interpret` judges the views it interpreted: doubtful there, never verified
+    assert judge(buildings_kb, interp, evidence).verdict == DOUBTFUL

@@ -161,3 +161,51 @@ def test_line_kinds_tell_structural_from_texture() -> None:
         side_px=5.0,
     )
     assert kinds == ["texture", "structural", "structural", "structural", None]
+
+
+def test_fragments_of_one_wall_merge_across_windows_and_a_wing_does_not() -> None:
+    """A wall 20 m away, broken by windows (no depth) into five pieces whose own plane fits
+    scatter (noise 5 cm on a few hundred points each), merges into one region; a wing's wall
+    at 45 degrees touching it, and a porch 1 m in front of it, stay apart."""
+    from aida_kb.vision.segmentation import merge_coplanar
+
+    H, W, f = 120, 400, 500.0
+    v, u = np.mgrid[0:H, 0:W].astype(np.float64)
+    x_dir = (u - W / 2) / f
+    y_dir = (v - H / 2) / f
+    rng = np.random.default_rng(3)
+    noise = rng.normal(0.0, 0.05, (H, W))
+    z_wall = 20.0 + noise  # a wall square to the optical axis
+    # a wing's wall at 45 degrees through the wall's right end (u = 300): z grows with x
+    x_end = (300 - W / 2) / f * 20.0
+    z_wing = (20.0 - x_end) / (1.0 - x_dir) + noise  # the plane z - x = 20 - x_end
+    z = np.where(u < 300, z_wall, z_wing)
+    z[(v >= 80) & (u >= 200) & (u < 300)] = 19.0 + noise[(v >= 80) & (u >= 200) & (u < 300)]
+    points = np.stack([x_dir * z, y_dir * z, z], axis=-1).astype(np.float32)
+    regions = np.zeros((H, W), np.int32)
+    for k, left in enumerate(range(0, 300, 60)):  # pieces 40 px wide, 20 px windows between
+        regions[:80, left : left + 40] = k + 1
+        points[:80, left + 40 : left + 60] = np.nan
+    regions[80:, 200:300] = 8  # the porch, 1 m in front
+    regions[:, 300:] = 9  # the wing's wall
+    ids = np.array([1, 2, 3, 4, 5, 8, 9])
+    # the plane fits of small pieces scatter by degrees: turned 5 degrees either way here
+    normals, centroids = [], []
+    for k, i in enumerate(ids):
+        p = points[regions == i].astype(np.float64)
+        p = p[np.isfinite(p).all(axis=1)]
+        c = p.mean(axis=0)
+        n = np.linalg.svd(p - c)[2][2]
+        a = np.radians(5.0 if k % 2 else -5.0)
+        turn = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+        normals.append(turn @ n)
+        centroids.append(c)
+    merged = merge_coplanar(
+        regions, ids, np.array(normals), np.array(centroids), points=points, focal_px=f
+    )
+    assert set(np.unique(merged[:80, :300][regions[:80, :300] > 0]).tolist()) == {1}
+    assert np.all(merged[80:, 200:300] == 8)
+    assert np.all(merged[:, 300:] == 9)
+    # by their normals alone (within COPLANAR_DEG) the pieces stay apart
+    alone = merge_coplanar(regions, ids, np.array(normals), np.array(centroids))
+    assert np.array_equal(alone, regions)
