@@ -22,9 +22,10 @@ none is guessed:
   orientation and slope fit its prediction in the frame (`hypotheses.fits`: the ``orient``
   declaration and the range of the part's slope attribute), then the lighter ones that carry
   at least `MIN_PART_WEIGHT_FRACTION` of the evidence (a side wall seen at a grazing angle,
-  whose outline tells a gable wall from a hip's or a shed's), or none (the part is inserted;
-  whether the camera could miss it is checked before anything is solved,
-  `unseen.initial_planes`); the frame's anchor (``frame from PART``)
+  whose outline tells a gable wall from a hip's or a shed's) or cover `MIN_PART_AREA_FRACTION`
+  of the image's region pixels (a dark roof: little certainty, a plane all the same), or
+  none (the part is inserted; whether the camera could miss it is checked before anything is
+  solved, `unseen.initial_planes`); the frame's anchor (``frame from PART``)
   is always bound, to a region the frame was taken from: the frame is its evidence's (a
   region too light to be significant may be the anchor, `anchor_regions`). A binding binds
   each region once, puts a part facing upward above the anchor's region (one
@@ -166,7 +167,8 @@ def anchor_regions(ctx: Context, anchors: frozenset[str] = frozenset()) -> list[
         (
             r
             for r in ctx.regions
-            if not ctx.significant(r) and ctx.significant(r, MIN_PART_WEIGHT_FRACTION)
+            if not ctx.significant(r)
+            and (ctx.significant(r, MIN_PART_WEIGHT_FRACTION) or ctx.large(r))
         ),
         key=lambda r: (-r.weight, r.id),
     )
@@ -307,7 +309,8 @@ def best_bindings(
         (
             r
             for r in ctx.regions
-            if not ctx.significant(r) and ctx.significant(r, MIN_PART_WEIGHT_FRACTION)
+            if not ctx.significant(r)
+            and (ctx.significant(r, MIN_PART_WEIGHT_FRACTION) or ctx.large(r))
         ),
         key=lambda r: (-r.weight, r.id),
     )

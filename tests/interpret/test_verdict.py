@@ -462,7 +462,8 @@ def test_a_tree_crown_taken_for_a_house_is_nothing_found(buildings_kb: Knowledge
     evidence = read_evidence(Path(__file__).parent / "data" / "clutter_tree_crown.json")
     assert [v.id for v in evidence.views] == ["00", "01", "02"]
     interp = interpret(buildings_kb, evidence, goal="House")
-    assert interp.accepted and interp.model is not None
+    assert interp.accepted
+    assert interp.model is not None
     assert {c.view for c in interp.model.cameras} == {"00"}
     verdict = judge(buildings_kb, interp, evidence, all_views=True)
     assert verdict.verdict == NOTHING
