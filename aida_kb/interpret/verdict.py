@@ -63,7 +63,10 @@ is **verified** only when it also
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
 where. An interpretation that found no object is **nothing**; so is one whose sizes (the
 attributes in metres) lie outside the knowledge's ranges: what was found is not the goal (a
-0.3 m box is no house), and the reasons say which sizes. Everything is read from the
+0.3 m box is no house), and the reasons say which sizes; and so is a reconstruction that
+registered none of the scene's other views (`unconfirmed`: no other view confirms the object;
+a tree's box-shaped crown taken for a small house in one view). The summary line says the
+reasons once for several parts (`summary_reasons`). Everything is read from the
 compiled knowledge base and the files: no concept or attribute of a particular .kb is named.
 """
 

@@ -428,9 +428,24 @@ def test_a_view_left_without_a_camera_is_named(
     second = evidence.views[0].model_copy(update={"id": "01", "frame": "camera"})
     both = evidence.model_copy(update={"views": [*evidence.views, second]})
     assert judge(buildings_kb, interp, both).verdict == VERIFIED  # interpret: view 00's result
-    verdict = judge(buildings_kb, interp, both, all_views=True)
+    # a third view registered (taken where view 00 was: it shows what view 00 shows)
+    third = evidence.views[0].model_copy(update={"id": "02", "frame": "camera"})
+    three = evidence.model_copy(update={"views": [*evidence.views, second, third]})
+    assert interp.model is not None
+    camera = interp.model.cameras[0].model_copy(update={"view": "02"})
+    model = interp.model.model_copy(update={"cameras": [*interp.model.cameras, camera]})
+    registered = interp.model_copy(update={"model": model})
+    verdict = judge(buildings_kb, registered, three, all_views=True)
     assert verdict.verdict == DOUBTFUL
-    assert verdict.reasons == ("view 01: not registered (the model has no camera for it)",)
+    assert verdict.reasons[0] == "view 01: not registered (the model has no camera for it)"
+    assert "01" in verdict.views_not_explained
+    # no other view registered: none confirms the object, nothing is found
+    verdict = judge(buildings_kb, interp, both, all_views=True)
+    assert verdict.verdict == NOTHING
+    assert verdict.reasons == (
+        "seen in view 00 alone: none of the other views (01) could be registered to the model "
+        "(no other view confirms the object)",
+    )
     assert verdict.views_not_explained == ("01",)
 
 
