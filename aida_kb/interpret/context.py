@@ -123,7 +123,12 @@ class Context:
             body=body_slot(knowledge, goal),
             regions=regions,
             total_weight=sum(r.weight for r in seen) or 1.0,
-            up=estimate_up(list(seen), camera, segments_px=evidence.lines_px.get(camera.view)),
+            up=estimate_up(
+                list(seen),
+                camera,
+                segments_px=evidence.lines_px.get(camera.view),
+                level=knowledge.orients_level(),
+            ),
             segments=tuple(
                 s
                 for s in evidence.segments

@@ -127,6 +127,10 @@ def _plain(role: str) -> str:
     return str(RolePath.parse(role).plain)
 
 
+# the language's directions of a level face (docs/language.md, orient)
+_LEVEL_DIRECTIONS = ("upward", "downward")
+
+
 class Knowledge:
     """The compiled knowledge base seen through the interpreter's needs."""
 
@@ -191,6 +195,16 @@ class Knowledge:
     def is_planar(self, concept: str) -> bool:
         """True for a leaf of the world layer: a concept without part-of slots."""
         return not any(s.link == "part-of" for s in self.concept(concept).slots)
+
+    def orients_level(self) -> bool:
+        """True if some concept orients a part level (``orient ROLE: upward`` or
+        ``downward``: a floor on the ground, a flat roof): regions may then be taken for level
+        (`observe.estimate_up`)."""
+        return any(
+            o.direction in _LEVEL_DIRECTIONS
+            for c in self.concepts.values()
+            for o in c.orientations.values()
+        )
 
     def direction(self, role: str) -> str | None:
         """The direction a planar part (absolute role path) faces, once its structure has been

@@ -17,7 +17,11 @@ segments give it better where there are many: the vanishing point of the vertica
 (wall corners, window jambs, joints; `aida_kb.vision.vanishing`), within a few tenths of a
 degree on real facades (where the regions' estimate was 0.5-2 degrees off), and also with
 one wall direction in view and a camera pitched up at it, where the regions cannot give it.
-So it comes first when VP_MIN_SUPPORT segments support it to VP_MAX_SIGMA_DEG; then the
+So it comes first when VP_MIN_SUPPORT segments support it to VP_MAX_SIGMA_DEG, weighed
+against the regions that may be level (the ground, flat roofs: where the knowledge orients a
+part upward or downward), each by its plane fit's uncertainty (`with_level_regions`): a
+street's ground, fitted over thousands of square metres, gives the vertical to hundredths of
+a degree where the vanishing point was 0.05-0.86 degrees off. Without a vanishing point, the
 regions; with one wall direction in view, a level region facing up (the ground, a table, a
 box's lid: a turntable scene) whose normal lies in the camera's window; with none of these,
 the camera's -y axis is the answer.
@@ -86,6 +90,24 @@ class RegionView:
     weight: float  # w_c, the summed certainty
     area_px: float
     rms_m: float
+    inliers: int = 0  # pixels the plane fit kept (0: unknown)
+    area_m2: float = 0.0  # its area on the plane, m² (0: unknown)
+
+    @property
+    def normal_sigma_rad(self) -> float:
+        """1-σ angular uncertainty of the fitted normal, radians (inf when unknown).
+
+        A least-squares plane through n points scattered by rms_m about it, spread over a
+        square of the region's area (radius of gyration sqrt(area / 12) along each axis),
+        tilts by rms_m / (sqrt(n) · sqrt(area / 12)). Neighbouring pixels share most of their
+        matching window, so only one pixel per window counts (`FIT_CORRELATED_PX`); the
+        refinement's residual bias (`FIT_FLOOR_DEG`) is added in quadrature.
+        """
+        n = self.inliers / FIT_CORRELATED_PX
+        if n < 1.0 or self.area_m2 <= 0.0:
+            return math.inf
+        statistical = self.rms_m / (math.sqrt(n) * math.sqrt(self.area_m2 / 12.0))
+        return math.hypot(statistical, math.radians(FIT_FLOOR_DEG))
 
     @property
     def offset_m(self) -> float:
@@ -226,6 +248,23 @@ VP_PRIOR_WINDOW_DEG = 40.0
 # it (a synthetic L-shape's 9 brick-joint and corner segments gave 3.3 degrees off, claiming
 # 0.8; its 24 gave 0.6 where its walls gave 0.3); real facades give 50-200.
 VP_MIN_SUPPORT = 30
+# A region may be level (the ground, a flat roof: a part the knowledge orients upward or
+# downward) when its normal lies within this of the vanishing point's vertical. The vanishing
+# point's own cone understates its error: on the synthetic streets it was 0.05-0.86 degrees off
+# while claiming 0.2-0.4 (dev terrace seed 7: 0.86 off, claiming 0.23). A pitched roof is
+# pitched by more than this; a real street sloping by less is weighed, not trusted (below).
+LEVEL_GATE_DEG = 1.5
+# ... and within this many of their combined 1-σ of it (the cone and the region's fit).
+LEVEL_GATE_SIGMAS = 5.0
+# Pixels that share one matching window (the block matcher's 11 x 11, vision.evidence's
+# DEFAULT_WINDOW, less its tapered edge): a plane fit's residuals are correlated over it, so
+# one pixel in this many is an independent measurement (`RegionView.normal_sigma_rad`).
+FIT_CORRELATED_PX = 81.0
+# A plane fit's normal is not known better than this (degrees), however many pixels it has:
+# the disparity refinement's residual bias. The ground of the synthetic streets, 100,000-
+# 360,000 inliers over 3,000-4,400 m², is 0.002-0.008 degrees off (dev seed 7), statistically
+# 0.001-0.004; the floor keeps one huge region from claiming more than that.
+FIT_FLOOR_DEG = 0.01
 
 
 def estimate_up(
@@ -235,6 +274,7 @@ def estimate_up(
     vertical_tol_deg: float = 10.0,
     *,
     segments_px: FloatArray | None = None,
+    level: bool = True,
 ) -> FloatArray:
     """The world's up direction (unit, (3,), world frame).
 
@@ -246,12 +286,15 @@ def estimate_up(
     regions as the eigenvector of the smallest eigenvalue of sum_i w_i n_i n_i^T. Before
     that, from segments_px ((N, 2, 2) the camera's line segments, undistorted pixels): their
     vertical vanishing point (`aida_kb.vision.vanishing.vertical_direction`) where at least
-    VP_MIN_SUPPORT segments give it to VP_MAX_SIGMA_DEG. Else the prior (camera's -y axis).
+    VP_MIN_SUPPORT segments give it to VP_MAX_SIGMA_DEG, combined with the regions that may be
+    level (`with_level_regions`) when `level` (the knowledge has parts it orients upward or
+    downward: a floor on the ground, a flat roof). Else the prior (camera's -y axis).
     """
     prior: FloatArray = camera.R_cam_world.T @ np.array([0.0, -1.0, 0.0])
     from_lines = _vanishing_up(camera, segments_px, prior_window_deg)
     if from_lines is not None:
-        return from_lines
+        up_vp, sigma_vp = from_lines
+        return with_level_regions(up_vp, sigma_vp, regions) if level else up_vp
     fallback = prior
     heavy = sorted(regions, key=lambda r: (-r.weight, r.id))[:8]
     if len(heavy) < 2:
@@ -340,9 +383,10 @@ def _level_up(
 
 def _vanishing_up(
     camera: CameraView, segments_px: FloatArray | None, prior_window_deg: float
-) -> FloatArray | None:
+) -> tuple[FloatArray, float] | None:
     """Up (unit, (3,), world frame) from the vertical vanishing point of the camera's segments
-    ((N, 2, 2) undistorted pixels), or None when it is not known to VP_MAX_SIGMA_DEG."""
+    ((N, 2, 2) undistorted pixels) and its 1-σ (radians), or None when it is not known to
+    VP_MAX_SIGMA_DEG."""
     if segments_px is None or not len(segments_px):
         return None
     vp = vertical_direction(
@@ -351,7 +395,39 @@ def _vanishing_up(
     if vp is None or vp.sigma_deg > VP_MAX_SIGMA_DEG or vp.support < VP_MIN_SUPPORT:
         return None
     up: FloatArray = camera.R_cam_world.T @ vp.direction
-    return up / float(np.linalg.norm(up))
+    return up / float(np.linalg.norm(up)), math.radians(vp.sigma_deg)
+
+
+def with_level_regions(up: FloatArray, sigma_rad: float, regions: list[RegionView]) -> FloatArray:
+    """The vertical `up` (unit, (3,), world frame; 1-σ `sigma_rad`, radians) combined with the
+    normals of the regions that may be level (unit, (3,), world frame).
+
+    A region may be level when it faces up within LEVEL_GATE_DEG of `up`, and within
+    LEVEL_GATE_SIGMAS of their combined 1-σ. Each such normal is a measurement of the vertical
+    with its plane fit's uncertainty (`RegionView.normal_sigma_rad`), `up` one with its own:
+    the result is their inverse-variance weighted mean in the plane tangent to `up` (the
+    cones taken as round: the segments' cone gives its larger axis, a fit's spread differs
+    little between its axes against the orders of magnitude between the sources). The
+    ground of a street, fitted over thousands of square metres, then decides (hundredths of a
+    degree), where the segments' vanishing point was up to 0.86 degrees off; a small or rough
+    region weighs little, and with no level region `up` is returned unchanged.
+    """
+    if not regions:
+        return up
+    normals = np.array([r.normal for r in regions], dtype=np.float64)
+    sigmas = np.array([r.normal_sigma_rad for r in regions], dtype=np.float64)
+    off = np.arccos(np.clip(normals @ up, -1.0, 1.0))  # radians from up (facing up: < 90 deg)
+    gate = np.minimum(math.radians(LEVEL_GATE_DEG), LEVEL_GATE_SIGMAS * np.hypot(sigma_rad, sigmas))
+    level = np.isfinite(sigmas) & (off <= gate)
+    if not np.any(level):
+        return up
+    # tangent-plane coordinates of each level normal about `up`, inverse-variance weights
+    tangent = normals[level] - (normals[level] @ up)[:, None] * up[None, :]
+    weights = 1.0 / sigmas[level] ** 2
+    shift = (weights[:, None] * tangent).sum(axis=0) / (weights.sum() + 1.0 / sigma_rad**2)
+    combined = up + shift
+    result: FloatArray = np.asarray(combined / np.linalg.norm(combined), dtype=np.float64)
+    return result
 
 
 BOUNDARY_TOLERANCE_PX = 4.0
@@ -411,6 +487,8 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
                 float(r.w_c),
                 float(r.pixel_count),
                 float(r.rms_m),
+                int(r.inlier_count),
+                float(r.area_m2),
             )
         K = np.array(v.left.K, dtype=np.float64)
         D = np.array(v.left.D, dtype=np.float64)

@@ -173,3 +173,33 @@ def test_one_wall_direction_and_a_level_region_give_up_not_the_camera_axis() -> 
     # the camera's axis would have been 17 degrees off
     prior = R.T @ np.array([0.0, -1.0, 0.0])
     assert math.degrees(math.acos(float(prior @ up_world))) == pytest.approx(17.0)
+
+
+def test_level_regions_weigh_against_the_vanishing_point_by_their_fits() -> None:
+    """A large, well-fitted level region (the ground) corrects a vanishing-point vertical
+    0.8 deg off; a small rough one barely moves it; a pitched roof is not taken for level."""
+    from aida_kb.interpret.observe import RegionView, with_level_regions
+
+    truth = np.array([0.0, -1.0, 0.0])
+    tilt = math.radians(0.8)
+    up_vp = np.array([math.sin(tilt), -math.cos(tilt), 0.0])
+    sigma_vp = math.radians(0.25)
+
+    def region(rid: str, normal: np.ndarray, inliers: int, area_m2: float) -> RegionView:
+        n = normal / np.linalg.norm(normal)
+        return RegionView(rid, "00", n, np.zeros(3), 1.0, 1.0, 0.04, inliers, area_m2)
+
+    ground = region("00/1", truth, 300_000, 3000.0)
+    assert math.degrees(ground.normal_sigma_rad) < 0.02
+    up = with_level_regions(up_vp, sigma_vp, [ground])
+    assert math.degrees(math.acos(float(up @ truth))) < 0.02
+    # a flat roof of 40 m², 2,000 pixels: weighed by its fit, it moves the estimate partly
+    roof = region("00/2", truth, 2_000, 40.0)
+    partly = with_level_regions(up_vp, sigma_vp, [roof])
+    off = math.degrees(math.acos(float(partly @ truth)))
+    assert 0.02 < off < 0.8
+    # a shed roof pitched 10 deg, or a region without a fit, is no level region
+    pitch = math.radians(10.0)
+    shed = region("00/3", np.array([0.0, -math.cos(pitch), math.sin(pitch)]), 300_000, 3000.0)
+    unknown = RegionView("00/4", "00", truth, np.zeros(3), 1.0, 1.0, 0.04)
+    np.testing.assert_allclose(with_level_regions(up_vp, sigma_vp, [shed, unknown]), up_vp)
