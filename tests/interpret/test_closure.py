@@ -168,3 +168,46 @@ def test_a_plane_no_view_shows_is_settled_at_the_apex_of_the_measured_ones() -> 
     moved = [(r, n, settled.get(r, d)) for r, n, d in faces]
     assert np.allclose(close(moved, adjacency)["r_south"].max(axis=0)[2], 5.0, atol=1e-3)
     assert settle_unseen(faces, adjacency, []) == {}
+
+
+def test_a_hip_roofs_hidden_back_corner_closes_where_four_placed_planes_meet() -> None:
+    """A hip-roofed house 12 x 8 m, eaves at 4 m, slopes of 45 deg: the front, the left wall
+    and their slopes measured, the back, the right wall and their slopes placed by the
+    knowledge a few decimetres off. At the back-right eaves corner four placed planes meet
+    (settling each to the mean of its vertices left such a corner 0.24 m open): settled
+    together, every corner closes and the measured planes stay where they are. A hip's
+    placed planes have one offset more than its corners fix; the least change is taken."""
+    s = 1.0 / np.sqrt(2.0)
+    planes = {  # up is -y: (normal, offset) of the true house
+        "south": (np.array([0.0, 0.0, -1.0]), 0.0),
+        "east": (np.array([1.0, 0.0, 0.0]), 12.0),
+        "north": (np.array([0.0, 0.0, 1.0]), 8.0),
+        "west": (np.array([-1.0, 0.0, 0.0]), 0.0),
+        "floor": (-UP, 0.0),
+        "r_south": (np.array([0.0, -s, -s]), 4 * s),
+        "r_east": (np.array([s, -s, 0.0]), 16 * s),
+        "r_north": (np.array([0.0, -s, s]), 12 * s),
+        "r_west": (np.array([-s, -s, 0.0]), 4 * s),
+    }
+    walls = ["south", "east", "north", "west"]
+    slopes = ["r_south", "r_east", "r_north", "r_west"]
+    adjacency = [(a, b) for a, b in zip(walls, walls[1:] + walls[:1], strict=True)]
+    adjacency += [(a, b) for a, b in zip(slopes, slopes[1:] + slopes[:1], strict=True)]
+    adjacency += [(w, "floor") for w in walls] + list(zip(walls, slopes, strict=True))
+    adjacency += [("r_south", "r_north")]  # the ridge
+    placed = {"north": 0.6, "east": -0.5, "r_north": 0.5, "r_east": -0.6, "floor": 0.0}
+    faces = [(r, n, d + placed.get(r, 0.0)) for r, (n, d) in planes.items()]
+    with pytest.raises(GeometryError, match="do not meet in one point"):
+        close(faces, adjacency)
+    settled = settle_unseen(faces, adjacency, list(placed))
+    assert set(settled) == set(placed)
+    moved = [(r, n, settled.get(r, d)) for r, n, d in faces]
+    polygons = close(moved, adjacency)
+    assert _edges_shared_twice(polygons)
+    # the measured front-left eaves corner is where it was: (0, -4, 0)
+    assert any(np.allclose(v, [0.0, -4.0, 0.0], atol=1e-3) for v in polygons["south"])
+    # the placed planes moved by decimetres, the least that closes the corner (the floor,
+    # meeting three faces at each corner, not at all)
+    change = {r: settled[r] - (planes[r][1] + placed[r]) for r in placed}
+    assert 0.02 < max(abs(c) for c in change.values()) < 0.25
+    assert change["floor"] == pytest.approx(0.0, abs=1e-6)
