@@ -1049,18 +1049,27 @@ def _bound_parts(interp: Interpretation) -> set[str]:
 
 
 def judge(
-    kb: KnowledgeBase, interp: Interpretation, evidence: Evidence, *, all_views: bool = False
+    kb: KnowledgeBase,
+    interp: Interpretation,
+    evidence: Evidence,
+    *,
+    all_views: bool = False,
+    uncertainty: Uncertainty | None = None,
 ) -> Verdict:
     """The verdict on `interp` (see the module docstring). all_views: the result stands for
     every view of the evidence (a reconstruction registers them all), so a view it left
-    without a camera is doubted; `aida-kb interpret` uses the world-frame views only."""
+    without a camera is doubted; `aida-kb interpret` uses the world-frame views only.
+    uncertainty: the adjustment's, where `interp` is one object of a scene adjusted as a whole
+    (`interpret.scene.judge_objects`: the cameras are fixed by every object); None: that of
+    `interp` alone."""
     model = interp.model
     if not interp.accepted or model is None:
         return Verdict(NOTHING, (), (), ())
     if interp.objects:  # a scene of several objects: each was judged alone (interpret.scene)
         return Verdict(interp.verdict or NOTHING, tuple(interp.doubts), (), ())
     reasons: list[str] = []
-    uncertainty = adjustment_uncertainty(kb, interp, evidence)
+    if uncertainty is None:
+        uncertainty = adjustment_uncertainty(kb, interp, evidence)
     # (a) every constraint of the knowledge (and every prior) under its threshold; the
     # evidence's own factors of a multi-view adjustment (segments, regions: robust, made by
     # code, rule "evidence") are judged by (b) and (c), not one by one — a stray region or

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from aida_kb.errors import GeometryError
@@ -39,6 +40,7 @@ def street_result(
     spec = preset(
         "street",
         seed=3,
+        views=1,
         params={"houses": "2", "image_width": "480", "image_height": "360", "focal_px": "600"},
     )
     render_scene(spec, folder)
@@ -170,3 +172,45 @@ def test_random_street_variants_are_reproducible_presets() -> None:
         houses = int(spec.model.parameters["houses"])
         assert houses == (2 if name == "occluded" else int(params["houses"]))
         assert 2 <= houses <= 5
+
+
+def test_street_presets_see_the_row_from_both_sides() -> None:
+    """Two views by default, the second across the row from view 00: each house's two side
+    walls are in view (one view shows one side only)."""
+    from aida_kb.synth.street import SECOND_VIEW_DEG, VIEW_STEP_DEG, view_angles
+
+    assert view_angles(-25.0, 3) == [
+        -25.0,
+        -25.0 + SECOND_VIEW_DEG,
+        -25.0 + SECOND_VIEW_DEG + VIEW_STEP_DEG,
+    ]
+    assert view_angles(15.0, 2) == [15.0, 15.0 - SECOND_VIEW_DEG]
+    for name in ("street", "terrace", "occluded"):
+        spec = preset(name, seed=1)
+        assert len(spec.views_site) == 2
+        centre = np.concatenate([f.polygon for f in spec.model.faces]).mean(axis=0)
+        # the cameras' places along the row (x) from its centre: one on each side
+        sides = [float((-R.T @ t)[0] - centre[0]) for R, t in spec.views_site]
+        assert min(sides) < 0.0 < max(sides), name
+
+
+def test_random_streets_for_the_robustness_benchmark() -> None:
+    """`random_street_spec(seed)` is `random_street`'s variant as a scene; `street_object` the
+    same houses as a kind of synth.randomised: reproducible, every house's roof in the truth."""
+    from aida_kb.synth.street import random_street, random_street_spec, street_object
+
+    spec = random_street_spec(30001)
+    name, params = random_street(30001)
+    again = preset(name, seed=30001, params=params)
+    assert spec.model.parameters == again.model.parameters
+    assert len(spec.views_site) == 2
+    drawn = [street_object(np.random.default_rng(s)) for s in range(6)]
+    for s, obj in enumerate(drawn):
+        houses = int(obj.model.parameters["houses"])
+        assert 2 <= houses <= 5
+        assert sorted(obj.concepts) == [f"houses[{k}].body.roof" for k in range(houses)]
+        assert obj.model.concept == "Street"
+        assert obj.size_m > 10.0
+        twin = street_object(np.random.default_rng(s))
+        assert twin.model.parameters == obj.model.parameters
+    assert len({obj.extra["preset"] for obj in drawn}) >= 2
