@@ -21,7 +21,10 @@ with depth) of a known model, without an initial guess:
    from the start, and poses far from it that explain the image about as well are reported
    (`Registration.alternatives`). A model that looks the same turned by 360/n degrees (a box,
    a gable house: n = 2) is searched over 360/n degrees about the expected turn only: its
-   images cannot tell the others apart.
+   images cannot tell the others apart. Where its images still fit a pose best whose twin
+   lies nearer the expected turn (the model's small asymmetries, clutter), the evidence does
+   not decide between them: the view is not registered (`SolveError` naming both turns),
+   never registered 180 degrees off.
 4. **Polish** (`polish`), when the view's images are given: the model's visible edges are
    fitted to the image along their whole length at the chosen pose and the pose solved again
    from them (a line detector gives fragments of an edge; the image holds all of it).
@@ -616,6 +619,7 @@ def register_view(
             "view does not fit the model"
         )
     results = agreeing
+    order = symmetry_order(model, up, model.centroid)  # the model's own axis
     if regions is not None and regions.size and model.polygons:
         # the depth evidence decides between poses the segments alone cannot: a pose must put
         # about as many of the view's regions on the model's parts as the best one does
@@ -635,7 +639,16 @@ def register_view(
             for r in results
         ]
         most = max(on)
-        results = [r for r, n in zip(results, on, strict=True) if n >= most - PLANE_SLACK]
+        kept = [r for r, n in zip(results, on, strict=True) if n >= most - PLANE_SLACK]
+        # a symmetric model's twin puts the same regions on its parts but for the model's own
+        # small asymmetries (an inserted part a little off): between twins a count is no
+        # evidence, the choice below goes by the expected turn (dev seed 2009's view 02 was
+        # taken 180 degrees off by 2 regions against 0)
+        results = [
+            r
+            for r in results
+            if any(r is k or _symmetric_gap(r[1], k[1], order) <= opts.span_deg for k in kept)
+        ]
     inside = [r for r in results if abs(_wrap(r[1] - centre)) <= half]
     results = inside or results
     best = min(results, key=lambda r: r[0])
@@ -643,11 +656,21 @@ def register_view(
     # the evidence decides: the lowest cost wins, unless the model's own symmetry makes poses
     # turned by 360/n degrees from it alike (their images cannot differ): of those, the one
     # nearest the expected turn; then, near it, the lowest cost
-    order = symmetry_order(model, up, model.centroid)  # the model's own axis
     twins = [r for r in ties if _symmetric_gap(r[1], best[1], order) <= opts.span_deg]
     near = min(twins, key=lambda r: (abs(_wrap(r[1] - centre)), r[0]))[1]
     local = [r for r in results if abs(_wrap(r[1] - near)) <= opts.span_deg]
     cost, final, cam, rms, ne, nr, _ = min(local, key=lambda r: r[0])
+    if order > 1 and abs(_wrap(final - centre)) > 180.0 / order + opts.span_deg:
+        # the model looks the same turned by 360/n degrees and the pose taken lies nearer a
+        # twin's turn than its own to the expected one: nothing in the view decides which of
+        # them it is (a flip, 180 degrees off, passes every check against the model)
+        step = 360.0 / order
+        twin = _wrap(final + step * round(_wrap(centre - final) / step))
+        raise SolveError(
+            f"registration: the model looks the same turned by {step:g} degrees; the view's "
+            f"images fit a turn of {final:.1f} degrees best, its twin {twin:.1f} lies nearer "
+            f"the expected {centre:.1f}: the evidence does not decide between them"
+        )
     # poses far from the chosen one that explain the image about as well: the view is
     # ambiguous between them (reported, not hidden)
     others: dict[float, float] = {}

@@ -425,3 +425,51 @@ def test_polish_fits_the_model_edges_to_the_image() -> None:
     assert np.all(np.linalg.eigvalsh(cov) > 0)
     # a blank image holds no edges: nothing to polish with
     assert polish(model, start, np.full_like(grey, 90)) is None
+
+
+def _wedge(rise: float) -> RigidModel:
+    """The `_box` with its top's back edge raised by `rise` metres (a shed's slight slope):
+    all but symmetric under a half turn (`symmetry_order` 2), its images not quite."""
+    c = np.array([0.0, 0.3, 1.4])
+    x, y, z = 0.2, 0.125, 0.15
+
+    def corner(sx: int, sy: int, sz: int) -> np.ndarray:
+        p = c + np.array([sx * x, sy * y, sz * z])
+        if sy < 0 and sz > 0:  # the top's back edge (y points down)
+            p[1] -= rise
+        return p
+
+    faces = {
+        "front": [(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1)],
+        "back": [(-1, -1, 1), (-1, 1, 1), (1, 1, 1), (1, -1, 1)],
+        "left": [(-1, -1, -1), (-1, 1, -1), (-1, 1, 1), (-1, -1, 1)],
+        "right": [(1, -1, -1), (1, -1, 1), (1, 1, 1), (1, 1, -1)],
+        "top": [(-1, -1, -1), (-1, -1, 1), (1, -1, 1), (1, -1, -1)],
+        "bottom": [(-1, 1, -1), (1, 1, -1), (1, 1, 1), (-1, 1, 1)],
+    }
+    polys = [np.array([corner(*k) for k in ks]) for ks in faces.values()]
+    normals = []
+    for p in polys:  # outward: the polygons run counter-clockwise seen from outside
+        n = np.cross(p[1] - p[0], p[2] - p[0])
+        n = n / np.linalg.norm(n)
+        normals.append(n if float(n @ (p.mean(axis=0) - c)) > 0 else -n)
+    N = np.array(normals)
+    offsets = np.array([float(n @ p[0]) for n, p in zip(N, polys, strict=True)])
+    return RigidModel.from_polygons(list(faces), N, offsets, polys)
+
+
+def test_a_symmetric_twin_far_from_the_expected_turn_is_not_taken() -> None:
+    # the camera turned 200 degrees, the sequence expecting 20: the images fit 200 best (the
+    # model's slight slope), but a model that looks all but the same turned by a half turn
+    # cannot tell 200 from its twin at 20 — a flip is named, never taken
+    model = _wedge(0.008)
+    ref = _reference()
+    up = vertical_axis(model, ref)
+    assert symmetry_order(model, up, model.centroid) == 2
+    truth = turned(ref, up, model.centroid, math.radians(200.0))
+    p1, p2 = simulated_segments(model, truth, np.random.default_rng(9), noise_px=0.3)
+    with pytest.raises(SolveError, match=r"twin .* nearer the expected 20\.0"):
+        register_view(model, ref, p1, p2, expected_turn_deg=20.0)
+    # expected near it, the same view registers
+    reg = register_view(model, ref, p1, p2, expected_turn_deg=190.0)
+    assert abs(reg.angle_deg + 160.0) < 0.1
