@@ -58,9 +58,11 @@ from aida_kb.io.model import Cahv, ModelCamera, ModelPart, ReconstructedModel
 from aida_kb.io.scene import Scene
 from aida_kb.kb.paths import RolePath
 from aida_kb.register import (
+    EdgeObservations,
     RegistrationOptions,
     RigidModel,
     StereoSegments,
+    image_edges,
     match_regions,
     match_segments,
 )
@@ -69,7 +71,9 @@ from aida_kb.register.evidence import (
     measurements_of,
     register_evidence_view,
     right_segments,
+    undistorted_image,
 )
+from aida_kb.register.pose import point_sigma
 from aida_kb.solve import ResidualReport, build_problem, constraints_from_kb, solve
 from aida_kb.solve.problem import Loss, Problem
 
@@ -80,11 +84,15 @@ FloatArray = npt.NDArray[np.float64]
 
 __all__ = [
     "JOINT_EDGE_SIGMA_PX",
+    "consistent_edges",
+    "fitted_edges",
     "joint_adjustment",
     "joint_problem",
     "kb_constraints",
     "meeting_angles",
     "reconstruct_views",
+    "right_images",
+    "view_images",
 ]
 
 JOINT_EDGE_SIGMA_PX = 4.0
@@ -107,6 +115,25 @@ FINAL_ROUNDS = 2
 the adjusted poses). Still needed with the regions measured in their camera's frame: house
 seed 1 of `benchmarks/reconstruct.py` gives 0.52 deg / 0.70 % with none, 0.18 deg / 0.29 % with
 one, 0.17 deg / 0.26 % with two."""
+IMAGE_ROUNDS = 0
+"""Adjustments of the model and every later pose after `FINAL_ROUNDS`, where the scene's images
+are at hand, whose edge measurements are the model's visible edges fitted to each view's left and
+right images along their whole length (`fitted_edges`: `aida_kb.register.image_edges`, each
+weighed by its own fit, `aida_kb.register.pose.point_sigma`) instead of the line detector's
+fragments. Off: registered against the TRUE model, such fits put dev seeds' cameras within
+0.002-0.03 deg while the reconstructed models left them 0.1-0.2 deg off (the cameras inherit the
+model's error); with two rounds the dev cameras came closer (seed 2012 0.193 -> 0.024 deg,
+2001 0.100 / 0.179 -> 0.066 / 0.085, 2002 0.156 -> 0.118, 2003 0.184 -> 0.082) and the houses'
+vertices too (house seed 0 0.57 -> 0.26 %), but the demo house's camera went 0.038 -> 0.165 deg
+(its adjustment has a weak direction: view 01's turn with the right wall, sd about 0.1 deg either
+way), the L-shape's normals 0.35 -> 0.69 deg (left images only 0.87, the registered view's
+images only 1.66) and the oriel's angles 0.50 -> 0.56 deg. The verdict's covariance
+(`aida_kb.interpret.uncertainty`) is that of the segments."""
+IMAGE_REJECT_SIGMAS = 6.0
+"""In the image rounds after the first, a fitted edge whose mean offset or slope lies more than
+this many of its sigmas off the model's edge is left out (as `aida_kb.register.REJECT_SIGMAS`
+in the pose fits): on the demo house the front-left corner's fitted line is tilted 10 sigmas
+against the true edge in every image."""
 JOINT_RIGHT_IMAGES = False
 """Whether the joint adjustments also use the segments of each view's right image (through a camera
 that follows the view's by the stereo calibration; registration always does). Off: measured with
@@ -156,6 +183,8 @@ def joint_adjustment(
     angles: Mapping[tuple[int, int], float] | None = None,
     internal: Sequence[Constraint] = (),
     stereo: Sequence[StereoSegments | None] = (),
+    fitted: Sequence[EdgeObservations | None] = (),
+    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = (),
 ) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...], ResidualReport]:
     """Adjust the model's planes and the free cameras' poses to all views at once: the
     problem of `joint_problem` (same parameters), solved with JOINT_LOSS / JOINT_F_SCALE.
@@ -171,7 +200,15 @@ def joint_adjustment(
         A degenerate problem.
     """
     problem = joint_problem(
-        model, cameras, views, free_cameras, angles=angles, internal=internal, stereo=stereo
+        model,
+        cameras,
+        views,
+        free_cameras,
+        angles=angles,
+        internal=internal,
+        stereo=stereo,
+        fitted=fitted,
+        fitted_right=fitted_right,
     )
     result = solve(problem, loss=JOINT_LOSS, f_scale=JOINT_F_SCALE)
     return result.normals, result.offsets, result.cameras[: len(cameras)], result.report
@@ -186,6 +223,8 @@ def joint_problem(
     angles: Mapping[tuple[int, int], float] | None = None,
     internal: Sequence[Constraint] = (),
     stereo: Sequence[StereoSegments | None] = (),
+    fitted: Sequence[EdgeObservations | None] = (),
+    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = (),
 ) -> Problem:
     """The problem of adjusting the model's planes and the free cameras' poses to all views.
 
@@ -199,6 +238,10 @@ def joint_problem(
         the first shape's angles are kept only loosely (`PRIOR_ANGLE_SIGMA_DEG`).
     stereo : per view, the segments of its right image and its rig (or None): their edge
         factors look through a camera that follows the view's (a derived key of the solve).
+    fitted : per view, the model's edges fitted to its image (`aida_kb.register.image_edges`)
+        or None: where given, they are the view's edge measurements instead of its segments.
+    fitted_right : per view, its rig and the model's edges fitted to its right image, or None:
+        their factors look through a camera that follows the view's, as `stereo`'s do.
 
     Each view's regions are measured in its own camera frame (``camera_position`` factors):
     they follow the view's pose while it is adjusted.
@@ -218,7 +261,17 @@ def joint_problem(
     all_cameras = list(cameras)
     derived: list[tuple[int, int, Rig]] = []
     for ci, (cam, m) in enumerate(zip(cameras, views, strict=True)):
-        cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view)
+        own = fitted[ci] if ci < len(fitted) else None
+        if own is None:
+            cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view)
+        else:
+            cons += _fitted_edge_factors(model, ci, own, m.view)
+        second = fitted_right[ci] if ci < len(fitted_right) else None
+        if second is not None:  # the right image's fitted edges: a camera following this one
+            right = len(all_cameras)
+            all_cameras.append(second[0].right_of(cam))
+            derived.append((right, ci, second[0]))
+            cons += _fitted_edge_factors(model, right, second[1], f"{m.view} (right)")
         pair = stereo[ci] if ci < len(stereo) else None
         if pair is not None:  # the right image: a camera that follows this view's
             right = len(all_cameras)
@@ -310,6 +363,33 @@ def _edge_factors(
                 label=label,
                 edge=EdgeData(index, e1, e2),
                 sqrt_information=segment_sqrt_information(e1, e2, JOINT_EDGE_SIGMA_PX),
+                origin=Origin(label, "evidence"),
+            )
+        )
+    return out
+
+
+def _fitted_edge_factors(
+    model: RigidModel, index: int, edges: EdgeObservations, view: str
+) -> list[Constraint]:
+    """Edge factors of model edges fitted to the image of camera ``index`` (they know their
+    edge: no matching), each whitened with its own fit's point sigma (`point_sigma`)."""
+    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX)
+    out = []
+    for k in range(edges.size):
+        a, b = int(edges.faces[k, 0]), int(edges.faces[k, 1])
+        e1 = (float(edges.p1[k, 0]), float(edges.p1[k, 1]))
+        e2 = (float(edges.p2[k, 0]), float(edges.p2[k, 1]))
+        label = f"edge({model.names[a]}, {model.names[b]})@{view}"
+        out.append(
+            Constraint(
+                kind="edge",
+                parts=(a, b),
+                unit="px",
+                measurement=True,
+                label=label,
+                edge=EdgeData(index, e1, e2),
+                sqrt_information=segment_sqrt_information(e1, e2, float(sigma[k])),
                 origin=Origin(label, "evidence"),
             )
         )
@@ -419,16 +499,139 @@ def _adjusted(
     angles: Mapping[tuple[int, int], float],
     internal: Sequence[Constraint],
     stereo: Sequence[StereoSegments | None],
+    fitted: Sequence[EdgeObservations | None] = (),
+    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = (),
 ) -> tuple[RigidModel, list[FloatArray], list[PinholeCamera], ResidualReport] | str:
     """`joint_adjustment` and the rebuilt model, or why it failed (the caller keeps the old)."""
     try:
         n, d, adjusted, report = joint_adjustment(
-            model, cameras, views, free, angles=angles, internal=internal, stereo=stereo
+            model,
+            cameras,
+            views,
+            free,
+            angles=angles,
+            internal=internal,
+            stereo=stereo,
+            fitted=fitted,
+            fitted_right=fitted_right,
         )
         rigid, polygons = _rebuilt(model, n, d)
     except (GeometryError, SolveError) as exc:
         return str(exc)
     return rigid, polygons, list(adjusted), report
+
+
+def view_images(
+    scene: Scene, evidence: Evidence, views: Sequence[ViewMeasurements]
+) -> list[npt.NDArray[np.uint8] | None]:
+    """Each view's left image (8-bit grey, undistorted to the pinhole camera its measurements
+    are in, as registration takes it); None for a view whose image cannot be read or is not
+    the size its evidence was measured at."""
+    from aida_kb.errors import AidaError
+    from aida_kb.io.scene import read_image
+
+    by_id = {v.id: v for v in evidence.views}
+    out: list[npt.NDArray[np.uint8] | None] = []
+    for m in views:
+        try:
+            grey = read_image(scene.view(m.view).left, grey=True)
+        except (AidaError, OSError, KeyError):
+            out.append(None)
+            continue
+        if grey.shape != (m.height, m.width) or m.view not in by_id:
+            out.append(None)
+            continue
+        D = np.asarray(by_id[m.view].left.D, dtype=np.float64).ravel()
+        out.append(undistorted_image(grey, m.K, D))
+    return out
+
+
+def right_images(
+    scene: Scene, ids: Sequence[str]
+) -> list[tuple[Rig, npt.NDArray[np.uint8]] | None]:
+    """Each view's rig and right image (8-bit grey, undistorted with D2), by `ids`; None for a
+    view whose right image cannot be read or is not the calibration's size."""
+    from aida_kb.errors import AidaError
+    from aida_kb.io.scene import read_image
+
+    out: list[tuple[Rig, npt.NDArray[np.uint8]] | None] = []
+    for vid in ids:
+        try:
+            view = scene.view(vid)
+            grey = read_image(view.right, grey=True)
+        except (AidaError, OSError, KeyError):
+            out.append(None)
+            continue
+        calib = view.rig
+        w, h = calib.image_size
+        if grey.shape != (h, w):
+            out.append(None)
+            continue
+        K2 = np.asarray(calib.K2, dtype=np.float64)
+        D2 = np.asarray(calib.D2, dtype=np.float64).ravel()
+        rig = Rig(K2, np.asarray(calib.R, dtype=np.float64), np.asarray(calib.T).ravel(), w, h)
+        out.append((rig, undistorted_image(grey, K2, D2)))
+    return out
+
+
+def fitted_edges(
+    model: RigidModel,
+    cameras: Sequence[PinholeCamera],
+    left: Sequence[npt.NDArray[np.uint8] | None],
+    right: Sequence[tuple[Rig, npt.NDArray[np.uint8]] | None],
+    reject_sigmas: float | None = None,
+) -> tuple[list[EdgeObservations | None], list[tuple[Rig, EdgeObservations] | None]]:
+    """The model's visible edges fitted to each view's left image (`view_images`) and right
+    image (`right_images`) at its camera (`aida_kb.register.image_edges`): the ``fitted`` and
+    ``fitted_right`` of `joint_problem`. With `reject_sigmas`, fits whose whitened offset or
+    slope from the model's projected edge exceeds it are left out (`consistent_edges`)."""
+
+    def fit(camera: PinholeCamera, grey: npt.NDArray[np.uint8]) -> EdgeObservations:
+        found = image_edges(model, camera, grey)
+        return (
+            found
+            if reject_sigmas is None
+            else consistent_edges(model, camera, found, reject_sigmas)
+        )
+
+    fl: list[EdgeObservations | None] = [
+        None if g is None else fit(c, g) for g, c in zip(left, cameras, strict=True)
+    ]
+    fr: list[tuple[Rig, EdgeObservations] | None] = [
+        None if r is None else (r[0], fit(r[0].right_of(c), r[1]))
+        for r, c in zip(right, cameras, strict=True)
+    ]
+    return fl, fr
+
+
+def consistent_edges(
+    model: RigidModel, camera: PinholeCamera, edges: EdgeObservations, limit: float
+) -> EdgeObservations:
+    """The fitted edges whose mean offset and slope from their model edge's projection at
+    `camera` (whitened as `_fitted_edge_factors` does) are both within `limit` sigmas."""
+    if edges.size == 0:
+        return edges
+    pair = {(int(min(a, b)), int(max(a, b))): i for i, (a, b) in enumerate(model.edge_faces)}
+    index = np.array([pair.get((int(min(a, b)), int(max(a, b))), -1) for a, b in edges.faces])
+    known = index >= 0
+    ends = camera.project(model.edge_ends[np.maximum(index, 0)].reshape(-1, 3)).reshape(-1, 2, 2)
+    d = ends[:, 1] - ends[:, 0]
+    normal = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.maximum(
+        np.linalg.norm(d, axis=1, keepdims=True), 1e-9
+    )
+    r1 = np.einsum("ij,ij->i", edges.p1 - ends[:, 0], normal)
+    r2 = np.einsum("ij,ij->i", edges.p2 - ends[:, 0], normal)
+    length = np.maximum(np.linalg.norm(edges.p2 - edges.p1, axis=1), 1.0)
+    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX)
+    offset = np.abs(r1 + r2) / 2.0 / (sigma / np.sqrt(length))
+    slope = np.abs(r1 - r2) / 2.0 / (sigma * np.sqrt(3.0 / length))
+    keep = known & (offset <= limit) & (slope <= limit)
+    return EdgeObservations(
+        edges.faces[keep],
+        edges.p1[keep],
+        edges.p2[keep],
+        None if edges.sigma_px is None else edges.sigma_px[keep],
+    )
 
 
 def reconstruct_views(
@@ -535,6 +738,31 @@ def reconstruct_views(
         )
         if isinstance(step, str):
             notes.append(f"refinement with all views skipped: {step}")
+            break
+        rigid, polygons, cams, report = step
+    wanted = IMAGE_ROUNDS > 0 and scene is not None and len(cams) > n_known
+    greys = view_images(scene, evidence, views) if wanted and scene is not None else []
+    rights = right_images(scene, [m.view for m in views]) if greys and scene is not None else []
+    for round_ in range(IMAGE_ROUNDS if greys else 0):
+        if progress is not None:
+            progress(f"refining the model with the edges of all {len(cams)} views' images")
+        # the first round's fits are at the segments' pose; later rounds drop those the model
+        # no longer explains (a corner's line tilted by what lies beside it)
+        limit = IMAGE_REJECT_SIGMAS if round_ else None
+        fitted, fitted_right = fitted_edges(rigid, cams, greys, rights, limit)
+        step = _adjusted(
+            rigid,
+            cams,
+            views,
+            list(range(n_known, len(cams))),
+            angles,
+            internal,
+            pairs,
+            fitted,
+            fitted_right,
+        )
+        if isinstance(step, str):
+            notes.append(f"refinement with the images' edges skipped: {step}")
             break
         rigid, polygons, cams, report = step
     parts = []

@@ -473,3 +473,40 @@ def test_a_symmetric_twin_far_from_the_expected_turn_is_not_taken() -> None:
     # expected near it, the same view registers
     reg = register_view(model, ref, p1, p2, expected_turn_deg=190.0)
     assert abs(reg.angle_deg + 160.0) < 0.1
+
+
+def test_a_joint_adjustment_takes_the_model_edges_fitted_to_the_images() -> None:
+    from aida_kb.interpret.multiview import consistent_edges, fitted_edges, joint_adjustment
+    from aida_kb.register import RegionMeasurements
+    from aida_kb.register.evidence import ViewMeasurements
+
+    model, ref = _box(), _reference()
+    up = vertical_axis(model, ref)
+    truth = turned(ref, up, model.centroid, math.radians(50.0))
+    greys = [_box_image(model, ref), _box_image(model, truth)]
+    # at the true pose every fitted edge is consistent with the model; one moved 3 px is not
+    left, right = fitted_edges(model, [ref, truth], greys, [None, None])
+    assert right == [None, None]
+    found = left[1]
+    assert found is not None
+    assert found.size >= 6
+    assert consistent_edges(model, truth, found, 6.0).size == found.size
+    moved = EdgeObservations(
+        found.faces,
+        found.p1 + np.array([0.0, 3.0]),
+        found.p2 + np.array([0.0, 3.0]),
+        found.sigma_px,
+    )
+    assert consistent_edges(model, truth, moved, 6.0).size < found.size
+    # the second camera 0.3 degrees off, the model free: the images' edges bring it back
+    empty = np.zeros((0, 2))
+    none = RegionMeasurements(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+    views = [ViewMeasurements(v, K, 640, 480, empty, empty, none) for v in ("00", "01")]
+    cams = [ref, turned(truth, up, model.centroid, math.radians(0.3))]
+    for _ in range(2):
+        left, _ = fitted_edges(model, cams, greys, [None, None])
+        normals, _, moved_cams, _ = joint_adjustment(model, cams, views, [1], fitted=left)
+        cams = list(moved_cams)
+    assert abs(angle_about(truth, cams[1], up)) < 0.03
+    cos = np.clip(np.sum(normals * model.normals, axis=1), -1.0, 1.0)
+    assert float(np.degrees(np.arccos(cos)).max()) < 0.1
