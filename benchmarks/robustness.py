@@ -1,9 +1,11 @@
 """Robustness on randomised scenes (not a test). Prints a line per scene, then ONE line of JSON.
 
 Each seed's scene (`aida_kb.synth.randomised.random_scene`: any building preset with random
-sizes, an asymmetric gable, the turntable box, or no building at all; random cameras, 1-8
-views, light, shadows, occluders, distortion, exposure, ground and labels) is rendered,
-reconstructed with kb/buildings.kb exactly as `aida-kb reconstruct` does, and judged by
+sizes, an asymmetric gable, the turntable box, the tower, or no building at all; random
+cameras, 1-8 views, light, shadows, occluders, distortion, exposure, ground and labels) is
+rendered, reconstructed with the knowledge that describes its object (kb/buildings.kb; the
+tower with kb/tower.kb, the turntable box with kb/reference_box.kb; the scenes without an
+object with kb/buildings.kb) exactly as `aida-kb reconstruct` does, and judged by
 `aida_kb.interpret.evaluate.evaluate`: correct = the right outcome (nothing where there is no
 house), the right specialisations, normals within 0.5 deg, vertices within 2 % of the size,
 every camera within 0.1 deg and 1 % of its distance.
@@ -35,6 +37,7 @@ no reconstruction: seconds each) and reports the seeds of the range found there.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 import tempfile
@@ -46,16 +49,18 @@ from aida_kb.interpret.robustness import SceneOutcome, rejudge_scene, run_random
 from aida_kb.kb import compile_path
 from aida_kb.kb.model import KnowledgeBase
 
-KB = Path(__file__).resolve().parents[1] / "kb" / "buildings.kb"
+KB_DIR = Path(__file__).resolve().parents[1] / "kb"
 
 
-def _knowledge() -> KnowledgeBase:
-    """kb/buildings.kb compiled; a clear one-line message (and exit 1) when it does not
-    compile (edited while a long run goes on)."""
-    result = compile_path(KB)
+@functools.cache
+def _knowledge(name: str = "buildings.kb") -> KnowledgeBase:
+    """kb/NAME compiled (once per process); a clear one-line message (and exit 1) when it
+    does not compile (edited while a long run goes on)."""
+    path = KB_DIR / name
+    result = compile_path(path)
     if result.kb is None:
         first = next((str(d) for d in result.diagnostics), "no diagnostics")
-        raise SystemExit(f"{KB}: does not compile: {first}")
+        raise SystemExit(f"{path}: does not compile: {first}")
     return result.kb
 
 
@@ -63,14 +68,18 @@ def _one(args: tuple[int, int, int, str]) -> SceneOutcome:
     seed, max_views, max_width, keep = args
     kb = _knowledge()
     if keep:
-        return run_random_scene(kb, seed, keep, max_views=max_views, max_width=max_width)
+        return run_random_scene(
+            kb, seed, keep, max_views=max_views, max_width=max_width, knowledge=_knowledge
+        )
     with tempfile.TemporaryDirectory(prefix="aida-robust-") as tmp:
-        return run_random_scene(kb, seed, tmp, max_views=max_views, max_width=max_width)
+        return run_random_scene(
+            kb, seed, tmp, max_views=max_views, max_width=max_width, knowledge=_knowledge
+        )
 
 
 def _rejudged(folder: str, seeds: range) -> list[SceneOutcome]:
     kb = _knowledge()
-    rows = [rejudge_scene(kb, s, folder) for s in seeds]
+    rows = [rejudge_scene(kb, s, folder, _knowledge) for s in seeds]
     return [r for r in rows if r is not None]
 
 

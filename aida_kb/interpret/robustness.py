@@ -14,6 +14,7 @@ reads ``scene-SEED`` and ``out-SEED`` (or ``error-SEED.txt``) from the folder
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -61,8 +62,14 @@ def run_random_scene(
     max_views: int = 8,
     max_width: int = 800,
     supersample: int = 2,
+    knowledge: Callable[[str], KnowledgeBase] | None = None,
 ) -> SceneOutcome:
     """Render seed's random scene into `workdir`, reconstruct it and judge the result.
+
+    kb : the knowledge every scene is reconstructed with, unless `knowledge` is given: then
+    each scene with the knowledge base it names (its ``knowledge`` parameter, a file name
+    under ``kb/``: the tower with ``tower.kb``, the turntable box with ``reference_box.kb``),
+    as a user would choose the knowledge for the object they photographed.
 
     An error of the pipeline (an `AidaError`: bad evidence, a degenerate solve) is an
     outcome of its own ('error'), with its message as the cause (also written to
@@ -72,6 +79,8 @@ def run_random_scene(
     scene_dir, out_dir = Path(workdir) / f"scene-{seed}", Path(workdir) / f"out-{seed}"
     render_scene(spec, scene_dir, supersample=supersample)
     kind = str(spec.model.parameters["kind"])
+    if knowledge is not None:
+        kb = knowledge(str(spec.model.parameters.get("knowledge", "buildings.kb")))
     start = time.perf_counter()
     try:
         result = reconstruct_scene(kb, scene_dir, out_dir, goal=goal)
@@ -106,12 +115,18 @@ def run_random_scene(
     )
 
 
-def rejudge_scene(kb: KnowledgeBase, seed: int, workdir: str | Path) -> SceneOutcome | None:
+def rejudge_scene(
+    kb: KnowledgeBase,
+    seed: int,
+    workdir: str | Path,
+    knowledge: Callable[[str], KnowledgeBase] | None = None,
+) -> SceneOutcome | None:
     """Seed's scene as `run_random_scene` left it in `workdir`, judged again with the current
     verdict (`judge` on the kept interpretation and evidence) and evaluated against its truth.
 
     None when the folder holds neither a result nor an error of that seed. The kind, the
     labels and the views are read from the scene's truth and files; seconds are 0.
+    `knowledge` : as for `run_random_scene`.
     """
     scene_dir, out_dir = Path(workdir) / f"scene-{seed}", Path(workdir) / f"out-{seed}"
     error = Path(workdir) / f"error-{seed}.txt"
@@ -137,6 +152,8 @@ def rejudge_scene(kb: KnowledgeBase, seed: int, workdir: str | Path) -> SceneOut
         )
     if not (out_dir / "interpretation.json").is_file():
         return None
+    if knowledge is not None:
+        kb = knowledge(str(truth.parameters.get("knowledge", "buildings.kb")))
     interp = read_interpretation(out_dir / "interpretation.json")
     evidence = read_evidence(out_dir / "evidence.json")
     interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))

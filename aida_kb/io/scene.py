@@ -235,7 +235,7 @@ class SceneTruth(FrozenModel):
     """The content of truth.json (synthetic scenes only)."""
 
     version: Literal[1] = 1
-    object: str = Field(min_length=1, description="scene concept, e.g. House or ReferenceBox")
+    object: str = Field(min_length=1, description="scene concept, e.g. House or ReferenceObject")
     parts: list[PartTruth]
     ground: GroundTruth | None = None
     views: list[PoseTruth]

@@ -56,7 +56,7 @@ class Solid:
 
 @dataclass(frozen=True)
 class Model:
-    """A scene object: its concept (House, ReferenceBox) and its solids, in one frame."""
+    """A scene object: its concept (House, ReferenceObject) and its solids, in one frame."""
 
     concept: str
     solids: tuple[Solid, ...]
@@ -523,7 +523,7 @@ def reference_box(
         ("box.bottom", "Floor", "floor", np.array(c)),
     ]
     solid = _solid("box", np.array([0.0, (y0 + y1) / 2, 0.0]), faces)
-    return Model("ReferenceBox", (solid,), {"width": width, "depth": depth, "height": height})
+    return Model("ReferenceObject", (solid,), {"width": width, "depth": depth, "height": height})
 
 
 def signed_volume(solid: Solid) -> float:

@@ -1,8 +1,9 @@
 """Randomised scenes: one seed -> one reproducible scene specification with ground truth.
 
 `random_scene(seed)` draws a kind of scene from `RANDOM_KINDS` (the building presets with
-randomised dimensions and pitches, an asymmetric gable, the turntable box, and scenes without
-a building: a chessboard on a stand, or only ground and occluders), then everything around
+randomised dimensions and pitches, an asymmetric gable, the turntable box, the tower of
+kb/tower.kb, and scenes without a building: a chessboard on a stand, or only ground and
+occluders), then everything around
 it: wall and roof materials (including siding and roof tiles whose stripes run along the
 image rows, and dark low-texture roofs), 1 to 8 views on an orbit with the camera's distance,
 height, yaw and elevation (20 degrees down to 20 degrees up), focal length, image size,
@@ -47,6 +48,8 @@ class RandomObject:
     concepts : role path -> specialisation the interpretation must choose (truth.json).
     size_m : the object's extent (metres) the camera distance is scaled to.
     target_y_m : height of the point the cameras look at.
+    knowledge : the knowledge file (under ``kb/``) a user reconstructs this object with;
+        recorded as the scene's ``knowledge`` parameter (truth.json).
     """
 
     model: bld.Model
@@ -57,6 +60,7 @@ class RandomObject:
     background: str = "sky"
     occluders_allowed: bool = True
     extra: dict[str, float | str | bool] = field(default_factory=dict)
+    knowledge: str = "buildings.kb"  # the file under kb/ that describes the object
 
 
 Maker = Callable[[np.random.Generator], RandomObject]
@@ -172,6 +176,23 @@ def _box(rng: np.random.Generator) -> RandomObject:
         ground="table",
         background="studio",
         occluders_allowed=False,
+        knowledge="reference_box.kb",
+    )
+
+
+def _tower(rng: np.random.Generator) -> RandomObject:
+    """A square tower with a pyramid roof (kb/tower.kb: side 2-20 m, slopes 25-75 deg)."""
+    side = _u(rng, 4.0, 10.0)
+    height = _u(rng, 1.2 * side, 2.5 * side)
+    pitch = _u(rng, 30.0, 65.0)
+    model = bld.tower(side, height, pitch, "brick", "tiles", _floors(height))
+    rise = 0.5 * side * math.tan(math.radians(pitch))
+    return RandomObject(
+        model,
+        {},
+        math.hypot(side, side, height + rise),
+        0.55 * (height + rise),
+        knowledge="tower.kb",
     )
 
 
@@ -206,6 +227,7 @@ register_kind("lshape90", 0.8, _lshape(90.0))
 register_kind("lshape135", 0.6, _lshape(135.0))
 register_kind("oriel", 0.8, _oriel)
 register_kind("turntable", 0.3, _box)
+register_kind("tower", 0.5, _tower)
 register_kind("chessboard", 0.3, _chessboard)
 register_kind("clutter", 0.3, _clutter)
 
@@ -415,6 +437,7 @@ def random_scene(
         scale *= 0.8
     params: dict[str, float | str | bool] = {
         "kind": name,
+        "knowledge": obj.knowledge,
         "n_views": n_views,
         "focal_px": focal,
         "distance_m": distance,
