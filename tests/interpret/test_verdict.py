@@ -20,7 +20,7 @@ from aida_kb.interpret.verdict import (
     DOUBTFUL,
     NOTHING,
     VERIFIED,
-    _camera_doubts,
+    camera_doubts,
     contested,
     judge,
     line_offset_sd,
@@ -279,8 +279,8 @@ def test_a_registered_camera_is_fixed_by_the_adjustment(
     assert any("(2 sd at most 0.1 deg" in r for r in whole.reasons)
     assert CAMERA_SD_CONFIDENCE * angle > 0.1
     # the same camera fixed twice as well passes check (c)
-    assert _camera_doubts("01", two.model, replace(full, cameras={"01": (0.04, 0.03)})) == []
-    assert _camera_doubts("01", two.model, replace(full, cameras={"01": (0.06, 0.03)}))
+    assert camera_doubts("01", two.model, replace(full, cameras={"01": (0.04, 0.03)})) == []
+    assert camera_doubts("01", two.model, replace(full, cameras={"01": (0.06, 0.03)}))
     model = with_verdict(two, verdict).model
     assert model is not None
     sds = {c.view: c.sd for c in model.cameras}
@@ -463,17 +463,17 @@ def test_outlines_crossing_a_hidden_face_do_not_measure_it() -> None:
     # points of region outlines on a part's plane measure it only when they span a quarter
     # of its face, over an area: a few crossings (a roof valley crossing a wing's hidden end,
     # 0.5 m of a 7 m face; dev seed 1200, the wing 8.9 % too long) measure nothing
-    from aida_kb.interpret.verdict import _spread
+    from aida_kb.interpret.verdict import spread
 
     rng = np.random.default_rng(0)
     crossings = rng.uniform(0.0, 0.5, size=(18, 3)) * [0.0, 1.0, 1.0]
-    assert _spread(crossings, 7.0) == 0
+    assert spread(crossings, 7.0) == 0
     floor_edges = np.array(
         [[x, 0.0, 0.0] for x in np.linspace(0, 6, 20)]
         + [[0.0, 0.0, z] for z in np.linspace(0, 4, 20)]
     )
-    assert _spread(floor_edges, 7.2) == 2
-    assert _spread(floor_edges[:20], 7.2) == 1
+    assert spread(floor_edges, 7.2) == 2
+    assert spread(floor_edges[:20], 7.2) == 1
 
 
 def test_a_tree_crown_taken_for_a_house_is_nothing_found(buildings_kb: KnowledgeBase) -> None:

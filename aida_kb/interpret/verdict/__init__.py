@@ -1,0 +1,244 @@
+"""The verdict on an accepted interpretation: verified, doubtful (with the reasons) or nothing.
+
+The search accepts the best hypothesis whose constraints stay under their thresholds. That
+alone lets a wrong model through when the evidence it fails to use is simply ignored (a roof
+"inserted from knowledge" while a roof region fills a third of the image). An interpretation
+is **verified** only when it also
+
+(a) keeps every instantiated constraint under its threshold (the residual report; the
+    evidence factors a multi-view adjustment adds by code — rule ``evidence`` — are judged by
+    (b) and (c) instead: an outlier among them is no contradiction of the knowledge);
+(b) explains the evidence: of the certainty weight of the regions that lie inside the model's
+    projection (the ray through a region's centre meets a model face), most lies on a model
+    face (the region's plane within `DEPTH_TOLERANCE` of the face and its normal within
+    `NORMAL_TOLERANCE_DEG`, its centre inside the face's polygon). A region the model covers
+    but does not explain contradicts it: seen *through* the model (beyond the face the ray
+    meets) or on a face at another orientation. A region in front of the model may be
+    something standing before it (a tree) and counts neither way — unless it stands close
+    before a face and parallel to it: such regions may carry STANDING_OUT_SHARE_MAX of the
+    weight together (an oriel the model lacks);
+(c) agrees with every registered view: the same test in each view, at the camera the
+    reconstruction gave it; a view that does not explain its evidence is named, and so is a
+    view where the model covers none of its regions or shows none of its edges (nothing
+    there confirms the camera: a registration 100 degrees off passes every test for want
+    of evidence), a view a reconstruction left without a camera (not registered: the
+    result does not say where it was taken from; `judge(..., all_views=True)`), and a
+    registered view (not the first, which sets the world frame) whose camera the
+    adjustment fixes only to more than CAMERA_ANGLE_SD_MAX_DEG or CAMERA_CENTRE_SD_MAX of
+    its distance (at two standard deviations, CAMERA_SD_CONFIDENCE, from the adjustment's
+    covariance at the scatter its measurements show, `aida_kb.interpret.uncertainty`:
+    segments and regions of every view, the model's planes unknowns too);
+(d) meets the knowledge's attribute ranges: every attribute of an instantiated concept that
+    stands for a geometric measure (`is slope(self)`, `height(self)`, ...; docs/language.md
+    3.10) is measured on the model and must lie in its range; and every part the knowledge
+    orients at a fixed slope (`orient top: upward`, 3.9) has it. "Up" is the direction of a
+    part the knowledge orients upward or downward (the floor);
+(e) measures every part (inserted from knowledge, or bound to regions none of which lies
+    on it): a region of some view lies on it, the outlines of regions on the model reach
+    its plane over an area inside its face (spanning OUTLINE_SPAN of it), or two of its
+    edges are measured — seen (segments along half the edge) in two views, or in one view
+    along a neighbour a region measures; one such edge suffices when the knowledge orients
+    the part parallel or square to parts regions measure — unless that orientation is the
+    choice among alternatives the evidence has not told apart (a flat roof's level top
+    through its front eave: a shed's sloping top has that eave too; and the regions on such
+    a part lie within CONTESTED_NORMAL_DEG of it, not only within (b)'s tolerance). A part
+    not measured is where the knowledge's placement put it (a back wall mirrored about the
+    ridge: the house's depth a guess; a roof's hidden back as steep as its front: a shed
+    taken for a gable; a floor square to the walls), not where the scene has it. A part
+    placed by its edges is placed to POSITION_TOLERANCE of the model's size (one standard
+    deviation of its offset, from how far a pixel across each edge moves it in the views
+    that see it, or the adjustment's covariance if larger: a wing's end from one edge seen
+    at a grazing angle is not);
+(f) lacks no surface joined to the object: a region outside the model's projection or in
+    front of it, of at least ADJOINING_MIN_SHARE of the view's region pixels, whose outline
+    meets a model face in 3-D along a quarter of the model's size, and which continues no
+    face's plane (the ground continues the floor), is a part the model lacks (a hip roof's
+    slopes above walls taken for a flat roof's); a tree before the house does not meet it;
+(g) explains the surfaces near it: of the weight of the regions on the model and of those
+    outside its projection or in front of it whose centres lie within NEAR_MARGIN of its
+    size of its bounding box (and continue no face's plane), the model explains at least
+    NEAR_EXPLAINED_MIN (an L-shaped house taken for its body leaves the wing's walls and
+    roof there; an occluder covers at most a third of an object).
+
+Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
+where. An interpretation that found no object is **nothing**; so is one whose sizes (the
+attributes in metres) lie outside the knowledge's ranges: what was found is not the goal (a
+0.3 m box is no house), and the reasons say which sizes; and so is a reconstruction that
+registered none of the scene's other views (`unconfirmed`: no other view confirms the object;
+a tree's box-shaped crown taken for a small house in one view). The summary line says the
+reasons once for several parts (`summary_reasons`). Everything is read from the
+compiled knowledge base and the files: no concept or attribute of a particular .kb is named.
+
+
+The package, one module per concern: `tolerances` (the named thresholds), `outcome`
+(`Verdict`, `ViewCheck`), `geometry` (faces, projection, region outlines), `views` ((b), (f),
+(g) in one view), `edges` (segments along model edges; (c), and (e)'s edge placement),
+`measured` ((e)), `attributes` ((d)), `cameras` ((c) for registered cameras; standard
+deviations in the model), `judge` (the verdict) and `summary` (the verdict in the result).
+"""
+
+from __future__ import annotations
+
+from aida_kb.interpret.verdict.attributes import (
+    check_attributes,
+    check_orientations,
+    measured_attributes,
+)
+from aida_kb.interpret.verdict.cameras import (
+    camera_doubts,
+    with_deviations,
+)
+from aida_kb.interpret.verdict.edges import (
+    edge_cover,
+    edge_coverage,
+    line_offset_sd,
+    seen_edges,
+)
+from aida_kb.interpret.verdict.geometry import (
+    inside_polygon,
+    model_faces,
+    model_size,
+    outline_points,
+    project,
+)
+from aida_kb.interpret.verdict.judge import (
+    judge,
+    unconfirmed,
+    undecided,
+)
+from aida_kb.interpret.verdict.measured import (
+    BOUND_TO_NOTHING,
+    NOT_MEASURED,
+    PLACED_BY_KNOWLEDGE,
+    contested,
+    spread,
+    unmeasured_parts,
+)
+from aida_kb.interpret.verdict.outcome import (
+    DOUBTFUL,
+    NOTHING,
+    VERIFIED,
+    Verdict,
+    ViewCheck,
+)
+from aida_kb.interpret.verdict.summary import (
+    summary_reasons,
+    with_verdict,
+)
+from aida_kb.interpret.verdict.tolerances import (
+    ADJOINING_MIN_SHARE,
+    ADJOINING_SPAN,
+    CAMERA_ANGLE_SD_MAX_DEG,
+    CAMERA_CENTRE_SD_MAX,
+    CAMERA_SD_CONFIDENCE,
+    CONTESTED_NORMAL_DEG,
+    CONTRADICTION_MAX,
+    COS_PARALLEL,
+    DEPTH_TOLERANCE,
+    DEPTH_TOLERANCE_MIN_M,
+    EDGE_ANGLE_DEG,
+    EDGE_COVER_MIN,
+    EDGE_MIN_LENGTH_PX,
+    EDGE_SEEN_SHARE,
+    EDGE_SIGMA_PX,
+    EDGE_TOLERANCE_PX,
+    EXACT_DEG,
+    EXPLAINED_MIN,
+    INSIDE_MARGIN,
+    MEASURED_LINES,
+    MEASURING_SHARE,
+    MIN_WEIGHT_SHARE,
+    NEAR_EXPLAINED_MIN,
+    NEAR_MARGIN,
+    NORMAL_TOLERANCE_DEG,
+    ORIENTATION_TOLERANCE_DEG,
+    OUTLINE_AREA_RATIO,
+    OUTLINE_SPAN,
+    OUTLINE_STEP_PX,
+    OUTLINE_TOLERANCE_PX,
+    POSITION_TOLERANCE,
+    RANGE_SLACK_REL,
+    SEEN_EDGE_COVER_MIN,
+    SIN_SQUARE,
+    SIZE_UNIT,
+    STANDING_OUT_MAX,
+    STANDING_OUT_SHARE_MAX,
+)
+from aida_kb.interpret.verdict.views import (
+    adjoining,
+    check_view,
+    unexplained_near,
+)
+
+__all__ = [
+    "ADJOINING_MIN_SHARE",
+    "ADJOINING_SPAN",
+    "BOUND_TO_NOTHING",
+    "CAMERA_ANGLE_SD_MAX_DEG",
+    "CAMERA_CENTRE_SD_MAX",
+    "CAMERA_SD_CONFIDENCE",
+    "CONTESTED_NORMAL_DEG",
+    "CONTRADICTION_MAX",
+    "COS_PARALLEL",
+    "DEPTH_TOLERANCE",
+    "DEPTH_TOLERANCE_MIN_M",
+    "DOUBTFUL",
+    "EDGE_ANGLE_DEG",
+    "EDGE_COVER_MIN",
+    "EDGE_MIN_LENGTH_PX",
+    "EDGE_SEEN_SHARE",
+    "EDGE_SIGMA_PX",
+    "EDGE_TOLERANCE_PX",
+    "EXACT_DEG",
+    "EXPLAINED_MIN",
+    "INSIDE_MARGIN",
+    "MEASURED_LINES",
+    "MEASURING_SHARE",
+    "MIN_WEIGHT_SHARE",
+    "NEAR_EXPLAINED_MIN",
+    "NEAR_MARGIN",
+    "NORMAL_TOLERANCE_DEG",
+    "NOTHING",
+    "NOT_MEASURED",
+    "ORIENTATION_TOLERANCE_DEG",
+    "OUTLINE_AREA_RATIO",
+    "OUTLINE_SPAN",
+    "OUTLINE_STEP_PX",
+    "OUTLINE_TOLERANCE_PX",
+    "PLACED_BY_KNOWLEDGE",
+    "POSITION_TOLERANCE",
+    "RANGE_SLACK_REL",
+    "SEEN_EDGE_COVER_MIN",
+    "SIN_SQUARE",
+    "SIZE_UNIT",
+    "STANDING_OUT_MAX",
+    "STANDING_OUT_SHARE_MAX",
+    "VERIFIED",
+    "Verdict",
+    "ViewCheck",
+    "adjoining",
+    "camera_doubts",
+    "check_attributes",
+    "check_orientations",
+    "check_view",
+    "contested",
+    "edge_cover",
+    "edge_coverage",
+    "inside_polygon",
+    "judge",
+    "line_offset_sd",
+    "measured_attributes",
+    "model_faces",
+    "model_size",
+    "outline_points",
+    "project",
+    "seen_edges",
+    "spread",
+    "summary_reasons",
+    "unconfirmed",
+    "undecided",
+    "unexplained_near",
+    "unmeasured_parts",
+    "with_deviations",
+    "with_verdict",
+]

@@ -1,0 +1,68 @@
+"""Check (c) for a registered view's camera (the adjustment's covariance), and the standard
+deviations written into the model."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from aida_kb.interpret.uncertainty import Uncertainty
+from aida_kb.interpret.verdict.tolerances import (
+    CAMERA_ANGLE_SD_MAX_DEG,
+    CAMERA_CENTRE_SD_MAX,
+    CAMERA_SD_CONFIDENCE,
+)
+from aida_kb.io.model import CameraSd, PartSd, ReconstructedModel
+
+
+def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None) -> list[str]:
+    """Check (c) for a registered view's camera (problems): the adjustment's covariance
+    (`aida_kb.interpret.uncertainty`) fixes its rotation to CAMERA_ANGLE_SD_MAX_DEG and its
+    centre to CAMERA_CENTRE_SD_MAX of its distance from the model's centre, both at
+    CAMERA_SD_CONFIDENCE standard deviations."""
+    camera = next((c for c in model.cameras if c.view == view), None)
+    if camera is None:
+        return []
+    if unc is None or view not in unc.cameras:
+        return ["camera: the adjustment's covariance could not be computed"]
+    angle, centre_m = unc.cameras[view]
+    corners = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
+    R = np.asarray(camera.R, dtype=np.float64)
+    C = -R.T @ np.asarray(camera.t, dtype=np.float64)
+    distance = float(np.linalg.norm(C - corners.mean(axis=0)))
+    centre = centre_m / max(distance, 1e-9)
+    k = CAMERA_SD_CONFIDENCE
+    if k * angle <= CAMERA_ANGLE_SD_MAX_DEG and k * centre <= CAMERA_CENTRE_SD_MAX:
+        return []
+    return [
+        f"camera is fixed by the adjustment only to +-{angle:.2f} deg and +-{100 * centre:.1f}% "
+        f"of its distance ({k:g} sd at most {CAMERA_ANGLE_SD_MAX_DEG:g} deg and "
+        f"{100 * CAMERA_CENTRE_SD_MAX:g}%; {unc.measurements} measurements, their scatter "
+        f"{unc.variance_factor**0.5:.2f} of their noise model)"
+    ]
+
+
+def _finite_pair(values: tuple[float, float] | None) -> tuple[float | None, float | None]:
+    """Two standard deviations with the infinite ones (not fixed) as None."""
+    if values is None:
+        return None, None
+    a, b = values
+    return (a if math.isfinite(a) else None), (b if math.isfinite(b) else None)
+
+
+def with_deviations(model: ReconstructedModel, unc: Uncertainty) -> ReconstructedModel:
+    """`model` with the adjustment's standard deviations on its parts and cameras (model.json
+    `sd`: normal degrees and offset metres of each part, rotation degrees and centre metres
+    of each camera the adjustment moves; null where not fixed)."""
+    parts = [
+        p.model_copy(update={"sd": PartSd(normal_deg=a, offset_m=b)}) if p.role in unc.parts else p
+        for p, (a, b) in ((p, _finite_pair(unc.parts.get(p.role))) for p in model.parts)
+    ]
+    cameras = [
+        c.model_copy(update={"sd": CameraSd(rotation_deg=a, centre_m=b)})
+        if c.view in unc.cameras
+        else c
+        for c, (a, b) in ((c, _finite_pair(unc.cameras.get(c.view))) for c in model.cameras)
+    ]
+    return model.model_copy(update={"parts": parts, "cameras": cameras})

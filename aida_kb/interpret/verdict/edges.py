@@ -1,0 +1,146 @@
+"""Image segments along the projected model edges (check (c)), which view sees which edge, and how
+well image lines of an edge fix a plane through it (check (e))."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.interpret.verdict.geometry import FloatArray, IntArray, project
+from aida_kb.interpret.verdict.tolerances import (
+    EDGE_ANGLE_DEG,
+    EDGE_MIN_LENGTH_PX,
+    EDGE_SEEN_SHARE,
+    EDGE_SIGMA_PX,
+    EDGE_TOLERANCE_PX,
+)
+from aida_kb.io.evidence import Evidence, ViewEvidence
+from aida_kb.io.model import ModelCamera, ReconstructedModel
+
+if TYPE_CHECKING:
+    from aida_kb.register.model import RigidModel, VisibleEdges
+
+
+def edge_coverage(
+    view: ViewEvidence, model: ReconstructedModel
+) -> tuple[RigidModel, VisibleEdges, FloatArray] | None:
+    """The model edges the view's camera sees (at least EDGE_MIN_LENGTH_PX long) and the
+    length of each, pixels, that image segments lie on (within EDGE_TOLERANCE_PX and
+    EDGE_ANGLE_DEG; segments undistorted with the view's distortion first). None: no camera
+    or no segments."""
+    from aida_kb.register.evidence import camera_of, measurements_of
+    from aida_kb.register.match import match_segments
+    from aida_kb.register.model import RigidModel
+
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    if camera is None or not view.lines:
+        return None
+    rigid = RigidModel.from_model(model)
+    edges = rigid.visible_edges(camera_of(camera), min_length_px=EDGE_MIN_LENGTH_PX)
+    covered = np.zeros(edges.index.size)
+    if edges.index.size == 0:
+        return rigid, edges, covered
+    meas = measurements_of(view)
+    matches = match_segments(
+        edges.a,
+        edges.b,
+        meas.p1,
+        meas.p2,
+        max_distance_px=EDGE_TOLERANCE_PX,
+        max_angle_rad=math.radians(EDGE_ANGLE_DEG),
+    )
+    if matches.size == 0:
+        return rigid, edges, covered
+    a, b = edges.a[matches.edge], edges.b[matches.edge]
+    length = edges.length_px[matches.edge]
+    u = (b - a) / np.maximum(length, 1e-12)[:, None]
+    t1 = np.einsum("mk,mk->m", meas.p1[matches.segment] - a, u)
+    t2 = np.einsum("mk,mk->m", meas.p2[matches.segment] - a, u)
+    lo = np.clip(np.minimum(t1, t2), 0.0, length)
+    hi = np.clip(np.maximum(t1, t2), 0.0, length)
+    np.add.at(covered, matches.edge, hi - lo)  # pieces of one edge rarely overlap
+    return rigid, edges, np.minimum(covered, edges.length_px)
+
+
+def edge_cover(
+    view: ViewEvidence, model: ReconstructedModel, between: frozenset[str] | None = None
+) -> float | None:
+    """The share of the projected length of the model edges the view's camera sees that
+    image segments lie on (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG); None: no edge to
+    check or no camera. Segments are undistorted with the view's distortion first.
+    between : only the edges both of whose parts are in this set of roles."""
+    found = edge_coverage(view, model)
+    if found is None:
+        return None
+    rigid, edges, covered = found
+    sel: npt.NDArray[np.bool_] = np.ones(edges.index.size, bool)
+    if between is not None:
+        names = np.array([n in between for n in rigid.names])
+        sel = np.asarray(names[rigid.edge_faces[edges.index]].all(axis=1), dtype=bool)
+    if not sel.any():
+        return None
+    return float(covered[sel].sum() / edges.length_px[sel].sum())
+
+
+def seen_edges(
+    evidence: Evidence, model: ReconstructedModel
+) -> tuple[tuple[str, ...], IntArray, list[set[str]]]:
+    """Which view sees which model edge: image segments lie along at least EDGE_SEEN_SHARE
+    of the edge's visible projected length in that view. Returns the part names, the
+    edges' two parts (E, 2) (indices into the names; the model's `RigidModel` edges) and,
+    per edge, the ids of the views that see it."""
+    from aida_kb.register.model import RigidModel
+
+    rigid = RigidModel.from_model(model)
+    views: list[set[str]] = [set() for _ in range(len(rigid.edge_faces))]
+    for view in evidence.views:
+        found = edge_coverage(view, model)
+        if found is None:
+            continue
+        _, edges, covered = found
+        for i in edges.index[covered >= EDGE_SEEN_SHARE * edges.length_px]:
+            views[int(i)].add(view.id)
+    return rigid.names, np.asarray(rigid.edge_faces, dtype=np.int64), views
+
+
+def line_offset_sd(
+    ends: FloatArray, normal: FloatArray, within: FloatArray | None, cameras: list[ModelCamera]
+) -> float:
+    """How well image lines of a 3-D edge fix a plane through it: the standard deviation,
+    metres, of the plane's offset along its unit `normal` (3,), when the edge (ends (2, 3),
+    world frame) is seen in `cameras` with its two ends good to EDGE_SIGMA_PX across the
+    line. The edge may move square to itself: within the plane of unit normal `within`
+    (a neighbour a region measures) or, None, freely (triangulated from the views). inf
+    when the views leave a direction unmeasured (one view, no neighbour; a line along the
+    baseline)."""
+    u = ends[1] - ends[0]
+    u = u / max(float(np.linalg.norm(u)), 1e-12)
+    if within is not None:
+        w = np.cross(within, u)
+        basis = (w / max(float(np.linalg.norm(w)), 1e-12))[None, :]
+    else:
+        a = np.cross(u, [1.0, 0.0, 0.0])
+        if np.linalg.norm(a) < 0.1:
+            a = np.cross(u, [0.0, 1.0, 0.0])
+        a = a / np.linalg.norm(a)
+        basis = np.stack([a, np.cross(u, a)])
+    info = np.zeros((len(basis), len(basis)))
+    h = 1e-3 * max(float(np.linalg.norm(ends[1] - ends[0])), 1e-3)  # metres
+    for camera in cameras:
+        px = project(camera, ends)  # (2, 2)
+        along = px[1] - px[0]
+        length = float(np.linalg.norm(along))
+        if length < 1e-9:
+            continue
+        across = np.array([-along[1], along[0]]) / length
+        rows = [((project(camera, ends + h * b) - px) @ across) / h for b in basis]  # px / m
+        J = np.stack(rows, axis=1)  # (2 ends, k)
+        info += J.T @ J / EDGE_SIGMA_PX**2
+    if abs(float(np.linalg.det(info))) < 1e-12:
+        return math.inf
+    cov = np.linalg.inv(info)
+    proj = basis @ normal  # (k,): how far the plane moves per metre along each direction
+    return math.sqrt(max(float(proj @ cov @ proj), 0.0))

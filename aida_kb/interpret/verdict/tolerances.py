@@ -1,0 +1,67 @@
+"""The verdict's named thresholds, each with its reason (see the package docstring for the
+checks (a)-(g) that use them)."""
+
+from __future__ import annotations
+
+import math
+
+DEPTH_TOLERANCE = 0.015  # a region lies on a face within 1.5 % of its distance from the camera
+DEPTH_TOLERANCE_MIN_M = 0.05  # ... and never tighter than 5 cm (stereo noise of near faces)
+NORMAL_TOLERANCE_DEG = 8.0  # a region's normal within 8 degrees of the face's (plane fits of
+# small, slanted or weakly textured regions scatter by a few degrees)
+INSIDE_MARGIN = 0.05  # a region's centre may lie this fraction of the face's size outside it
+EXPLAINED_MIN = 0.75  # the explained share of the weight inside the projection, at least
+CONTRADICTION_MAX = 0.08  # one region that contradicts the model may carry at most this
+# share of the weight inside the projection (8 %: a misfitted roof plane is far above)
+MIN_WEIGHT_SHARE = 0.002  # regions lighter than this share of a view's weight are noise
+STANDING_OUT_MAX = 0.15  # a parallel region this share of the model's size in front of a
+# face stands out of it (a part the model lacks), further away it may be an occluder
+STANDING_OUT_SHARE_MAX = 0.02  # such regions may carry at most 2 % of a view's weight inside
+# the projection together (an oriel the model lacks: 3-5 %; a stray region: well below)
+ORIENTATION_TOLERANCE_DEG = 4.0  # a part the knowledge orients (a flat roof's top upward)
+# lies within 4 degrees of that slope (a shed roof of 8-25 degrees is no flat roof)
+SIZE_UNIT = "m"  # attributes of this unit are sizes: outside their ranges the object is another
+RANGE_SLACK_REL = 1e-3  # measured attributes: a range is met within this relative slack
+
+
+EDGE_TOLERANCE_PX = 3.0  # a segment shows a projected model edge within 3 px (a segment's
+# ends scatter by about a pixel; a camera 0.3 degree off moves edges by several pixels)
+EDGE_ANGLE_DEG = 4.0  # ... and within 4 degrees of its direction
+EDGE_MIN_LENGTH_PX = 25.0  # only projected edges at least this long are checked
+SEEN_EDGE_COVER_MIN = 0.4  # edges between two parts bound to the evidence: at least this share
+OUTLINE_TOLERANCE_PX = 4.0  # a region's outline reaches a plane within 4 px of it
+OUTLINE_STEP_PX = 3.0  # region outlines are sampled every 3 px along their sides
+ADJOINING_MIN_SHARE = 0.02  # (f): a region of at least 2 % of a view's region pixels ...
+ADJOINING_SPAN = 0.25  # ... meeting a face along a quarter of the model's size is a surface
+# joined to the object (a roof slope above a wall's eave), not background touching it
+NEAR_MARGIN = 0.25  # (g): a region whose centre lies within a quarter of the model's size of
+# its bounding box is near the object (an occluder standing further off is not)
+NEAR_EXPLAINED_MIN = 0.6  # ... and the model explains at least 60 % of the weight of the
+# regions on it and near it (occluders cover up to 30 % of an object: their regions weigh
+# less than half of what the model explains; a missing wing weighs more)
+POSITION_TOLERANCE = 0.02  # (e): a part placed by its edges alone is placed to 2 % of the
+# model's size (one standard deviation; the accuracy asked of its vertices)
+OUTLINE_AREA_RATIO = 0.2  # outlines reaching a plane spread over an area, not along a line
+OUTLINE_SPAN = 0.25  # ... along at least a quarter of the face's size (its polygon's diagonal)
+CONTESTED_NORMAL_DEG = 3.0  # the regions measuring a part whose orientation is the choice
+# among alternatives lie within 3 degrees of it on average (fits of regions that large agree
+# with their faces to 1-2 degrees; a shed's top pitched 8 degrees is no flat roof's)
+MEASURING_SHARE = 0.05  # a region measures its part's plane when it carries 5 % of the
+# weight in the model's projection (a sliver's plane fit scatters by degrees)
+MEASURED_LINES = 2  # a plane through two measured lines (not one) is measured ...
+EXACT_DEG = 0.5  # ... or through one, parallel or square to a measured part within 0.5 deg
+COS_PARALLEL = math.cos(math.radians(EXACT_DEG))
+SIN_SQUARE = math.sin(math.radians(EXACT_DEG))
+EDGE_SIGMA_PX = 1.0  # an image line's ends scatter by a pixel across it (the knowledge's
+# `measure edge(...) +- 1 px`); how far that moves a plane through the edge is its uncertainty
+CAMERA_ANGLE_SD_MAX_DEG = 0.1  # (c): the adjustment fixes a registered view's camera to
+# 0.1 degree (at CAMERA_SD_CONFIDENCE sd; the accuracy asked of it, the paper's Table 1) ...
+CAMERA_CENTRE_SD_MAX = 0.01  # ... and its centre to 1 % of its distance from the model
+CAMERA_SD_CONFIDENCE = 2.0  # ... at this many standard deviations: an sd just under the
+# target still leaves about one chance in three of an error above it (street2 dev seed 7:
+# view 01 verified at sd < 0.1 deg, 0.173 deg off); two sd make it about one in twenty
+EDGE_SEEN_SHARE = 0.5  # an edge is seen in a view when segments lie along half its length
+EDGE_COVER_MIN = 0.5  # at least this share of the visible edges' length is seen as segments
+# (edges between faces of like brightness or under an occluder show no segment: a right
+# model's edges are seen along 52-96 % on development scenes, a wrong roof's or a missing
+# wing's along 30-47 % — their edges run where the building has none)

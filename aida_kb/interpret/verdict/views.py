@@ -1,0 +1,233 @@
+"""Checks (b), (f) and (g) in one view: the regions inside the model's projection lie on its faces,
+no large surface joined to the model is left out, and the surfaces near it are mostly its own."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from aida_kb.interpret.verdict.edges import edge_cover
+from aida_kb.interpret.verdict.geometry import (
+    FloatArray,
+    inside_polygon,
+    model_faces,
+    model_size,
+    outline_points,
+)
+from aida_kb.interpret.verdict.outcome import ViewCheck
+from aida_kb.interpret.verdict.tolerances import (
+    ADJOINING_MIN_SHARE,
+    ADJOINING_SPAN,
+    DEPTH_TOLERANCE,
+    DEPTH_TOLERANCE_MIN_M,
+    MIN_WEIGHT_SHARE,
+    NEAR_MARGIN,
+    NORMAL_TOLERANCE_DEG,
+    STANDING_OUT_MAX,
+)
+from aida_kb.io.evidence import Region, ViewEvidence
+from aida_kb.io.model import ReconstructedModel
+
+
+def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | None:
+    """Check (b) for one view at the model's camera of that view (None: no such camera)."""
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    regions = [r for r in view.regions if r.w_c > 0 and r.depth_pixel_count > 0]
+    if camera is None or not regions:
+        return None
+    R = np.asarray(camera.R, dtype=np.float64)
+    t = np.asarray(camera.t, dtype=np.float64)
+    C = -R.T @ t
+    centres = np.array([r.c_init for r in regions], dtype=np.float64)
+    normals = np.array([r.n_init for r in regions], dtype=np.float64)
+    if view.frame == "camera":  # this view's own left camera -> world
+        centres = (centres - t) @ R
+        normals = normals @ R
+    weights = np.array([r.w_c for r in regions], dtype=np.float64)
+    keep = weights >= MIN_WEIGHT_SHARE * weights.sum()
+    rays = centres - C  # (M, 3); the region's centre at parameter 1
+    dist = np.linalg.norm(rays, axis=1)
+    tol = np.maximum(DEPTH_TOLERANCE * dist, DEPTH_TOLERANCE_MIN_M)
+    cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
+    m = len(regions)
+    explained = np.zeros(m, bool)
+    on_face: dict[str, float] = {}
+    turned_on: dict[str, float] = {}
+    nearest = np.full(m, np.inf)  # ray parameter of the first model face the ray meets
+    nearest_cos = np.zeros(m)  # |cos| between the region's normal and that face's
+    for role, n, d, poly in model_faces(model):
+        # (1) the region lies on this face
+        on_plane = np.abs(centres @ n - d) <= tol
+        aligned = np.abs(normals @ n) >= cos_tol
+        cand = on_plane & aligned
+        if cand.any():
+            on = np.zeros(m, bool)
+            on[cand] = inside_polygon(centres[cand], poly, n)
+            explained |= on
+            on_face[role] = float(weights[on & keep].sum())
+            if on_face[role] > 0:
+                cos = np.clip(np.abs(normals[on & keep] @ n), 0.0, 1.0)
+                turned_on[role] = float(
+                    np.degrees(np.arccos(cos)) @ weights[on & keep] / on_face[role]
+                )
+        # (2) where the ray through the region's centre meets this face
+        denom = rays @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (d - C @ n) / denom
+        hit_ok = np.isfinite(s) & (s > 0)
+        if hit_ok.any():
+            idx = np.nonzero(hit_ok)[0]
+            pts = C + s[idx, None] * rays[idx]
+            hit = np.zeros(m, bool)
+            hit[idx] = inside_polygon(pts, poly, n)
+            closer = hit & (s < nearest)
+            nearest[closer] = s[closer]
+            nearest_cos[closer] = np.abs(normals[closer] @ n)
+    inside = keep & np.isfinite(nearest)
+    gap = (nearest - 1.0) * dist  # > 0: the model's surface lies beyond the region
+    size = model_size(model)
+    # in front of the model: something standing before it (neutral) unless it is close to
+    # the surface and parallel to it (a part standing out that the model lacks: an oriel)
+    before = inside & ~explained & (gap > tol)
+    standing_out = before & (gap < STANDING_OUT_MAX * size) & (nearest_cos >= cos_tol)
+    in_front = before & ~standing_out
+    counted = inside & ~in_front
+    through = counted & ~explained & (gap < -tol)
+    turned = counted & ~explained & ~through & ~standing_out
+    total = float(weights[counted].sum())
+    contradicting = []
+    for i in np.nonzero(through | turned | standing_out)[0]:
+        if through[i]:
+            why = f"seen {-gap[i]:.2f} m beyond the model's surface"
+        elif standing_out[i]:
+            why = f"standing {gap[i]:.2f} m out of the model's surface, parallel to it"
+        else:
+            angle = math.degrees(math.acos(min(1.0, nearest_cos[i])))
+            why = f"on the model's surface at {angle:.0f} deg to its face"
+        contradicting.append((regions[i].id, float(weights[i]) / max(total, 1e-12), why))
+    contradicting.sort(key=lambda c: -c[1])
+    return ViewCheck(
+        view.id,
+        total,
+        float(weights[counted & explained].sum()),
+        contradicting,
+        edge_cover(view, model),
+        on_face,
+        tuple(int(regions[i].id) for i in np.nonzero(counted & explained)[0]),
+        tuple(int(regions[i].id) for i in np.nonzero(~counted)[0]),
+        float(weights[standing_out & keep].sum()),
+        turned_on,
+    )
+
+
+def adjoining(view: ViewEvidence, model: ReconstructedModel, check: ViewCheck) -> list[str]:
+    """Check (f) in one view (reasons): a region outside the model's projection or in front
+    of it (which (b) leaves alone: it may be something standing before the object) whose outline
+    meets a model face in 3-D (on its plane within OUTLINE_TOLERANCE_PX, inside the face)
+    along at least ADJOINING_SPAN of the model's size, and which covers at least
+    ADJOINING_MIN_SHARE of the view's region pixels, is a surface joined to the object
+    that the model does not have (a hip roof's slope above walls taken for a flat roof's).
+    A region lying in a model face's plane continues that face (the ground the floor) and
+    is not counted; nor is anything in front (its outline is nearer than the faces)."""
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    total = sum(r.pixel_count for r in view.regions)
+    big = [
+        r
+        for r in view.regions
+        if r.id in set(check.free_ids) and r.pixel_count >= ADJOINING_MIN_SHARE * total
+    ]
+    if camera is None or not big:
+        return []
+    R = np.asarray(camera.R, dtype=np.float64)
+    t = np.asarray(camera.t, dtype=np.float64)
+    faces = model_faces(model)
+    size = model_size(model)
+    reasons = []
+    for r in big:
+        points, tol = outline_points(view, (r.id,), model)
+        if len(points) < 2:
+            continue
+        if _continues_face(*_region_plane(view, r, R, t), faces):
+            continue  # it continues a face's plane
+        best = (0.0, "")
+        for role, n, d, poly in faces:
+            near = np.abs(points @ n - d) <= tol
+            if np.count_nonzero(near) < 2:
+                continue
+            touching = points[near][inside_polygon(points[near], poly, n)]
+            if len(touching) >= 2:
+                span = float(np.linalg.norm(touching.max(axis=0) - touching.min(axis=0)))
+                best = max(best, (span, role))
+        if best[0] >= ADJOINING_SPAN * size:
+            reasons.append(
+                f"view {view.id}: region {view.id}/{r.id} ({100 * r.pixel_count / total:.0f}% "
+                f"of its pixels) meets {best[1]} along {best[0]:.1f} m, but the model does "
+                "not explain it (a part the model lacks)"
+            )
+    return reasons
+
+
+def _region_plane(
+    view: ViewEvidence, region: Region, R: FloatArray, t: FloatArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """A region's fitted plane in the world frame: its unit normal (3,), its centre (3,),
+    metres, and how far off a face's plane it may lie and still be on it, metres
+    (DEPTH_TOLERANCE of its distance from the view's camera, R, t: world -> camera, at
+    least DEPTH_TOLERANCE_MIN_M)."""
+    normal = np.asarray(region.n_init, dtype=np.float64)
+    centre = np.asarray(region.c_init, dtype=np.float64)
+    if view.frame == "camera":  # this view's own left camera -> world
+        normal, centre = normal @ R, (centre - t) @ R
+    dist = float(np.linalg.norm(centre + R.T @ t))
+    return normal, centre, max(DEPTH_TOLERANCE * dist, DEPTH_TOLERANCE_MIN_M)
+
+
+def _continues_face(
+    normal: FloatArray,
+    centre: FloatArray,
+    tol: float,
+    faces: list[tuple[str, FloatArray, float, FloatArray]],
+) -> bool:
+    """A plane (unit normal (3,), a point (3,), world frame) lies in a face's plane within
+    NORMAL_TOLERANCE_DEG and `tol` metres (the ground continues the floor)."""
+    cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
+    return any(
+        abs(float(normal @ n)) >= cos_tol and abs(float(centre @ n) - d) <= tol
+        for _, n, d, _ in faces
+    )
+
+
+def unexplained_near(
+    view: ViewEvidence, model: ReconstructedModel, check: ViewCheck
+) -> tuple[float, list[int]]:
+    """Check (g) in one view: the share of the weight of the regions on the model and near
+    it that the model explains, and the ids of the near regions it leaves (heaviest first).
+    Near: a region outside the model's projection or in front of it (which (b) leaves
+    alone), at least MIN_WEIGHT_SHARE of the view's weight, whose centre lies within
+    NEAR_MARGIN of the model's size of its bounding box, and which continues no face's
+    plane. An L-shaped house taken for its body leaves the wing's walls there."""
+    camera = next((c for c in model.cameras if c.view == view.id), None)
+    if camera is None:
+        return 1.0, []
+    R = np.asarray(camera.R, dtype=np.float64)
+    t = np.asarray(camera.t, dtype=np.float64)
+    corners = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
+    grow = NEAR_MARGIN * model_size(model)
+    low, high = corners.min(axis=0) - grow, corners.max(axis=0) + grow
+    faces = model_faces(model)
+    total = sum(r.w_c for r in view.regions)
+    free = set(check.free_ids)
+    near: list[tuple[float, int]] = []
+    for r in view.regions:
+        if r.id not in free or r.depth_pixel_count == 0 or r.w_c < MIN_WEIGHT_SHARE * total:
+            continue
+        normal, centre, tol = _region_plane(view, r, R, t)
+        if _continues_face(normal, centre, tol, faces):
+            continue
+        if bool(np.all(centre >= low)) and bool(np.all(centre <= high)):
+            near.append((float(r.w_c), int(r.id)))
+    left = sum(w for w, _ in near)
+    explained = check.explained_weight
+    share = explained / (explained + left) if explained + left > 0 else 1.0
+    return share, [i for _, i in sorted(near, reverse=True)]
