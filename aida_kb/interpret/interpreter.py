@@ -122,6 +122,9 @@ class Interpreter:
     reference_weight: float = 0.0  # what `Context.significant` judges against (0: the total)
     anchors: frozenset[str] = frozenset()  # the regions the body may be anchored on (all)
     foreign: frozenset[str] = frozenset()  # other objects' regions: their borders measure nothing
+    # choices along is-a the body must make (``(role path, concept)``; () : any): the other
+    # views re-judge a tie by interpreting with each tied choice in turn (`rejudge`)
+    choices: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         self.context = Context.build(
@@ -159,6 +162,14 @@ class Interpreter:
             return []
         # a scene's round anchors its object on given regions (interpret.scene)
         hypotheses, verticals, frames = body_hypotheses(ctx, framed, self.anchors)
+        if self.choices:
+            hypotheses = [h for h in hypotheses if _makes(h, self.choices)]
+            framed = [s for s in framed if _makes_choices(s.choices, self.choices)]
+            if not framed:
+                hid = self.trace.create(concept, role, parent)
+                wanted = ", ".join(f"{r}={c}" for r, c in self.choices)
+                self.trace.reject(hid, f"no specialisation of {concept} makes {wanted}")
+                return []
         self.generated = (len(hypotheses), verticals, frames, len(framed))
         if not hypotheses:
             hid = self.trace.create(concept, role, parent)
@@ -443,6 +454,17 @@ class Interpreter:
                             )
                         )
         return out
+
+
+def _makes_choices(made: tuple[tuple[str, str], ...], wanted: tuple[tuple[str, str], ...]) -> bool:
+    """True if the is-a choices `made` include every one of `wanted`."""
+    own = dict(made)
+    return all(own.get(role) == concept for role, concept in wanted)
+
+
+def _makes(h: BodyHypothesis, wanted: tuple[tuple[str, str], ...]) -> bool:
+    """True if hypothesis `h` of the body makes every choice of `wanted`."""
+    return _makes_choices(h.structure.choices, wanted)
 
 
 def guessed(level: Level) -> float:

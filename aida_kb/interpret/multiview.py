@@ -642,8 +642,10 @@ def reconstruct_views(
     source: str = "",
     scene: Scene | None = None,
     progress: Callable[[str], None] | None = None,
+    choices: tuple[tuple[str, str], ...] = (),
 ) -> Interpretation:
     """Interpret the first view, register the others, refine the model with all of them.
+    ``choices``: is-a choices the first view's interpretation must make (`run.interpret`).
 
     With the `scene` the evidence came from, registration also uses the segments of each
     view's right image (`aida_kb.register.evidence.right_segments`).
@@ -662,7 +664,7 @@ def reconstruct_views(
     placed = [v for v in evidence.views[1:] if v.frame == "world"]
     known = [v for v in evidence.views[:1] if v.frame == "world"]
     first = evidence.model_copy(update={"views": known})
-    interp = interpret(kb, first, goal=goal, source=source)
+    interp = interpret(kb, first, goal=goal, source=source, choices=choices)
     if not (later or placed) or interp.model is None:
         return interp
     known += placed

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from aida_kb.interpret.kbfile import write_interpretation_kb
-from aida_kb.interpret.multiview import reconstruct_views
+from aida_kb.interpret.rejudge import rejudged_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
 from aida_kb.interpret.verdict import NOTHING, judge, with_verdict
@@ -135,7 +135,7 @@ def _reconstruct(
     if stage is not None:
         stage("-", "interpretation")
     progress = None if stage is None else (lambda what: stage("-", what))
-    interp = reconstruct_views(
+    interp = rejudged_views(
         kb,
         evidence,
         goal=goal,

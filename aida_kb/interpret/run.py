@@ -133,9 +133,11 @@ def interpret(
     goal: str | None = None,
     source: str = "",
     progress: Callable[[str], None] | None = None,
+    choices: tuple[tuple[str, str], ...] = (),
 ) -> Interpretation:
     """Interpret `evidence` against `kb` for the goal concept `goal` (None: the knowledge
-    base's only scene concept, `check_goal`).
+    base's only scene concept, `check_goal`). ``choices``: is-a choices the object's body
+    must make (``(role path, concept)``, `Interpreter.choices`; () : any).
 
     Returns the interpretation: accepted with instances, model, residuals and trace, or not
     accepted (no instances, no model) with a message saying why. Raises InterpretError when the
@@ -149,7 +151,7 @@ def interpret(
     if slot is not None:  # a goal holding several scene objects
         return interpret_scene(kb, evidence, goal, slot, source=source, progress=progress)
     view = view_of(evidence, source)
-    interpreter = Interpreter(knowledge, view, goal)
+    interpreter = Interpreter(knowledge, view, goal, choices=choices)
     if progress is not None:
         progress(f"interpreting {len(view.regions)} regions, {len(view.segments)} segments")
     state, expanded, goal_id = interpreter.run()
