@@ -25,6 +25,7 @@ examples:
   make demo                      # creates .venv first; writes into ./demo-output/
 """
 
+DEMO_PREFIX = "aida-kb-demo-"  # the temporary folder's name when no --out is given
 ANGLE_TARGET_DEG = 0.5  # the demo's own target: dihedral angles within half a degree
 
 
@@ -157,12 +158,13 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.synth.scenes import HOUSE_ANGLES, preset, render_scene
 
     path = Path(args.kb) if args.kb else packaged_kb("buildings.kb")
-    root = make_dirs(args.out) if args.out else Path(tempfile.mkdtemp(prefix="aida-kb-demo-"))
     console = Console(highlight=False)
     console.width = max(console.width, 100)
     console.rule("[bold]aida-kb demo[/bold]: a house from two stereo views, as in the paper")
     console.print(f"1. compile {display_path(path)}")
     kb, sources = load_kb(str(path))
+    # the output folder only once the knowledge compiles: a broken .kb leaves nothing behind
+    root = make_dirs(args.out) if args.out else Path(tempfile.mkdtemp(prefix=DEMO_PREFIX))
     console.print(f"   {len(kb.concepts)} concepts in layers {' > '.join(kb.layers)}")
     if not args.no_net:
         console.print(net_tree(kb, f"[bold]{display_path(path)}[/bold]"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.resources
 import re
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -69,12 +70,16 @@ def test_demo_reconstructs_the_house_within_the_targets(demo_run: Any) -> None:
     assert declared.strip() in out
 
 
-def test_demo_on_a_broken_kb_fails_with_diagnostics(capsys: pytest.CaptureFixture[str]) -> None:
+def test_demo_on_a_broken_kb_fails_with_diagnostics(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     broken = ROOT / "kb" / "examples" / "broken_syntax.kb"
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # where a temporary folder goes
     assert main(["demo", "--kb", str(broken), "--no-net"]) == 1
     err = capsys.readouterr().err
     assert "error[KB001]" in err
     assert "the knowledge base has errors" in err
+    assert list(tmp_path.iterdir()) == []  # nothing left behind: no empty output folder
 
 
 def test_packaged_kb_prefers_the_installed_wheel_data(
