@@ -27,7 +27,8 @@ frame: its camera has none.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -36,9 +37,12 @@ import numpy.typing as npt
 from aida_kb.errors import AidaError
 
 if TYPE_CHECKING:
+    from aida_kb.geometry.camera import PinholeCamera
     from aida_kb.interpret.result import Interpretation
     from aida_kb.io.evidence import Evidence
+    from aida_kb.io.model import ReconstructedModel
     from aida_kb.kb.model import KnowledgeBase
+    from aida_kb.solve.problem import Problem
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -117,17 +121,9 @@ def adjustment_uncertainty(
     """The standard deviations of `interp`'s model and cameras (module docstring); None
     when there is no model, the first view has no camera or the problem cannot be built."""
     from aida_kb.geometry.camera import PinholeCamera
-    from aida_kb.interpret.multiview import (
-        JOINT_EDGE_SIGMA_PX,
-        JOINT_F_SCALE,
-        JOINT_LOSS,
-        joint_problem,
-        kb_constraints,
-        meeting_angles,
-    )
+    from aida_kb.interpret.multiview import joint_problem, kb_constraints, meeting_angles
     from aida_kb.register import RigidModel
     from aida_kb.register.evidence import measurements_of
-    from aida_kb.solve import Evaluation
 
     model = interp.model
     if model is None or not evidence.views:
@@ -160,7 +156,49 @@ def adjustment_uncertainty(
             angles=meeting_angles(rigid),
             internal=kb_constraints(kb, interp, rigid.names),
         )
-        P = rigid.n_parts
+    except AidaError:
+        return None
+    unc = problem_uncertainty(problem, rigid.names, cams, free, order[1:])
+    if unc is None:
+        return None
+    own = image_edge_deviations(model)
+    if not own:
+        return unc
+    cameras = {v: own.get(v, sd) for v, sd in unc.cameras.items()}
+    return replace(unc, cameras=cameras)
+
+
+def image_edge_deviations(model: ReconstructedModel) -> dict[str, tuple[float, float]]:
+    """The cameras whose deviations the reconstruction's own last adjustment gave (model.json
+    ``sd`` with ``measurements`` "image edges": `aida_kb.interpret.multiview.IMAGE_ROUNDS`, the
+    model's edges fitted along the images, measurements the segments' problem here does not
+    hold): view id -> (rotation, degrees; centre, metres). Those keep them."""
+    return {
+        c.view: (c.sd.rotation_deg, c.sd.centre_m)
+        for c in model.cameras
+        if c.sd is not None
+        and c.sd.measurements == "image edges"
+        and c.sd.rotation_deg is not None
+        and c.sd.centre_m is not None
+    }
+
+
+def problem_uncertainty(
+    problem: Problem,
+    names: Sequence[str],
+    cameras: Sequence[PinholeCamera],
+    free: Sequence[int],
+    views: Sequence[str],
+) -> Uncertainty | None:
+    """The standard deviations (module docstring) at the solution `problem` starts from:
+    every part free (`names`, in order) and the cameras `free` (indices into `cameras`, the
+    problem's first cameras; `views` their ids, which key `Uncertainty.cameras`). None when a
+    residual or derivative is not finite or the problem cannot be evaluated."""
+    from aida_kb.interpret.multiview import JOINT_EDGE_SIGMA_PX, JOINT_F_SCALE, JOINT_LOSS
+    from aida_kb.solve import Evaluation
+
+    P = len(names)
+    try:
         ev = Evaluation(
             problem,
             np.arange(P, dtype=np.intp),
@@ -168,7 +206,7 @@ def adjustment_uncertainty(
             loss=JOINT_LOSS,
             f_scale=JOINT_F_SCALE,
         )
-        r, J = ev.residuals_and_dense_jacobian(ev.x_from(np.zeros((P, 3)), cams))
+        r, J = ev.residuals_and_dense_jacobian(ev.x_from(np.zeros((P, 3)), list(cameras)))
     except AidaError:
         return None
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
@@ -196,24 +234,24 @@ def adjustment_uncertainty(
     factor = total / m if m else 1.0
     var = np.diag(cov)
     parts = {}
-    for i, name in enumerate(rigid.names):
+    for i, name in enumerate(names):
         d, a, b = var[3 * i : 3 * i + 3]
         parts[name] = (math.degrees(math.sqrt(a + b)), math.sqrt(d))
-    cameras = {}
-    for k, view in enumerate(order[1:]):
+    deviations = {}
+    for k, view in enumerate(views):
         col = 3 * P + 6 * k
         rot = cov[col : col + 3, col : col + 3]
         if np.all(np.isfinite(rot)):
-            G = rotation_jacobian(cams[k + 1].pose[:3])
+            G = rotation_jacobian(cameras[free[k]].pose[:3])
             angle = math.degrees(math.sqrt(max(float(np.trace(G @ rot @ G.T)), 0.0)))
         else:
             angle = math.inf
         centre = math.sqrt(max(float(np.trace(cov[col + 3 : col + 6, col + 3 : col + 6])), 0.0))
-        cameras[view] = (angle, centre if math.isfinite(angle) else math.inf)
+        deviations[view] = (angle, centre if math.isfinite(angle) else math.inf)
     edge = factors.get("edge")
     return Uncertainty(
         parts,
-        cameras,
+        deviations,
         factor,
         factors,
         JOINT_EDGE_SIGMA_PX * math.sqrt(edge) if edge is not None else math.nan,

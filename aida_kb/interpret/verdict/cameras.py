@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from aida_kb.interpret.uncertainty import Uncertainty
+from aida_kb.interpret.uncertainty import Uncertainty, image_edge_deviations
 from aida_kb.interpret.verdict.tolerances import (
     CAMERA_ANGLE_SD_MAX_DEG,
     CAMERA_CENTRE_SD_MAX,
@@ -35,11 +35,16 @@ def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None)
     k = CAMERA_SD_CONFIDENCE
     if k * angle <= CAMERA_ANGLE_SD_MAX_DEG and k * centre <= CAMERA_CENTRE_SD_MAX:
         return []
+    by = (
+        "the model's edges fitted along the images"
+        if camera.sd is not None and camera.sd.measurements == "image edges"
+        else f"{unc.measurements} measurements, their scatter "
+        f"{unc.variance_factor**0.5:.2f} of their noise model"
+    )
     return [
         f"camera is fixed by the adjustment only to +-{angle:.2f} deg and +-{100 * centre:.1f}% "
         f"of its distance ({k:g} sd at most {CAMERA_ANGLE_SD_MAX_DEG:g} deg and "
-        f"{100 * CAMERA_CENTRE_SD_MAX:g}%; {unc.measurements} measurements, their scatter "
-        f"{unc.variance_factor**0.5:.2f} of their noise model)"
+        f"{100 * CAMERA_CENTRE_SD_MAX:g}%; {by})"
     ]
 
 
@@ -54,14 +59,16 @@ def _finite_pair(values: tuple[float, float] | None) -> tuple[float | None, floa
 def with_deviations(model: ReconstructedModel, unc: Uncertainty) -> ReconstructedModel:
     """`model` with the adjustment's standard deviations on its parts and cameras (model.json
     `sd`: normal degrees and offset metres of each part, rotation degrees and centre metres
-    of each camera the adjustment moves; null where not fixed)."""
+    of each camera the adjustment moves; null where not fixed). A camera whose deviations
+    the reconstruction's image-edge rounds gave keeps them (`image_edge_deviations`)."""
+    own = image_edge_deviations(model)
     parts = [
         p.model_copy(update={"sd": PartSd(normal_deg=a, offset_m=b)}) if p.role in unc.parts else p
         for p, (a, b) in ((p, _finite_pair(unc.parts.get(p.role))) for p in model.parts)
     ]
     cameras = [
         c.model_copy(update={"sd": CameraSd(rotation_deg=a, centre_m=b)})
-        if c.view in unc.cameras
+        if c.view in unc.cameras and c.view not in own
         else c
         for c, (a, b) in ((c, _finite_pair(unc.cameras.get(c.view))) for c in model.cameras)
     ]
