@@ -9,6 +9,15 @@ The verdict (`aida_kb.interpret.verdict.judge`) only reads the interpretation an
 evidence, so a kept scene can be judged again without reconstructing it: `rejudge_scene`
 reads ``scene-SEED`` and ``out-SEED`` (or ``error-SEED.txt``) from the folder
 `run_random_scene` wrote them to.
+
+Streets (`run_random_street`): the randomised street variant of a seed
+(`aida_kb.synth.street.random_street_spec`: 2-5 free-standing houses, a terrace of 2-5 touching
+ones or a house half hidden behind another) is reconstructed against a knowledge base whose
+goal holds several houses (kb/street.kb, goal ``Street``) and judged house by house
+(`aida_kb.interpret.scene.evaluate_scene`): every true house correct, wrong but verified,
+doubtful or missed, and every reconstructed object paired with no house (invented) or with
+a house another object already took (twice). Its seeds are a sequence of their own: the
+single-object seeds draw the same kinds whether streets are run or not.
 """
 
 from __future__ import annotations
@@ -22,15 +31,20 @@ from typing import TYPE_CHECKING
 from aida_kb.errors import AidaError
 from aida_kb.interpret.evaluate import evaluate
 from aida_kb.interpret.pipeline import reconstruct_scene
-from aida_kb.interpret.result import read_interpretation
+from aida_kb.interpret.result import Interpretation, read_interpretation
+from aida_kb.interpret.scene import evaluate_scene, judge_objects, members
 from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.evidence import read_evidence
 from aida_kb.io.scene import read_scene
 from aida_kb.synth.randomised import random_scene
 from aida_kb.synth.scenes import render_scene
+from aida_kb.synth.street import random_street, random_street_labels, random_street_spec
 
 if TYPE_CHECKING:
+    from aida_kb.io.scene import Scene, SceneTruth
     from aida_kb.kb.model import KnowledgeBase
+
+STREET_GOAL = "Street"  # kb/street.kb's scene concept: one or more houses
 
 
 @dataclass(frozen=True)
@@ -115,6 +129,22 @@ def run_random_scene(
     )
 
 
+def _kept(
+    workdir: Path, folder: str, name: str
+) -> tuple[Scene, SceneTruth, bool, Path, Path] | None:
+    """A kept scene (``FOLDER-SEED`` in `workdir`; `name` its ``SEED`` or ``street-SEED``): the
+    scene, its truth, whether it has labels.png, its results' folder ``out-NAME`` and error file
+    ``error-NAME.txt`` (None: no scene there)."""
+    scene_dir = workdir / f"{folder}-{name.rsplit('-', 1)[-1]}"
+    if not (scene_dir / "truth.json").is_file():
+        return None
+    scene = read_scene(scene_dir)
+    truth = scene.truth
+    assert truth is not None  # checked above
+    labels = any(v.labels is not None for v in scene.views)
+    return scene, truth, labels, workdir / f"out-{name}", workdir / f"error-{name}.txt"
+
+
 def rejudge_scene(
     kb: KnowledgeBase,
     seed: int,
@@ -128,15 +158,11 @@ def rejudge_scene(
     labels and the views are read from the scene's truth and files; seconds are 0.
     `knowledge` : as for `run_random_scene`.
     """
-    scene_dir, out_dir = Path(workdir) / f"scene-{seed}", Path(workdir) / f"out-{seed}"
-    error = Path(workdir) / f"error-{seed}.txt"
-    if not (scene_dir / "truth.json").is_file():
+    kept = _kept(Path(workdir), "scene", f"{seed}")
+    if kept is None:
         return None
-    scene = read_scene(scene_dir)
-    truth = scene.truth
-    assert truth is not None  # checked above
+    scene, truth, labels, out_dir, error = kept
     kind = str(truth.parameters.get("kind", truth.object))
-    labels = any(v.labels is not None for v in scene.views)
     if error.is_file():
         name, _, message = error.read_text().strip().partition(": ")
         return SceneOutcome(
@@ -169,3 +195,178 @@ def rejudge_scene(
         0.0,
         judged.summary(),
     )
+
+
+# ---- streets: several houses per scene, judged house by house ------------------------------
+HOUSE_STATES = ("correct", "wrong_verified", "doubtful", "missed")
+
+
+@dataclass(frozen=True)
+class StreetOutcome:
+    """What became of one randomised street: the scene's outcome and every true house's."""
+
+    seed: int
+    preset: str  # 'street', 'terrace' or 'occluded'
+    labels: bool  # the scene has labels.png
+    views: int
+    outcome: str  # the scene's: 'verified', 'doubtful', 'nothing' or 'error'
+    houses: tuple[dict[str, object], ...]  # per true house: its state (HOUSE_STATES) and figures
+    invented: int  # reconstructed objects near no true house
+    twice: int  # reconstructed objects on a house another object already took
+    seconds: float
+    message: str  # the error's message ('' without one)
+
+    def count(self, state: str) -> int:
+        """How many of the true houses are in `state` (one of HOUSE_STATES)."""
+        return sum(1 for h in self.houses if h["state"] == state)
+
+
+def house_state(row: dict[str, object]) -> str:
+    """A true house's state from its `evaluate_scene` row: 'missed' (no object paired with it),
+    'correct' (verified and right), 'wrong_verified' (verified but not right: the worst) or
+    'doubtful' (found, not verified: right or wrong)."""
+    if row.get("status") != "found":
+        return "missed"
+    if row.get("correct"):
+        return "correct"
+    return "wrong_verified" if row.get("outcome") == "verified" else "doubtful"
+
+
+def _judged_street(
+    role: str,
+    seed: int,
+    preset: str,
+    labels: bool,
+    views: int,
+    interp: Interpretation,
+    truth: SceneTruth,
+    seconds: float,
+) -> StreetOutcome:
+    rows = evaluate_scene(interp, truth, role)
+    houses = tuple(
+        {
+            "truth": r["truth"],
+            "object": r.get("object"),
+            "state": house_state(r),
+            "cause": r.get("cause", "missed"),
+            "max_normal_error_deg": r.get("max_normal_error_deg"),
+            "max_vertex_error_pct": r.get("max_vertex_error_pct"),
+        }
+        for r in rows
+        if r.get("status") in ("found", "missed")
+    )
+    return StreetOutcome(
+        seed,
+        preset,
+        labels,
+        views,
+        outcome_of_scene(interp),
+        houses,
+        sum(1 for r in rows if r["status"] == "invented"),
+        sum(1 for r in rows if r["status"] == "twice"),
+        seconds,
+        "",
+    )
+
+
+def outcome_of_scene(interp: Interpretation) -> str:
+    """'verified', 'doubtful' or 'nothing': what a scene's result claims as a whole."""
+    if not interp.accepted or interp.model is None:
+        return "nothing"
+    return interp.verdict if interp.verdict in ("verified", "doubtful") else "nothing"
+
+
+def _street_error(
+    role: str,
+    seed: int,
+    preset: str,
+    labels: bool,
+    views: int,
+    houses: int,
+    exc_name: str,
+    message: str,
+) -> StreetOutcome:
+    missed: tuple[dict[str, object], ...] = tuple(
+        {"truth": f"{role}[{k}]", "object": None, "state": "missed", "cause": f"error: {exc_name}"}
+        for k in range(houses)
+    )
+    return StreetOutcome(seed, preset, labels, views, "error", missed, 0, 0, 0.0, message)
+
+
+def run_random_street(
+    kb: KnowledgeBase,
+    seed: int,
+    workdir: str | Path,
+    *,
+    max_views: int = 8,
+    max_width: int | None = None,
+    supersample: int = 2,
+) -> StreetOutcome:
+    """Render seed's randomised street (`synth.street.random_street_spec`, labels.png drawn
+    with `random_street_labels`) into `workdir` as ``street-SEED``, reconstruct it against `kb`
+    (whose goal ``Street`` holds the houses: kb/street.kb) exactly as `aida-kb reconstruct`
+    does, and judge it house by house against its truth.
+
+    max_views : cap on the views (the presets have two). max_width : cap on the image width
+    (pixels; None: the presets' 1280). An `AidaError` of the pipeline is the outcome 'error'
+    (every house missed, its message kept and written to ``error-street-SEED.txt``)."""
+    role = members_of(kb)
+    if role is None:
+        raise ValueError(f"the knowledge has no {STREET_GOAL} holding objects")
+    labels = random_street_labels(seed)
+    spec = random_street_spec(seed, max_width=max_width, labels=labels)
+    if len(spec.views_site) > max_views:
+        spec = random_street_spec(seed, views=max_views, max_width=max_width, labels=labels)
+    preset = random_street(seed)[0]
+    scene_dir = Path(workdir) / f"street-{seed}"
+    out_dir = Path(workdir) / f"out-street-{seed}"
+    render_scene(spec, scene_dir, supersample=supersample)
+    views = len(spec.views_site)
+    start = time.perf_counter()
+    try:
+        result = reconstruct_scene(kb, scene_dir, out_dir, goal=STREET_GOAL)
+    except AidaError as exc:
+        (Path(workdir) / f"error-street-{seed}.txt").write_text(f"{type(exc).__name__}: {exc}\n")
+        houses = int(spec.model.parameters["houses"])
+        name = type(exc).__name__
+        return _street_error(role, seed, preset, labels, views, houses, name, str(exc))
+    seconds = time.perf_counter() - start
+    truth = read_scene(scene_dir).truth
+    assert truth is not None  # render_scene always writes one
+    return _judged_street(role, seed, preset, labels, views, result.interpretation, truth, seconds)
+
+
+def members_of(kb: KnowledgeBase) -> str | None:
+    """The role of `STREET_GOAL` holding the houses in `kb` (None: it holds none)."""
+    from aida_kb.interpret.knowledge import Knowledge
+
+    if STREET_GOAL not in kb.concepts:
+        return None
+    slot = members(Knowledge.from_kb(kb), STREET_GOAL)
+    return None if slot is None else slot.role
+
+
+def rejudge_street(kb: KnowledgeBase, seed: int, workdir: str | Path) -> StreetOutcome | None:
+    """Seed's street as `run_random_street` left it in `workdir`, every house judged again with
+    the current verdict (`scene.judge_objects` on the kept interpretation and evidence) and
+    against its truth. None when the folder holds neither a result nor an error of the seed."""
+    role = members_of(kb)
+    if role is None:
+        raise ValueError(f"the knowledge has no {STREET_GOAL} holding objects")
+    kept = _kept(Path(workdir), "street", f"street-{seed}")
+    if kept is None:
+        return None
+    scene, truth, labels, out_dir, error = kept
+    preset = random_street(seed)[0]
+    if error.is_file():
+        name, _, message = error.read_text().strip().partition(": ")
+        houses = int(float(truth.parameters.get("houses", 0)))
+        views = len(scene.views)
+        return _street_error(role, seed, preset, labels, views, houses, name, message)
+    if not (out_dir / "interpretation.json").is_file():
+        return None
+    interp = read_interpretation(out_dir / "interpretation.json")
+    evidence = read_evidence(out_dir / "evidence.json")
+    interp = judge_objects(kb, interp, evidence)
+    interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
+    return _judged_street(role, seed, preset, labels, len(scene.views), interp, truth, 0.0)

@@ -235,15 +235,34 @@ def random_street(seed: int) -> tuple[str, dict[str, str]]:
     return name, params
 
 
-def random_street_spec(seed: int, *, views: int | None = None) -> SceneSpec:
+def random_street_spec(
+    seed: int,
+    *,
+    views: int | None = None,
+    max_width: int | None = None,
+    labels: bool | None = None,
+) -> SceneSpec:
     """The randomised street variant of `seed` (`random_street`) as a scene specification: what
     a robustness benchmark renders, reconstructs against kb/street.kb (goal ``Street``) and
     judges house by house (`aida_kb.interpret.scene.evaluate_scene`, members ``houses``).
-    views : the number of views (default: the presets' STREET_VIEWS)."""
+    views : the number of views (default: the presets' STREET_VIEWS). max_width : the image
+    narrower than the presets' (pixels; height and focal length scaled alike, the view's
+    field unchanged). labels : whether labels.png is written (None: as the presets, always;
+    `random_street_labels(seed)` draws it)."""
     from aida_kb.synth.scenes import preset
 
     name, params = random_street(seed)
-    return preset(name, seed=seed, views=views, params=params)
+    width = float(IMAGE["image_width"])
+    if max_width is not None and max_width < width:
+        scale = max_width / width
+        params = {
+            **params,
+            "image_width": str(int(max_width)),
+            "image_height": str(round(float(IMAGE["image_height"]) * scale)),
+            "focal_px": f"{float(IMAGE['focal_px']) * scale:.3f}",
+        }
+    spec = preset(name, seed=seed, views=views, params=params)
+    return spec if labels is None else replace(spec, write_labels=labels)
 
 
 def street_object(rng: np.random.Generator) -> RandomObject:
@@ -262,3 +281,15 @@ def street_object(rng: np.random.Generator) -> RandomObject:
     return RandomObject(
         model, concepts, float(np.linalg.norm(hi - lo)), 0.45 * float(hi[1]), extra={"preset": name}
     )
+
+
+# a randomised street variant writes labels.png half the time (as the single-object random
+# scenes do, `aida_kb.synth.randomised`): segmentation from the images alone is reported apart
+STREET_LABELS_SHARE = 0.5
+
+
+def random_street_labels(seed: int) -> bool:
+    """Whether the randomised street variant of `seed` writes labels.png: drawn from a
+    generator of its own, so that `random_street`'s draws (the preset, houses, angle, distance
+    and noise of every seed) stay as they were."""
+    return bool(np.random.default_rng(seed + 7719).random() < STREET_LABELS_SHARE)
