@@ -9,7 +9,8 @@ default: the second from the other side of the row, `synth.street.view_angles`;
 ``--views 1`` for view 00 alone), reconstructs it against kb/street.kb as `aida-kb
 reconstruct` does (goal Street: view 00 interpreted, `aida_kb.interpret.scene`; the other
 views registered and the model refined with all, `interpret.multiview.reconstruct_views`;
-every object judged on every view) and pairs every true house with the reconstructed one
+every object judged on every view; an object's tie re-judged by the other views,
+`interpret.scene.reconstruct_objects`) and pairs every true house with the reconstructed one
 nearest it (`evaluate_scene`). Reported per
 scene and in total: houses in the truth, found, correct (the verdict 'verified',
 specialisation right, normals within 0.5 deg, vertices within 2 % of the house's size),
@@ -33,8 +34,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from aida_kb.interpret.multiview import reconstruct_views
-from aida_kb.interpret.scene import evaluate_scene
+from aida_kb.interpret.scene import evaluate_scene, reconstruct_objects
 from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.scene import read_scene
 from aida_kb.kb.compiler import compile_path
@@ -119,7 +119,7 @@ def main() -> None:
                 start = time.perf_counter()
                 scene = read_scene(folder, with_truth=False)
                 evidence, _ = scene_evidence(scene)
-                interp = reconstruct_views(kb, evidence, goal="Street", scene=scene)
+                interp = reconstruct_objects(kb, evidence, goal="Street", scene=scene)
                 interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
                 seconds = time.perf_counter() - start
                 total_seconds += seconds

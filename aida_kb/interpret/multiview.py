@@ -78,6 +78,7 @@ from aida_kb.solve import ResidualReport, build_problem, constraints_from_kb, so
 from aida_kb.solve.problem import Loss, Problem
 
 if TYPE_CHECKING:
+    from aida_kb.interpret.scene import Preference
     from aida_kb.kb.model import KnowledgeBase
 
 FloatArray = npt.NDArray[np.float64]
@@ -720,9 +721,12 @@ def reconstruct_views(
     scene: Scene | None = None,
     progress: Callable[[str], None] | None = None,
     choices: tuple[tuple[str, str], ...] = (),
+    prefer: Sequence[Preference] = (),
 ) -> Interpretation:
     """Interpret the first view, register the others, refine the model with all of them.
     ``choices``: is-a choices the first view's interpretation must make (`run.interpret`).
+    prefer : for a goal holding several objects, the choices the other views decided for some
+    of them (`interpret.scene.reconstruct_objects`).
 
     With the `scene` the evidence came from, registration also uses the segments of each
     view's right image (`aida_kb.register.evidence.right_segments`).
@@ -741,7 +745,7 @@ def reconstruct_views(
     placed = [v for v in evidence.views[1:] if v.frame == "world"]
     known = [v for v in evidence.views[:1] if v.frame == "world"]
     first = evidence.model_copy(update={"views": known})
-    interp = interpret(kb, first, goal=goal, source=source, choices=choices)
+    interp = interpret(kb, first, goal=goal, source=source, choices=choices, prefer=prefer)
     if not (later or placed) or interp.model is None:
         return interp
     known += placed

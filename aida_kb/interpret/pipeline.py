@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from aida_kb.interpret.kbfile import write_interpretation_kb
-from aida_kb.interpret.rejudge import rejudged_views
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
+from aida_kb.interpret.scene import reconstruct_objects
 from aida_kb.interpret.verdict import NOTHING, judge, with_verdict
 from aida_kb.io.atomic import check_outputs, check_publishable, output_lock, publish_dir
 from aida_kb.io.evidence import Evidence, write_evidence
@@ -135,7 +135,7 @@ def _reconstruct(
     if stage is not None:
         stage("-", "interpretation")
     progress = None if stage is None else (lambda what: stage("-", what))
-    interp = rejudged_views(
+    interp = reconstruct_objects(
         kb,
         evidence,
         goal=goal,

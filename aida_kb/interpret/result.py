@@ -77,6 +77,10 @@ class SceneObject(_Frozen):
     evidence: list[str] = Field(
         default_factory=list, description="the region ids it explains ('VIEW/REGION'), sorted"
     )
+    ties: list[str] = Field(
+        default_factory=list,
+        description="its choices along is-a the evidence does not decide (as Interpretation.ties)",
+    )
 
 
 class Interpretation(_Frozen):

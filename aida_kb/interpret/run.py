@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,6 +18,7 @@ from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 
 if TYPE_CHECKING:
+    from aida_kb.interpret.scene import Preference
     from aida_kb.kb.model import KnowledgeBase
 
 
@@ -134,10 +135,13 @@ def interpret(
     source: str = "",
     progress: Callable[[str], None] | None = None,
     choices: tuple[tuple[str, str], ...] = (),
+    prefer: Sequence[Preference] = (),
 ) -> Interpretation:
     """Interpret `evidence` against `kb` for the goal concept `goal` (None: the knowledge
     base's only scene concept, `check_goal`). ``choices``: is-a choices the object's body
-    must make (``(role path, concept)``, `Interpreter.choices`; () : any).
+    must make (``(role path, concept)``, `Interpreter.choices`; () : any). prefer : for a goal
+    holding several objects, the choices the other views decided for some of them
+    (`interpret.scene.reconstruct_objects`).
 
     Returns the interpretation: accepted with instances, model, residuals and trace, or not
     accepted (no instances, no model) with a message saying why. Raises InterpretError when the
@@ -149,7 +153,9 @@ def interpret(
 
     slot = members(knowledge, goal)
     if slot is not None:  # a goal holding several scene objects
-        return interpret_scene(kb, evidence, goal, slot, source=source, progress=progress)
+        return interpret_scene(
+            kb, evidence, goal, slot, source=source, progress=progress, prefer=prefer
+        )
     view = view_of(evidence, source)
     interpreter = Interpreter(knowledge, view, goal, choices=choices)
     if progress is not None:

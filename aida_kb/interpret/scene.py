@@ -43,7 +43,7 @@ import numpy.typing as npt
 from aida_kb.interpret.assign import vertical
 from aida_kb.interpret.context import Context
 from aida_kb.interpret.hypotheses import CONE_WINDOW_DEG, front_region
-from aida_kb.interpret.interpreter import Interpreter
+from aida_kb.interpret.interpreter import SAME_FRAME_COS, TIE_MARGIN, Interpreter, Level, State
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import EvidenceView, RegionView, view_of
 from aida_kb.interpret.result import (
@@ -55,13 +55,22 @@ from aida_kb.interpret.result import (
 )
 from aida_kb.interpret.run import interpretation_of
 from aida_kb.interpret.uncertainty import Uncertainty, adjustment_uncertainty
-from aida_kb.interpret.verdict import DOUBTFUL, NOTHING, VERIFIED, judge, with_verdict
+from aida_kb.interpret.verdict import (
+    DOUBTFUL,
+    NOTHING,
+    VERIFIED,
+    check_view,
+    edge_cover,
+    judge,
+    with_verdict,
+)
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import ModelObject, ModelPart, ReconstructedModel
 from aida_kb.io.scene import SceneTruth
 from aida_kb.io.subset import without_regions
 
 if TYPE_CHECKING:
+    from aida_kb.io.scene import Scene
     from aida_kb.kb.model import KnowledgeBase
 
 FloatArray = npt.NDArray[np.float64]
@@ -338,10 +347,13 @@ def interpret_scene(
     *,
     source: str = "",
     progress: Callable[[str], None] | None = None,
+    prefer: Sequence[Preference] = (),
 ) -> Interpretation:
     """Interpret `evidence` for a goal holding several objects in its role `slot` (see the
     module docstring). The result carries every object with its own verdict in `objects`, and
-    the scene's verdict."""
+    the scene's verdict. prefer : choices along is-a that other views decided for objects found
+    before (`Preference`, `reconstruct_objects`): an object anchored on one of a preference's
+    regions takes the tied body making those choices."""
     knowledge = Knowledge.from_kb(kb)
     view = view_of(evidence, source)
     limit = min(slot.max if slot.max is not None else MAX_OBJECTS, MAX_OBJECTS)
@@ -376,7 +388,13 @@ def interpret_scene(
             )
             state, n, goal_id = interpreter.run()
             expanded += n
+            wanted = next((p.choices for p in prefer if anchor.id in p.regions), frozenset())
+            swapped = None if state is None or not wanted else preferred(interpreter, state, wanted)
+            if swapped is not None:
+                state = swapped[0]
             attempt = interpretation_of(interpreter, state, n, goal_id, evidence)
+            if swapped is not None:
+                attempt = _decided(attempt, wanted, swapped[1])
             if attempt.accepted and attempt.model is not None and _bound(attempt) - explained:
                 one = attempt
                 break
@@ -426,6 +444,7 @@ def interpret_scene(
                 cost=judged.cost,
                 expanded=judged.expanded,
                 evidence=sorted(own),
+                ties=list(judged.ties),
             )
         )
     counts = f"{len(objects)} {slot.concept} found in {len(found) + 1} rounds"
@@ -464,6 +483,66 @@ def interpret_scene(
         verdict=DOUBTFUL if doubtful else VERIFIED,
         doubts=[f"{o.role}: {d}" for o in doubtful for d in o.doubts],
         objects=objects,
+    )
+
+
+@dataclass(frozen=True)
+class Preference:
+    """Choices along is-a (``ROLE=CONCEPT``, roles relative to the object) that views other
+    than the interpreted one decided for the object explaining `regions` ('VIEW/REGION')."""
+
+    regions: frozenset[str]
+    choices: frozenset[str]
+
+
+def preferred(
+    interpreter: Interpreter, state: State, wanted: frozenset[str]
+) -> tuple[State, tuple[str, ...]] | None:
+    """The accepted `state` with its body replaced by the cheapest tied body making the
+    choices `wanted` (a body `Interpreter.ties` names: the same regions bound in the same
+    frame, its cost within `interpreter.TIE_MARGIN`), and the choices given up for them; None
+    when no tied body makes them (the evidence of the interpreted view decides against)."""
+    if not state.levels or not wanted <= set(interpreter.ties(state)):
+        return None
+    body = state.levels[0]
+    own = next((c for lv, c in interpreter.bodies if lv is body), None)
+    if own is None:
+        return None
+    best: tuple[Level, float, set[str]] | None = None
+    for level, cost in interpreter.bodies:
+        made = {f"{r}={c}" for r, c in level.structure.choices}
+        if level is body or cost > own + TIE_MARGIN or not wanted <= made:
+            continue
+        if set(level.binding) != set(body.binding):
+            continue
+        fronts, ups = level.frame.front @ body.frame.front, level.frame.up @ body.frame.up
+        if min(float(fronts), float(ups)) < SAME_FRAME_COS:
+            continue
+        if best is None or cost < best[1]:
+            best = (level, cost, made)
+    if best is None:
+        return None
+    level, cost, made = best
+    given_up = tuple(sorted({f"{r}={c}" for r, c in body.structure.choices} - made))
+    return State((level, *state.levels[1:]), True, state.cost - own + cost), given_up
+
+
+def _decided(
+    attempt: Interpretation, wanted: frozenset[str], given_up: tuple[str, ...]
+) -> Interpretation:
+    """`attempt` (its body the tied one making the choices `wanted`) with the choices given up
+    no longer named as ties: the other views decided between them."""
+    ties = [t for t in attempt.ties if t not in given_up]
+    message = attempt.message.replace(
+        f"; the evidence does not decide it from {', '.join(attempt.ties)}",
+        f"; the evidence does not decide it from {', '.join(ties)}" if ties else "",
+    )
+    return attempt.model_copy(
+        update={
+            "ties": ties,
+            "message": f"{message}; the other views decided {', '.join(sorted(wanted))} over "
+            f"{', '.join(given_up)} (re-judged by them, interpret.scene.reconstruct_objects)",
+        }
     )
 
 
@@ -565,6 +644,142 @@ def judge_objects(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
             "doubts": [f"{o.role}: {d}" for o in doubtful for d in o.doubts],
         }
     )
+
+
+# ---- ties the other views decide ------------------------------------------------------------
+# an object's choice along is-a that the interpreted view leaves open (a tie: a gable whose
+# gable walls no view shows and a shed whose back wall stands under the ridge, as at the end of
+# a terrace whose other end the second view shows) is re-judged by the other views as
+# `rejudge` does for a single object, object by object: the scene reconstructed again with
+# every tied object taking its tied choice (`Preference`), each object scored on every view
+# but the interpreted one by `object_score`; an object whose tied choice leads by
+# `rejudge.REJUDGE_MARGIN` per such view takes it, the others keep theirs (and their ties).
+# When only some lead, the scene is reconstructed once more with those alone, taken when they
+# still lead.
+
+
+def object_score(
+    evidence: Evidence, interp: Interpretation, obj: SceneObject
+) -> dict[str, tuple[float, float | None]]:
+    """Per view with a camera in `interp`'s model, what it says of object `obj`'s model
+    (as `rejudge.score` for a single object): the explained share of the region weight inside
+    its projection (the view without the regions the other objects explain) and the seen share
+    of its visible edges' length (edges between two of its faces; the other objects' faces
+    hide what lies behind them), or None without an edge to check."""
+    model = interp.model
+    if model is None:
+        return {}
+    sub = _sub_interpretation(interp, obj.role, obj).model
+    assert sub is not None  # a copy of `model`
+    own = frozenset(p.role for p in _object_parts(model, obj.role))
+    rest = without_regions(evidence, explained_by_others(evidence, interp, obj.role))
+    out: dict[str, tuple[float, float | None]] = {}
+    for view, whole_view in zip(rest.views, evidence.views, strict=True):
+        check = check_view(view, sub)
+        if check is None:
+            continue
+        explained = check.explained_share if check.inside_weight > 0 else 0.0
+        out[view.id] = (explained, edge_cover(whole_view, model, own))
+    return out
+
+
+def _total(scores: dict[str, tuple[float, float | None]], views: Sequence[str]) -> float:
+    """A score over `views` (as `rejudge.Candidate.total`): explained plus seen edge share."""
+    out = 0.0
+    for v in views:
+        explained, edges = scores.get(v, (0.0, None))
+        out += explained + (edges if edges is not None else 0.0)
+    return out
+
+
+def _ties(interp: Interpretation) -> dict[str, Preference]:
+    """The objects (by role) with ties, each with the tied choices to take instead (the first
+    tie of each role)."""
+    out: dict[str, Preference] = {}
+    for obj in interp.objects:
+        first: dict[str, str] = {}
+        for tie in obj.ties:
+            first.setdefault(tie.split("=", 1)[0], tie)
+        if first:
+            out[obj.role] = Preference(frozenset(obj.evidence), frozenset(first.values()))
+    return out
+
+
+def _matching(interp: Interpretation, regions: frozenset[str]) -> SceneObject | None:
+    """The object of `interp` sharing the most regions with `regions` (None: none shares)."""
+    best = max(interp.objects, key=lambda o: len(regions & set(o.evidence)), default=None)
+    return best if best is not None and regions & set(best.evidence) else None
+
+
+def _leading(
+    evidence: Evidence,
+    before: Interpretation,
+    after: Interpretation,
+    flips: dict[str, Preference],
+) -> dict[str, Preference]:
+    """The flips whose object in `after` (its tied choice taken) leads its namesake in
+    `before` by `rejudge.REJUDGE_MARGIN` per view other than the interpreted one."""
+    from aida_kb.interpret.rejudge import REJUDGE_MARGIN
+
+    out: dict[str, Preference] = {}
+    for obj in before.objects:
+        flip = flips.get(obj.role)
+        other = None if flip is None else _matching(after, flip.regions)
+        if flip is None or other is None or other.ties == obj.ties:
+            continue
+        interpreted = {r.split("/", 1)[0] for r in obj.evidence}
+        views = [v.id for v in evidence.views if v.id not in interpreted]
+        lead = _total(object_score(evidence, after, other), views) - _total(
+            object_score(evidence, before, obj), views
+        )
+        if views and lead >= REJUDGE_MARGIN * len(views):
+            out[obj.role] = flip
+    return out
+
+
+def reconstruct_objects(
+    kb: KnowledgeBase,
+    evidence: Evidence,
+    *,
+    goal: str | None = None,
+    source: str = "",
+    scene: Scene | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Interpretation:
+    """`rejudge.rejudged_views` (`multiview.reconstruct_views`, a single object's ties
+    re-judged by every view), and for a scene of several objects their ties re-judged by the
+    other views object by object (see above): at most two more reconstructions of the scene,
+    none when no object has a tie."""
+    from aida_kb.interpret.multiview import reconstruct_views  # they build on this module
+    from aida_kb.interpret.rejudge import rejudged_views
+
+    first = rejudged_views(kb, evidence, goal=goal, source=source, scene=scene, progress=progress)
+    flips = _ties(first)
+    if not flips or len(evidence.views) < 2:
+        return first
+
+    def again(chosen: dict[str, Preference]) -> Interpretation:
+        if progress is not None:
+            progress(f"re-judging the ties of {', '.join(chosen)} with every view")
+        return reconstruct_views(
+            kb,
+            evidence,
+            goal=goal,
+            source=source,
+            scene=scene,
+            progress=progress,
+            prefer=tuple(chosen.values()),
+        )
+
+    second = again(flips)
+    leading = _leading(evidence, first, second, flips)
+    if not leading:
+        return first
+    if leading != flips:
+        second = again(leading)
+        if _leading(evidence, first, second, leading) != leading:
+            return first
+    return second
 
 
 def _object_uncertainty(whole: Uncertainty, role: str) -> Uncertainty:
@@ -689,4 +904,5 @@ def _sub_interpretation(interp: Interpretation, role: str, obj: SceneObject) -> 
         expanded=obj.expanded,
         verdict=obj.verdict,
         doubts=obj.doubts,
+        ties=obj.ties,
     )

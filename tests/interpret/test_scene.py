@@ -214,3 +214,43 @@ def test_random_streets_for_the_robustness_benchmark() -> None:
         twin = street_object(np.random.default_rng(s))
         assert twin.model.parameters == obj.model.parameters
     assert len({obj.extra["preset"] for obj in drawn}) >= 2
+
+
+def test_a_tie_the_other_views_decide_is_taken_for_its_object_alone(
+    tmp_path: Path, street_kb: KnowledgeBase
+) -> None:
+    """A terrace's end house seen square to its front: its gable walls hidden, a gable and a
+    shed whose back wall stands under the ridge explain view 00 alike (a tie, kept per object
+    so that its verdict doubts it). Preferred by the other views (`Preference`), the tied
+    choice is taken for that object alone and is no longer named a tie."""
+    from aida_kb.interpret.scene import Preference, _ties
+    from aida_kb.io.scene import read_scene
+    from aida_kb.vision.evidence import scene_evidence
+
+    spec = preset(
+        "terrace",
+        seed=3,
+        views=1,
+        params={"houses": "2", "image_width": "480", "image_height": "360", "focal_px": "600"},
+    )
+    render_scene(spec, tmp_path / "scene")
+    evidence, _ = scene_evidence(read_scene(tmp_path / "scene", with_truth=False))
+    first = interpret(street_kb, evidence, goal="Street")
+    roofs = {i.role: i.concept for i in first.instances if i.role.endswith("body.roof")}
+    tied = _ties(first)
+    assert set(tied) == {"houses[0]"}
+    assert first.objects[0].ties == ["body.roof=GableRoof"]
+    assert roofs["houses[0].body.roof"] == "ShedRoof"
+    assert tied["houses[0]"].choices == frozenset({"body.roof=GableRoof"})
+    again = interpret(street_kb, evidence, goal="Street", prefer=tuple(tied.values()))
+    after = {i.role: i.concept for i in again.instances if i.role.endswith("body.roof")}
+    assert after == {**roofs, "houses[0].body.roof": "GableRoof"}
+    assert [o.ties for o in again.objects] == [[], []]
+    assert "the other views decided body.roof=GableRoof over body.roof=ShedRoof" in (
+        again.objects[0].message
+    )
+    assert [o.evidence for o in again.objects] == [o.evidence for o in first.objects]
+    # a choice no tied body makes is not taken: the object stays as it was
+    hip = Preference(tied["houses[0]"].regions, frozenset({"body.roof=HipRoof"}))
+    same = interpret(street_kb, evidence, goal="Street", prefer=(hip,))
+    assert {i.role: i.concept for i in same.instances if i.role.endswith("body.roof")} == roofs
