@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import cv2
 import numpy as np
 import numpy.typing as npt
 
@@ -20,9 +21,10 @@ from aida_kb.constraints import kind_of
 from aida_kb.errors import GeometryError
 from aida_kb.interpret.closure import ClosingFace, close, settle_unseen
 from aida_kb.interpret.context import Context
-from aida_kb.interpret.edges import EdgeMatch, match_segments
+from aida_kb.interpret.edges import EdgeMatch, match_segments, plane_line
 from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD, Frame
 from aida_kb.interpret.knowledge import Structure, join
+from aida_kb.interpret.observe import CameraView
 from aida_kb.interpret.unseen import Planes, closing_of, ground_of, initial_planes
 from aida_kb.interpret.verify import (
     EdgeEvidence,
@@ -49,6 +51,10 @@ FACING_ANGLE_DEG = 6.0
 # a segment shorter than this does not count as evidence an alternative leaves unexplained
 # (short segments are texture and noise as often as edges)
 MIN_BORDER_SEGMENT_PX = 8.0
+# which side of a segment its bound region lies on is probed this far from its midpoint, on
+# either side (outlines are good to a pixel or two; a region's border segment has the region
+# on one side only)
+SIDE_PROBE_PX = 4.0
 
 
 @dataclass(frozen=True)
@@ -144,13 +150,15 @@ def adjust(
         adjacency.setdefault(b, set()).add(a)
     adj = {k: frozenset(v) for k, v in adjacency.items()}
     declared = declared_edges(ctx, structure)
+    # the structure's own edges: those of one convex solid (`_on_its_side`)
+    own = frozenset(_ordered(a, b) for a, b in structure.adjacency)
     current = {p.role: (p.normal, p.offset_m) for p in planes}
     last: tuple[Outcome, Verification] | None = None
     matches: list[EdgeMatch] = []
     outline: list[EdgeEvidence] = []
     facing = frozenset(initial.visible) if seen_by_edges else frozenset()
     for distance_px in MATCH_DISTANCES_PX:
-        rematched = _matches(ctx, binding, current, adj, distance_px)
+        rematched = _matches(ctx, binding, current, adj, distance_px, own)
         found = _facing_matches(ctx, structure, closing, current, facing, distance_px)
         if last is not None and _same_matches(rematched, matches) and _same(found, outline):
             break
@@ -218,10 +226,105 @@ def _matches(
     planes: Planes,
     adjacency: dict[str, frozenset[str]],
     max_distance_px: float,
+    own: frozenset[tuple[str, str]] = frozenset(),
 ) -> list[EdgeMatch]:
-    """The reference view's segments bordering bound regions, matched to the planes' edges."""
+    """The reference view's segments bordering bound regions, matched to the planes' edges;
+    a match of one of the structure's `own` edges whose bound region lies on the other side
+    of the segment than its face is dropped (`_on_its_side`)."""
     segs = [s for s in ctx.segments if any(r in binding for r in s.regions)]
-    return match_segments(segs, binding, planes, adjacency, ctx.evidence.cameras, max_distance_px)
+    found = match_segments(segs, binding, planes, adjacency, ctx.evidence.cameras, max_distance_px)
+    return [
+        m for m in found if _ordered(*m.parts) not in own or _on_its_side(ctx, m, binding, planes)
+    ]
+
+
+def _ordered(a: str, b: str) -> tuple[str, str]:
+    return (a, b) if a <= b else (b, a)
+
+
+def _inside(outlines: tuple[FloatArray, ...], point: FloatArray) -> bool:
+    """True if `point` (2,) px lies inside an odd number of the outlines ((K, 2) px each)."""
+    count = 0
+    for o in outlines:
+        if len(o) >= 3:
+            contour = np.asarray(o, dtype=np.float32).reshape(-1, 1, 2)
+            pt = (float(point[0]), float(point[1]))
+            count += cv2.pointPolygonTest(contour, pt, False) > 0
+    return count % 2 == 1
+
+
+def _on_its_side(ctx: Context, m: EdgeMatch, binding: dict[str, str], planes: Planes) -> bool:
+    """False when the segment of match `m` has a bound region of one of the edge's two faces
+    on the side of it where that face is not: a segment with the front wall above it is no
+    eave (the top of an oriel standing out of the wall, 20 px below a low-contrast eave that
+    gave no segment, pulled a gable's eave down until its rakes no longer fitted: dev seed
+    58000). The face's side is where it lies in the image from the edge of the two planes
+    (outward normals: the faces of one convex solid lie on the inner side of each other's
+    planes); the region's side is probed `SIDE_PROBE_PX` either side of the segment's
+    midpoint in its outlines. True where either side cannot be told."""
+    seg = m.segment
+    camera = ctx.evidence.cameras.get(seg.view)
+    if camera is None:
+        return True
+    a, b = seg.ends_px
+    length = float(np.linalg.norm(b - a))
+    if length <= 0:
+        return True
+    mid = (a + b) / 2
+    across = np.array([-(b - a)[1], (b - a)[0]]) / length
+    for rid in seg.regions:
+        owner = binding.get(rid)
+        if owner not in m.parts:
+            continue
+        other = m.parts[1] if m.parts[0] == owner else m.parts[0]
+        outlines = ctx.evidence.outlines.get(rid, ())
+        plus = _inside(outlines, mid + SIDE_PROBE_PX * across)
+        minus = _inside(outlines, mid - SIDE_PROBE_PX * across)
+        if plus == minus:
+            continue
+        region_side = 1.0 if plus else -1.0
+        face_side = _face_side(camera, planes[owner], planes[other], mid, across)
+        if face_side is not None and face_side * region_side < 0:
+            return False
+    return True
+
+
+def _face_side(
+    camera: CameraView,
+    owner: tuple[FloatArray, float],
+    other: tuple[FloatArray, float],
+    mid_px: FloatArray,
+    across: FloatArray,
+) -> float | None:
+    """+1 or -1: the side (along `across`, unit (2,) px) of the image line of the edge of
+    planes `owner` and `other` (unit outward normal, offset m; world frame) on which the face
+    of `owner` lies, near the pixel `mid_px`; None when the planes are parallel or the edge
+    is behind the camera."""
+    line = plane_line(owner[0], owner[1], other[0], other[1])
+    if line is None:
+        return None
+    point, direction = line
+    R, t = camera.R_cam_world, camera.t_cam_world
+    centre = -R.T @ t
+    ray = R.T @ np.linalg.solve(camera.K, np.array([mid_px[0], mid_px[1], 1.0]))
+    # the point of the edge nearest the ray through the midpoint
+    w = point - centre
+    b_ = float(ray @ direction)
+    denom = float(ray @ ray) - b_ * b_
+    if denom <= 1e-12:
+        return None
+    s_edge = (b_ * float(w @ ray) - float(ray @ ray) * float(w @ direction)) / denom
+    x = point + s_edge * direction
+    into = np.cross(owner[0], direction)
+    if float(into @ other[0]) > 0:
+        into = -into
+    depth = float((R @ x + t)[2])
+    if depth <= 0:
+        return None
+    step = 0.01 * depth  # a centimetre per metre of distance into the face
+    pts = camera.pinhole.project(np.array([x, x + step * into / np.linalg.norm(into)]))
+    side = float((pts[1] - pts[0]) @ across)
+    return None if side == 0 else math.copysign(1.0, side)
 
 
 def _edge_evidence(
