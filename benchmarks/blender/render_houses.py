@@ -9,7 +9,9 @@ asphalt ground, and renders calibrated stereo views with Cycles (path tracing, i
 anti-aliasing and noise, denoised). It writes each scene in aida-kb's scene format
 (docs/formats.md: scene.yaml, calib.yaml, views/NN/left.png, right.png, truth.json) from
 that document alone — it does not import aida_kb — so the format's description is checked
-as well. No labels and no depth: what a user's photographs give.
+as well. No depth; labels.png only with ``--labels`` (each face's truth label, windows as
+their wall's, the ground 1000, as a hand labeller would mark them): without, what a user's
+photographs give.
 
 Run it with a Python that has bpy (Blender 4.2's module; about 520 MB)::
 
@@ -43,6 +45,7 @@ SAMPLES = 12  # path-tracing samples per pixel, then denoised (OpenImageDenoise)
 BOUNCES = 3  # light bounces: sun, sky and one or two inter-reflections
 WINDOW_PROUD_M = 0.04  # windows stand this far out of their wall (frames and sills do)
 KINDS = ("gable", "hip", "flat", "shed")
+GROUND_LABEL = 1000  # the ground's id in labels.png (docs/formats.md)
 # OpenCV's camera axes (x right, y down, z forward) in Blender's camera frame (z backward)
 CV_FROM_BLENDER_CAMERA = ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0))
 
@@ -172,10 +175,11 @@ def house_faces(kind: str, w: float, d: float, h: float, pitch: float) -> list[d
     return faces
 
 
-def windows(faces: list[dict], h: float, rng: random.Random) -> list[list[Vec]]:
-    """Window panes on the walls: rows per storey, standing WINDOW_PROUD_M out of the wall."""
+def windows(faces: list[dict], h: float, rng: random.Random) -> list[tuple[str, list[Vec]]]:
+    """Window panes on the walls, each with its wall's role: rows per storey, standing
+    WINDOW_PROUD_M out of the wall."""
     storeys = max(1, int(h // 2.8))
-    out: list[list[Vec]] = []
+    out: list[tuple[str, list[Vec]]] = []
     for f in faces:
         if f["concept"] != "Wall":
             continue
@@ -208,7 +212,7 @@ def windows(faces: list[dict], h: float, rng: random.Random) -> list[list[Vec]]:
                     pane.append(p)
                 if dot(newell(pane), n) < 0:
                     pane = pane[::-1]
-                out.append(pane)
+                out.append((f["role"], pane))
     return out
 
 
@@ -281,12 +285,14 @@ def material(name: str, kind: str, u: Vec, v: Vec, rng: random.Random) -> bpy.ty
     return mat
 
 
-def polygon_object(name: str, poly: list[Vec], mat: bpy.types.Material) -> None:
+def polygon_object(name: str, poly: list[Vec], mat: bpy.types.Material, index: int = 0) -> None:
+    """One planar polygon (world frame) as an object of its own; `index`: its label."""
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata([tuple(p) for p in poly], [], [list(range(len(poly)))])
     mesh.update()
     obj = bpy.data.objects.new(name, mesh)
     obj.data.materials.append(mat)
+    obj.pass_index = index  # the object index pass: labels.png
     bpy.context.scene.collection.objects.link(obj)
 
 
@@ -339,7 +345,34 @@ def matrix_text(name: str, rows: int, cols: int, values: list[float]) -> str:
     return head + f"   data: [ {data} ]\n"
 
 
-def build_scene(seed: int, out: Path) -> dict:
+def label_output(folder: Path | None) -> None:
+    """Write the object index pass of the next render as FOLDER/labels.png (16-bit, the ids
+    themselves: raw, not colour-managed), or nothing (None)."""
+    scene = bpy.context.scene
+    tree = scene.node_tree
+    node = tree.nodes.get("labels")
+    if node is None:
+        bpy.context.view_layer.use_pass_object_index = True
+        layers = tree.nodes.get("Render Layers") or tree.nodes.new("CompositorNodeRLayers")
+        scale = tree.nodes.new("CompositorNodeMath")
+        scale.operation = "DIVIDE"
+        scale.inputs[1].default_value = 65535.0
+        node = tree.nodes.new("CompositorNodeOutputFile")
+        node.name = "labels"
+        node.format.file_format = "PNG"
+        node.format.color_mode = "BW"
+        node.format.color_depth = "16"
+        node.format.color_management = "OVERRIDE"
+        node.format.view_settings.view_transform = "Raw"
+        node.file_slots[0].path = "labels"
+        tree.links.new(layers.outputs["IndexOB"], scale.inputs[0])
+        tree.links.new(scale.outputs[0], node.inputs[0])
+    node.mute = folder is None
+    if folder is not None:
+        node.base_path = str(folder)
+
+
+def build_scene(seed: int, out: Path, with_labels: bool, samples: int = SAMPLES) -> dict:
     rng = random.Random(seed)
     kind = KINDS[seed % len(KINDS)]
     depth = rng.uniform(7.0, 11.0)
@@ -353,13 +386,13 @@ def build_scene(seed: int, out: Path) -> dict:
     for f in faces:
         f["polygon"] = [matvec(rz, p) for p in f["polygon"]]
         f["normal"] = matvec(rz, f["normal"])
-    panes = [[matvec(rz, p) for p in pane] for pane in windows(faces, height, rng)]
+    panes = windows(faces, height, rng)  # the faces are turned already
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
-    scene.cycles.samples = SAMPLES
+    scene.cycles.samples = samples
     scene.cycles.use_denoising = True
     scene.cycles.max_bounces = BOUNCES
     scene.render.resolution_x, scene.render.resolution_y = WIDTH_PX, HEIGHT_PX
@@ -368,6 +401,7 @@ def build_scene(seed: int, out: Path) -> dict:
     scene.render.image_settings.color_mode = "RGB"
     scene.render.image_settings.color_depth = "8"
     scene.view_settings.view_transform = "Standard"
+    scene.use_nodes = True  # the compositor: labels.png from the object index pass
     # light: a sun and a physical sky that agrees with it
     sun_elev = math.radians(rng.uniform(25.0, 60.0))
     sun_azim = rng.uniform(0.0, 2 * math.pi)
@@ -400,6 +434,7 @@ def build_scene(seed: int, out: Path) -> dict:
     wall_kind = rng.choice(["plaster", "brick"])
     roof_kind = "felt" if kind == "flat" else "tiles"
     materials: dict[str, str] = {}
+    labels = {f["role"]: k for k, f in enumerate(faces, start=1)}  # truth.json's labels
     for f in faces:
         if f["role"] == "body.floor":
             continue
@@ -409,7 +444,8 @@ def build_scene(seed: int, out: Path) -> dict:
         v = unit(cross(n, u))
         mk = wall_kind if f["concept"] == "Wall" else roof_kind
         materials[f["role"]] = mk
-        polygon_object(f["role"], f["polygon"], material(f["role"], mk, u, v, rng))
+        mat = material(f["role"], mk, u, v, rng)
+        polygon_object(f["role"], f["polygon"], mat, labels[f["role"]])
     glass = bpy.data.materials.new("glass")
     glass.use_nodes = True
     glass.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (
@@ -419,8 +455,8 @@ def build_scene(seed: int, out: Path) -> dict:
         1,
     )
     glass.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.15
-    for i, pane in enumerate(panes):
-        polygon_object(f"window{i}", pane, glass)
+    for i, (role, pane) in enumerate(panes):  # a window is labelled as its wall, as by hand
+        polygon_object(f"window{i}", pane, glass, labels[role])
     ground_kind = rng.choice(["grass", "asphalt"])
     ground = [
         (-200.0, -200.0, 0.0),
@@ -429,7 +465,10 @@ def build_scene(seed: int, out: Path) -> dict:
         (-200.0, 200.0, 0.0),
     ]
     polygon_object(
-        "ground", ground, material("ground", ground_kind, (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), rng)
+        "ground",
+        ground,
+        material("ground", ground_kind, (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), rng),
+        GROUND_LABEL,
     )
     # cameras: view 00 looks at the front from an angle, the others step round the house
     cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
@@ -463,7 +502,13 @@ def build_scene(seed: int, out: Path) -> dict:
         exposure = rng.uniform(-0.1, 0.1)
         folder = view_dir / f"{k:02d}"
         folder.mkdir(parents=True, exist_ok=True)
+        if with_labels:
+            label_output(folder)
         render(folder / "left.png", rot, position, focal, 0.0)
+        if with_labels:
+            frame = next(folder.glob("labels*.png"))  # the output node numbers the frame
+            frame.rename(folder / "labels.png")
+            label_output(None)
         render(folder / "right.png", rot, right_position, focal, exposure)
         poses.append(cv_pose(rot, position))
     # files of docs/formats.md, in the left camera of view 00's frame
@@ -526,7 +571,7 @@ def build_scene(seed: int, out: Path) -> dict:
             "step_deg": math.degrees(step),
             "walls": wall_kind,
             "ground": ground_kind,
-            "labels": False,
+            "labels": with_labels,
         },
         "concepts": {"body.roof": roof_concept},
     }
@@ -554,6 +599,8 @@ def build_scene(seed: int, out: Path) -> dict:
             f"  left: views/{k:02d}/left.png",
             f"  right: views/{k:02d}/right.png",
         ]
+        if with_labels:
+            lines.append(f"  labels: views/{k:02d}/labels.png")
     (out / "scene.yaml").write_text("\n".join(lines) + "\n")
     return truth["parameters"]
 
@@ -563,6 +610,12 @@ def main() -> int:
     parser.add_argument("--out", required=True, help="folder for the scene folders (created)")
     parser.add_argument("--count", type=int, default=8, help="number of houses (default 8)")
     parser.add_argument("--start", type=int, default=70000, help="first seed (default 70000)")
+    parser.add_argument(
+        "--samples", type=int, default=SAMPLES, help=f"path-tracing samples (default {SAMPLES})"
+    )
+    parser.add_argument(
+        "--labels", action="store_true", help="also write labels.png (each face's truth label)"
+    )
     args = parser.parse_args(sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else None)
     root = Path(args.out)
     root.mkdir(parents=True, exist_ok=True)
@@ -570,7 +623,7 @@ def main() -> int:
         folder = root / f"scene-{seed}"
         if (folder / "scene.yaml").exists():
             continue
-        params = build_scene(seed, folder)
+        params = build_scene(seed, folder, args.labels, args.samples)
         print(f"seed {seed}: {params['kind']} rendered into {folder}", flush=True)
     os.sync()
     return 0
