@@ -277,7 +277,7 @@ def main() -> None:
                 print(_street_line(street), file=sys.stderr, flush=True)
     summary = {
         "benchmark": "robustness",
-        "seeds": f"{args.start}..{args.start + args.count - 1}",
+        "seeds": f"{args.start}..{args.start + args.count - 1}" if args.count else None,
         "rejudged": bool(args.rejudge),
         "max_views": args.max_views,
         "max_width": args.max_width,
