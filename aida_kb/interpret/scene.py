@@ -772,14 +772,20 @@ def reconstruct_objects(
         )
 
     second = again(flips)
-    leading = _leading(evidence, first, second, flips)
+    leading = _leading(evidence, first, second, flips) if _keeps(first, second) else {}
     if not leading:
         return first
     if leading != flips:
         second = again(leading)
-        if _leading(evidence, first, second, leading) != leading:
+        if not _keeps(first, second) or _leading(evidence, first, second, leading) != leading:
             return first
     return second
+
+
+def _keeps(first: Interpretation, again: Interpretation) -> bool:
+    """True if `again` has every object of `first` (one sharing regions with it): a choice
+    taken for one object must not lose another."""
+    return all(_matching(again, frozenset(o.evidence)) is not None for o in first.objects)
 
 
 def _object_uncertainty(whole: Uncertainty, role: str) -> Uncertainty:

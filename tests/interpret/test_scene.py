@@ -254,3 +254,32 @@ def test_a_tie_the_other_views_decide_is_taken_for_its_object_alone(
     hip = Preference(tied["houses[0]"].regions, frozenset({"body.roof=HipRoof"}))
     same = interpret(street_kb, evidence, goal="Street", prefer=(hip,))
     assert {i.role: i.concept for i in same.instances if i.role.endswith("body.roof")} == roofs
+
+
+def test_a_choice_taken_for_one_object_must_not_lose_another() -> None:
+    """`reconstruct_objects` keeps a reconstruction made with a tied choice only when every
+    object of the first is still there (one sharing regions with it)."""
+    from aida_kb.interpret.result import SceneObject
+    from aida_kb.interpret.scene import _keeps, _matching
+
+    def scene(*evidence: list[str]) -> Interpretation:
+        objects = [
+            SceneObject(
+                role=f"houses[{k}]",
+                concept="House",
+                verdict="doubtful",
+                message="",
+                expanded=1,
+                evidence=ev,
+            )
+            for k, ev in enumerate(evidence)
+        ]
+        return Interpretation(goal="Street", accepted=True, message="", expanded=1, objects=objects)
+
+    first = scene(["00/2", "00/4"], ["00/9", "00/11"])
+    assert _keeps(first, scene(["00/9", "00/11", "00/13"], ["00/2"]))
+    assert not _keeps(first, scene(["00/2", "00/4"]))
+    match = _matching(scene(["00/2"], ["00/4", "00/9", "00/11"]), frozenset({"00/9", "00/11"}))
+    assert match is not None
+    assert match.role == "houses[1]"
+    assert _matching(first, frozenset({"00/30"})) is None
