@@ -60,9 +60,12 @@ from aida_kb.vision.planes import (
 )
 from aida_kb.vision.rectify import Rectification, remap, stereo_rectification
 from aida_kb.vision.segmentation import (
+    COMPLETE_GAP_M,
+    COMPLETE_GAP_PX,
     COMPLETE_SIGMAS,
     DISPARITY_SIGMA_PX,
     LINE_SIDE_PX,
+    absorb_recesses,
     complete_regions,
     line_kinds,
     local_planes,
@@ -417,6 +420,10 @@ def _complete(
         rect.focal_px,
         rect.baseline_m,
     )
+    _, _, _, tolerances = _plane_tolerances(plane_regions, pose, rect)
+    half = rect.focal_px * COMPLETE_GAP_M / (2.0 * np.maximum(np.abs(centroids[:, 2]), 1e-9))
+    gap_px = np.clip(np.ceil(half), *COMPLETE_GAP_PX).astype(np.int64)
+    grown = absorb_recesses(grown, depth.points, ids, gap_px, normals, offsets, tolerances)
     if np.array_equal(grown, regions):
         return regions, plane_regions
     refit = _plane_regions(

@@ -489,6 +489,120 @@ def complete_regions(
     return out
 
 
+# Recesses counted as the wall they are set in. A facade's openings — window reveals, portals
+# with their embrasures, doors and tympana — are seen through the wall: their surfaces lie
+# behind its plane, by at most the wall's thickness with its porch, and the wall surrounds them
+# in the image. A user takes them as part of the wall (the castle's reference labels do), but
+# `complete_regions` only fills what the region encloses completely, and a portal opens onto
+# the steps at its foot. `absorb_recesses` gives a plane region what stereo saw behind its
+# plane within RECESS_M — pixels of no region, and whole regions whose points lie there
+# (RECESS_INLIER_SHARE of them) — where the region encloses it: looking up from the pixel, and
+# to its left and right, past pixels without depth and other such recess pixels, the first
+# thing met is the region (the image's border may stand for it on one side, not on both: a
+# portal cut by the photo's edge). A side wall or a roof behind a front's plane, beyond its
+# corner or above its eave, has the sky or its own roof above it, not the wall. The pixels
+# without depth between the wall and what joined it then join too (bridged as
+# `complete_regions` bridges dropouts), not the sky or the ground (seen in front of the wall)
+# a recess opens onto. RECESS_M is metric: in a scene of unknown scale it is in its units.
+RECESS_M = 3.0  # deepest recess: the thickest masonry walls with a portal's porch, metres
+RECESS_INLIER_SHARE = 0.9  # a region is a recess when this share of its points lies in one
+RECESS_ENCLOSED_SHARE = 0.5  # ... and more than this share of its pixels is enclosed
+
+
+def _first_met(stop: npt.NDArray[np.bool_], axis: int, reverse: bool) -> npt.NDArray[np.intp]:
+    """(H, W): for every pixel, the index along `axis` of the nearest `stop` pixel before it
+    (after it with `reverse`), the pixel itself included; -1 where there is none (the
+    image's border)."""
+    n = stop.shape[axis]
+    shape = [1, 1]
+    shape[axis] = n
+    index = np.arange(n).reshape(shape)
+    if reverse:
+        stop = np.flip(stop, axis)
+    marked = np.where(stop, index, -1)
+    last = np.maximum.accumulate(marked, axis=axis)
+    if reverse:
+        last = np.where(last >= 0, n - 1 - last, -1)
+        last = np.flip(last, axis)
+    return np.asarray(last, np.intp)
+
+
+def enclosed_by(mask: npt.NDArray[np.bool_], clear: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
+    """(H, W) bool: the `clear` pixels the `mask` encloses from above and on both sides.
+
+    Looking up, left and right from a pixel across `clear` pixels, the first pixel met that is
+    not clear must be the mask's — up always, left and right each either the mask's or the
+    image's border, not both the border."""
+    H, W = mask.shape
+    stop = ~clear
+    rows = np.arange(H)[:, None].repeat(W, axis=1)
+    cols = np.arange(W)[None, :].repeat(H, axis=0)
+    up = _first_met(stop, 0, False)
+    left = _first_met(stop, 1, False)
+    right = _first_met(stop, 1, True)
+    up_ok = (up >= 0) & mask[np.maximum(up, 0), cols]
+    left_edge, right_edge = left < 0, right < 0
+    left_ok = left_edge | mask[rows, np.maximum(left, 0)]
+    right_ok = right_edge | mask[rows, np.maximum(right, 0)]
+    out: npt.NDArray[np.bool_] = clear & up_ok & left_ok & right_ok & ~(left_edge & right_edge)
+    return out
+
+
+def absorb_recesses(
+    regions: I32,
+    points: F32,
+    ids: npt.NDArray[np.int64],
+    gap_px: npt.NDArray[np.int64],
+    normals: F64,
+    offsets: F64,
+    tolerances: F64,
+) -> I32:
+    """The region map (H, W) with each plane region given the recesses set in it.
+
+    regions : (H, W) int32 ids, 0 = none. points : (H, W, 3) float32 metres, the camera frame
+    of the planes, NaN = no depth. ids : (R,) the regions with a plane; gap_px : (R,) the
+    widest gap between seen pixels bridged, pixels (COMPLETE_GAP_M at the region's distance,
+    half of it, within COMPLETE_GAP_PX); normals : (R, 3) unit, towards the camera, offsets :
+    (R,) metres (n·x = d), tolerances : (R,) metres, how far from its plane a point lies on it
+    (see `complete_regions`). Regions are served largest first; a region absorbed by another is
+    gone. See RECESS_M, RECESS_INLIER_SHARE, RECESS_ENCLOSED_SHARE.
+    """
+    out = regions.copy()
+    if len(ids) == 0:
+        return out
+    has = ~np.isnan(points[..., 2])
+    pts = np.where(has[..., None], points, 0.0).astype(np.float64)
+    size = np.bincount(regions.ravel(), minlength=int(regions.max()) + 1)[ids]
+    for k in np.argsort(-size, kind="stable"):
+        rid = int(ids[k])
+        mask = out == rid
+        if not mask.any():
+            continue
+        signed = pts @ normals[k] - offsets[k]  # > 0: in front of the plane
+        band = has & (signed <= tolerances[k]) & (signed >= -RECESS_M)
+        top = int(out.max()) + 1
+        with_depth = np.bincount(out[has].ravel(), minlength=top)
+        in_band = np.bincount(out[band].ravel(), minlength=top)
+        region_ok = (in_band >= RECESS_INLIER_SHARE * with_depth) & (with_depth > 0)
+        region_ok[0] = False
+        region_ok[rid] = False
+        free = out == 0
+        seen = (free & band) | region_ok[out]  # what stereo saw in a recess of the plane
+        inside = enclosed_by(mask, seen | (free & ~has))
+        share = np.bincount(out[inside].ravel(), minlength=top) / np.maximum(
+            np.bincount(out.ravel(), minlength=top), 1
+        )
+        whole = region_ok & (share > RECESS_ENCLOSED_SHARE)
+        joined = (free & band & inside) | whole[out]
+        if not joined.any():
+            continue
+        r = int(gap_px[k])
+        disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        hull = cv2.morphologyEx((mask | joined).astype(np.uint8), cv2.MORPH_CLOSE, disc)
+        out[joined | (free & ~has & hull.astype(bool))] = rid
+    return out
+
+
 # Structural lines told from texture lines. A segment is structural when the surface changes
 # across it: its two sides belong to two different regions, or to a region and to nothing (an
 # outline), or the 3-D points on its two sides lie apart by more than the plane's tolerance (a

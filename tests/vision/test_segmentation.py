@@ -209,3 +209,51 @@ def test_fragments_of_one_wall_merge_across_windows_and_a_wing_does_not() -> Non
     # by their normals alone (within COPLANAR_DEG) the pieces stay apart
     alone = merge_coplanar(regions, ids, np.array(normals), np.array(centroids))
     assert np.array_equal(alone, regions)
+
+
+def test_absorb_recesses_takes_a_portal_set_in_the_wall_not_a_side_wall_or_the_sky() -> None:
+    """A wall 20 m away with a portal 2 m deep opening onto the ground at its foot: the door's
+    region and the embrasure's pixels (no depth, or behind the wall) join the wall; the ground
+    in front, a side wall receding from the wall's corner, the sky above (no depth) and a
+    chimney 4 m behind the wall's top (deeper than a recess) stay out."""
+    from aida_kb.vision.segmentation import absorb_recesses
+
+    H, W, f = 120, 200, 200.0
+    vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
+    rays = np.stack([(us - W / 2) / f, (vs - H / 2) / f, np.ones_like(us)], axis=-1)
+    z = np.full((H, W), 20.0)
+    wall = (us >= 20) & (us < 150) & (vs >= 20) & (vs < 100)
+    portal = (us >= 60) & (us < 100) & (vs >= 50) & (vs < 100)
+    door = portal & (us >= 66) & (us < 94)
+    side = (us >= 150) & (us < 190) & (vs >= 20) & (vs < 100)
+    ground = vs >= 100
+    chimney = (us >= 30) & (us < 40) & (vs >= 5) & (vs < 20)
+    z[door] = 22.0
+    z[side] = 20.0 + (us[side] - 150) * 0.2  # recedes 8 m over 40 px
+    z[ground] = 20.0 - (vs[ground] - 100) * 0.3  # comes towards the camera
+    z[chimney] = 24.0
+    points = (rays * z[..., None]).astype(np.float32)
+    sky = (vs < 20) & ~chimney
+    points[sky | (portal & ~door)] = np.nan  # the embrasure's rims: no depth
+    regions = np.zeros((H, W), np.int32)
+    regions[wall & ~portal] = 1
+    regions[door] = 5
+    regions[side] = 2
+    regions[ground] = 3
+    regions[chimney] = 6
+    ids = np.array([1, 2, 3, 5, 6])
+    normals = np.array(
+        [[0.0, 0.0, -1.0], [-0.98, 0.0, -0.2], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [0, 0, -1.0]]
+    )
+    offsets = np.array([-20.0, -20.0, -1.0, -22.0, -24.0])
+    out = absorb_recesses(
+        regions, points, ids, np.full(5, 8, np.int64), normals, offsets, np.full(5, 0.2)
+    )
+    assert np.all(out[door] == 1)
+    # the embrasure (its last pixels at the foot, between the wall and the door on the ground,
+    # are where a closing disc no longer fits)
+    assert np.count_nonzero(out[portal] == 1) / np.count_nonzero(portal) > 0.97
+    assert np.all(out[side] == 2)
+    assert np.all(out[ground] == 3)
+    assert np.all(out[chimney] == 6)
+    assert not np.any(out[sky] == 1)
