@@ -67,6 +67,7 @@ from aida_kb.vision.segmentation import (
     LINE_SIDE_PX,
     absorb_recesses,
     complete_regions,
+    extend_to_border,
     line_kinds,
     local_planes,
     merge_coplanar,
@@ -424,12 +425,51 @@ def _complete(
     half = rect.focal_px * COMPLETE_GAP_M / (2.0 * np.maximum(np.abs(centroids[:, 2]), 1e-9))
     gap_px = np.clip(np.ceil(half), *COMPLETE_GAP_PX).astype(np.int64)
     grown = absorb_recesses(grown, depth.points, ids, gap_px, normals, offsets, tolerances)
+    unseen = _unseen_by_right(rays, normals, offsets, calib, p.window // 2 + 1)
+    grown = extend_to_border(
+        grown,
+        unseen,
+        depth.points,
+        ids=ids,
+        normals=normals,
+        offsets=offsets,
+        tolerances=tolerances,
+    )
     if np.array_equal(grown, regions):
         return regions, plane_regions
     refit = _plane_regions(
         grown, disp, depth, rect, rays, calib, p.window, to_frame, False, photometric, regions
     )
     return grown, refit
+
+
+def _unseen_by_right(
+    rays: F64, normals: F64, offsets: F64, calib: StereoCalib, margin_px: float
+) -> npt.NDArray[np.bool_]:
+    """(R, H, W) bool: the left image's pixels whose ray meets each plane (normals (R, 3),
+    offsets (R,) metres, n·x = d, the left camera's frame) in front of the camera at a point
+    the right camera does not see at least `margin_px` inside its image (no depth is possible
+    there). rays : (H, W, 3) the left image's viewing rays (x, y, 1)."""
+    W, H = calib.image_size
+    out = np.zeros((len(normals), *rays.shape[:2]), bool)
+    for k, (n, d) in enumerate(zip(normals, offsets, strict=True)):
+        along = rays @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(np.abs(along) > 1e-12, d / along, -1.0)
+        right = (rays * t[..., None]) @ calib.R.T + calib.T.ravel()
+        z = right[..., 2]
+        pix = right @ calib.K2.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x, y = pix[..., 0] / z, pix[..., 1] / z
+        seen = (
+            (z > 0)
+            & (x >= margin_px)
+            & (x <= W - 1 - margin_px)
+            & (y >= margin_px)
+            & (y <= H - 1 - margin_px)
+        )
+        out[k] = (t > 0) & ~seen
+    return out
 
 
 def _plane_tolerances(

@@ -257,3 +257,41 @@ def test_absorb_recesses_takes_a_portal_set_in_the_wall_not_a_side_wall_or_the_s
     assert np.all(out[ground] == 3)
     assert np.all(out[chimney] == 6)
     assert not np.any(out[sky] == 1)
+
+
+def test_extend_to_border_takes_the_strip_only_the_left_camera_sees() -> None:
+    """A wall 20 m away whose leftmost 30 px the right camera cannot see (no depth): its region
+    goes on to the border on the rows where stereo measured the wall next to the strip, not
+    beside the recess of a porch (its region's pixels there lie 1 m behind the plane), not in
+    the sky above the wall, and not across another region's pixels."""
+    from aida_kb.vision.segmentation import extend_to_border
+
+    H, W, f = 100, 160, 200.0
+    vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
+    rays = np.stack([(us - W / 2) / f, (vs - H / 2) / f, np.ones_like(us)], axis=-1)
+    z = np.full((H, W), 20.0)
+    porch = (vs >= 60) & (us < 70)
+    z[porch] = 21.0
+    points = (rays * z[..., None]).astype(np.float32)
+    strip = us < 30
+    sky = vs < 10
+    points[strip | sky] = np.nan
+    regions = np.zeros((H, W), np.int32)
+    regions[~strip & ~sky] = 1  # the wall, its porch absorbed (`absorb_recesses`)
+    regions[20:30, :30] = 2  # a sign on the wall, its own region
+    unseen = np.zeros((1, H, W), bool)
+    unseen[0, :, :30] = True
+    out = extend_to_border(
+        regions,
+        unseen,
+        points,
+        ids=np.array([1]),
+        normals=np.array([[0.0, 0.0, -1.0]]),
+        offsets=np.array([-20.0]),
+        tolerances=np.array([0.2]),
+    )
+    assert np.all(out[10:20, :30] == 1)
+    assert np.all(out[30:60, :30] == 1)
+    assert np.all(out[20:30, :30] == 2)
+    assert not np.any(out[60:, :30] == 1)  # beside the porch: the wall is not seen going on
+    assert not np.any(out[:10] == 1)
