@@ -13,7 +13,12 @@ import pytest
 import aida_kb.interpret.multiview as mv
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.interpret.result import Interpretation
-from aida_kb.interpret.uncertainty import adjustment_uncertainty
+from aida_kb.interpret.uncertainty import (
+    IMAGE_EDGE_LABEL,
+    IMAGE_EDGE_MIN_FACTOR,
+    adjustment_uncertainty,
+    problem_uncertainty,
+)
 from aida_kb.interpret.verdict import camera_doubts, judge, with_verdict
 from aida_kb.io.evidence import read_evidence
 from aida_kb.io.model import CameraSd
@@ -146,6 +151,21 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
     assert sum(p in fitted_pairs for p in both) == 2  # a fitted edge: its fit, no segment
     others = {p for p in both if p not in fitted_pairs}
     assert len(others) >= 3  # the other visible edges: measured by their segments
+    # the covariance: the fits have a variance factor of their own, never under 1 (fitted
+    # at the true pose, their residuals are hundredths of their noise model's); a third view
+    # (segments) gives the redundancy to estimate the factors
+    third = turned(ref, vertical_axis(model, ref), model.centroid, math.radians(-30.0))
+    views3 = [*views, _view("02", *simulated_segments(model, third, rng, clutter=0))]
+    cams = [ref, cam, third]
+    problem = mv.joint_problem(model, cams, views3, [1, 2], fitted=[None, fits, None])
+    unc = problem_uncertainty(problem, model.names, cams, [1, 2], ["01", "02"])
+    assert unc is not None
+    assert unc.measurements - unc.unknowns >= 10
+    assert set(unc.factors) == {"edge", IMAGE_EDGE_LABEL}
+    assert unc.factors[IMAGE_EDGE_LABEL] == IMAGE_EDGE_MIN_FACTOR
+    assert unc.factors["edge"] < 0.2  # segments at 0.5 px noise: a tenth of the 4 px model
+    assert 0.0 < unc.cameras["01"][0] < 1.0
+    assert 0.0 < unc.cameras["02"][0] < 1.0
 
 
 def test_a_camera_fixed_by_its_image_edges_keeps_that_deviation(
