@@ -22,9 +22,11 @@ against the regions that may be level (the ground, flat roofs: where the knowled
 part upward or downward), each by its plane fit's uncertainty (`with_level_regions`): a
 street's ground, fitted over thousands of square metres, gives the vertical to hundredths of
 a degree where the vanishing point was 0.05-0.86 degrees off. Without a vanishing point, the
-regions; with one wall direction in view, a level region facing up (the ground, a table, a
-box's lid: a turntable scene) whose normal lies in the camera's window; with none of these,
-the camera's -y axis is the answer.
+regions; with one wall direction in view, a region taken for level (the ground, a table, a
+box's lid: a turntable scene) or one taken for a wall, whichever makes more weight vertical
+or level, refined within the wall's plane by the regions facing up (a roof pitched towards
+the wall is no level region: `_one_direction_up`); with none of these, the camera's -y axis
+is the answer.
 """
 
 from __future__ import annotations
@@ -315,10 +317,10 @@ def estimate_up(
                 up = -up
             best = _better(best, up, prior, limit, normals, weights, tol)
     if best is None:
-        # one wall direction (or none) in view: a level region facing up (the ground, a table,
-        # a lid, a flat roof) gives it, as the weighted mean normal of the level regions
-        level_up = _level_up(heavy, normals, weights, prior, limit, tol)
-        return fallback if level_up is None else level_up
+        # one wall direction (or none) in view: a region taken for level (the ground, a table,
+        # a lid, a flat roof) or one taken for a wall gives it (`_one_direction_up`)
+        one = _one_direction_up(heavy, normals, weights, prior, limit, tol)
+        return fallback if one is None else one
     up = best[2]
     vertical = np.abs(normals @ up) < tol
     scatter = (normals[vertical] * weights[vertical, None]).T @ normals[vertical]
@@ -355,7 +357,7 @@ def _better(
     return best
 
 
-def _level_up(
+def _one_direction_up(
     heavy: list[RegionView],
     normals: FloatArray,
     weights: FloatArray,
@@ -363,22 +365,69 @@ def _level_up(
     limit: float,
     tol: float,
 ) -> FloatArray | None:
-    """Up (unit, (3,), world frame) as the normal of a heavy region taken for level, or None.
+    """Up (unit, (3,), world frame) where no two heavy regions' normals give it, or None.
 
-    Each heavy region whose normal lies within the prior window (cosine `limit`) of `prior` is
-    a candidate; the winner makes the largest weight of regions vertical or level facing up
-    (sine/cosine `tol`, as in `estimate_up`); up is then the weighted mean normal of the
-    regions level under it. `normals` (N, 3) and `weights` (N,) are all regions'.
+    Two kinds of candidate, each within the prior window (cosine `limit`) of `prior`: a
+    heavy region taken for level (its normal: the ground, a table, a lid, a flat roof) and a
+    heavy region taken for a wall (the prior made perpendicular to its normal: the vertical
+    lies in a wall's plane, and the camera's up is the best guess of where). The winner makes
+    the largest weight of regions vertical or level facing up (sine/cosine `tol`, as in
+    `estimate_up`); ties go to the one nearer the prior. A wall in view and a pitched roof
+    above it (a shed seen from its front, 14-22 degrees) gave the roof's normal alone, so the
+    wall leaned by the pitch and no wall hypothesis fitted it (dev seed 58010): taken for a
+    wall, the wall region makes more weight vertical than the roof makes level.
+
+    The winner is refined (`_refined_one_direction`). `normals` (N, 3) and `weights` (N,)
+    are all regions'.
     """
     best: _Candidate | None = None
     for region in heavy:
-        up = np.asarray(region.normal, dtype=np.float64)
-        best = _better(best, up, prior, limit, normals, weights, tol)
+        n = np.asarray(region.normal, dtype=np.float64)
+        best = _better(best, n, prior, limit, normals, weights, tol)
+        across = prior - float(prior @ n) * n
+        size = float(np.linalg.norm(across))
+        if size > 1e-6:
+            best = _better(best, across / size, prior, limit, normals, weights, tol)
     if best is None:
         return None
-    level = normals @ best[2] > math.cos(tol)
-    mean = (normals[level] * weights[level, None]).sum(axis=0)
-    return np.asarray(mean / np.linalg.norm(mean), dtype=np.float64)
+    return _refined_one_direction(best[2], normals, weights, tol)
+
+
+def _refined_one_direction(
+    up: FloatArray, normals: FloatArray, weights: FloatArray, tol: float
+) -> FloatArray:
+    """The candidate `up` (unit, (3,)) refined over the regions vertical and facing up under it.
+
+    The regions vertical under it (sine `tol`) share one direction here, so they fix the
+    vertical only to their plane; within it, the weighted mean normal of the regions facing
+    up (not vertical) made perpendicular to their weighted mean normal gives it: a level
+    region or a roof pitched towards the wall (a shed's, a gable's seen from its eaves side)
+    gives it exactly, where the camera's up, `up`'s source, is off by the camera's roll and
+    its pitch times the wall's yaw. Without regions facing up, `up` made perpendicular to the
+    walls; without vertical regions, the weighted mean normal of the regions level under it
+    (cosine `tol`). `normals` (N, 3) unit, `weights` (N,).
+    """
+    along = normals @ up
+    vertical = np.abs(along) < tol
+    out = np.asarray(up, dtype=np.float64)
+    if not np.any(vertical):
+        level = along > math.cos(tol)
+        if np.any(level):
+            out = (normals[level] * weights[level, None]).sum(axis=0)
+    else:
+        facing_up = along >= tol
+        if np.any(facing_up):
+            out = (normals[facing_up] * weights[facing_up, None]).sum(axis=0)
+        # one wall direction (the normals may face either way: align them with the first)
+        signs = np.sign(normals[vertical] @ normals[vertical][0])
+        wall = (normals[vertical] * (weights[vertical] * signs)[:, None]).sum(axis=0)
+        wall = wall / np.linalg.norm(wall)
+        out = out - float(out @ wall) * wall
+    size = float(np.linalg.norm(out))
+    if size < 1e-9:
+        return np.asarray(up, dtype=np.float64)
+    result: FloatArray = np.asarray(out / size, dtype=np.float64)
+    return result if float(result @ up) > 0 else -result
 
 
 def _vanishing_up(

@@ -203,3 +203,39 @@ def test_level_regions_weigh_against_the_vanishing_point_by_their_fits() -> None
     shed = region("00/3", np.array([0.0, -math.cos(pitch), math.sin(pitch)]), 300_000, 3000.0)
     unknown = RegionView("00/4", "00", truth, np.zeros(3), 1.0, 1.0, 0.04)
     np.testing.assert_allclose(with_level_regions(up_vp, sigma_vp, [shed, unknown]), up_vp)
+
+
+def test_one_wall_and_a_pitched_roof_keep_the_wall_vertical() -> None:
+    """A shed seen from its front, no vanishing point: the front wall and the roof pitched
+    14 or 22 deg towards it. The roof is not level: up lies in the wall's plane (dev seed
+    58010 took the roof for level, the wall leaned by the pitch and no wall fitted it); a
+    pitched roof facing the wall gives the rest of it. A flat roof over the wall gives up too,
+    whichever region carries more weight."""
+    from aida_kb.interpret.observe import CameraView, RegionView
+
+    pitch = math.radians(7.4)  # the camera looks down by this
+    R = np.array(
+        [
+            [1.0, 0.0, 0.0],
+            [0.0, math.cos(pitch), -math.sin(pitch)],
+            [0.0, math.sin(pitch), math.cos(pitch)],
+        ]
+    )
+    camera = CameraView("00", np.diag([730.0, 730.0, 1.0]), R, np.zeros(3), 480, 360)
+    yaw = math.radians(1.6)
+    up_world = np.array([0.0, -1.0, 0.0])
+    front = np.array([math.sin(yaw), 0.0, -math.cos(yaw)])  # towards the camera
+
+    def region(rid: str, normal: np.ndarray, weight: float) -> RegionView:
+        n = normal / np.linalg.norm(normal)
+        return RegionView(rid, "00", n, np.zeros(3), weight, 1000.0, 0.001)
+
+    for roof_deg, wall_w, roof_w in ((14.1, 3905.0, 2804.0), (22.0, 3905.0, 2804.0)):
+        a = math.radians(roof_deg)
+        roof = math.cos(a) * up_world + math.sin(a) * front
+        up = estimate_up([region("00/2", front, wall_w), region("00/6", roof, roof_w)], camera)
+        assert math.degrees(math.acos(float(up @ up_world))) < 0.01, roof_deg
+    for wall_w, roof_w in ((3.0, 1.0), (1.0, 3.0)):
+        flat = [region("00/2", front, wall_w), region("00/6", up_world, roof_w)]
+        up = estimate_up(flat, camera)
+        assert math.degrees(math.acos(float(up @ up_world))) < 0.01
