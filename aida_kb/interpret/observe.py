@@ -258,6 +258,12 @@ VP_MIN_SUPPORT = 30
 LEVEL_GATE_DEG = 1.5
 # ... and within this many of their combined 1-σ of it (the cone and the region's fit).
 LEVEL_GATE_SIGMAS = 5.0
+# A region facing down by more than this from the vertical (slope above 90 + this) is seen
+# from below: an underside (eaves, an oriel's bottom), small where buildings are photographed
+# from the ground. A vertical that makes a heavy region overhang so is no vertical: the cross
+# product of a small side wall and a 47-degree roof made the roof a wall and the front wall
+# overhang by 42 degrees (dev seed 58002, 43 degrees off); its weight counts against it.
+OVERHANG_DEG = 30.0
 # Pixels that share one matching window (the block matcher's 11 x 11, vision.evidence's
 # DEFAULT_WINDOW, less its tapered edge): a plane fit's residuals are correlated over it, so
 # one pixel in this many is an independent measurement (`RegionView.normal_sigma_rad`).
@@ -346,12 +352,14 @@ def _better(
 ) -> _Candidate | None:
     """`best` or the candidate `up` if it is better: within the prior window (cosine `limit`)
     and making more weight of the regions (`normals` (N, 3), `weights` (N,)) vertical or level
-    facing up (sine/cosine `tol`), ties to the one nearer the prior."""
+    facing up (sine/cosine `tol`), less the weight it makes overhang (`OVERHANG_DEG`), ties to
+    the one nearer the prior."""
     agreement = float(up @ prior)
     if agreement < limit:
         return best
     along = normals @ up
     score = float(weights[(np.abs(along) < tol) | (along > math.cos(tol))].sum())
+    score -= float(weights[along < -math.sin(math.radians(OVERHANG_DEG))].sum())
     if best is None or (score, agreement) > (best[0], best[1]):
         return (score, agreement, up)
     return best
@@ -500,14 +508,37 @@ def _along(ends_px: FloatArray, polygon_px: FloatArray) -> bool:
     return True
 
 
+# A face of a convex part is a convex polygon in the image: its region (the face's visible
+# part) lies on one side of each of its edges' lines. A segment bordering one region whose
+# line that region crosses by more than this (px; the outline's simplification and pixels put
+# a face's hull within 2-3 px of its edge lines) runs along a notch of the region, where
+# something in front cuts into it (an occluder's top, a tree's side): no edge of the face.
+# A stone block's top across a front wall, 15 px above the wall's foot, was matched to the
+# wall's foot and tilted the model 8 degrees off its regions (dev seed 58002, nothing found).
+CUT_PX = 6.0
+
+
+def _cuts(ends_px: FloatArray, polygons: list[FloatArray]) -> bool:
+    """True if the line through a segment (ends (2, 2) px) has the region's outline (closed
+    polygons (M, 2) px) beyond CUT_PX on both of its sides."""
+    direction = ends_px[1] - ends_px[0]
+    length = float(np.linalg.norm(direction))
+    if length < 1e-9 or not polygons:
+        return False
+    normal = np.array([-direction[1], direction[0]]) / length
+    signed = (np.concatenate(polygons) - ends_px[0]) @ normal
+    return bool(signed.max() > CUT_PX and signed.min() < -CUT_PX)
+
+
 def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
     """The numpy view of an evidence file: the views whose 3-D quantities are in the world frame.
 
     Views in their own camera frame (pose not yet registered) are left out. Segment and
     contour pixels are undistorted with the left camera's D. Region ids become
     "VIEW/REGION", segment ids "VIEW/lSEGMENT". Where the evidence gives a region's contour,
-    a segment borders that region only if it runs along the contour (`_along`); segments
-    that border no region are left out.
+    a segment borders that region only if it runs along the contour (`_along`), and a segment
+    along one region only if that region does not cross its line (`_cuts`: a notch, no edge of
+    a face); segments that border no region are left out.
     """
     cameras: dict[str, CameraView] = {}
     regions: dict[str, RegionView] = {}
@@ -550,11 +581,14 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
         ends_all = undistort_pixels(ends_all.reshape(-1, 2), K, D).reshape(-1, 2, 2)
         lines_px[v.id] = ends_all
         for s, ends in zip(v.lines, ends_all, strict=True):
-            borders = tuple(
-                f"{v.id}/{r}"
+            kept = [
+                r
                 for r in s.regions
                 if r not in outlines or any(_along(ends, poly) for poly in outlines[r])
-            )
+            ]
+            if len(kept) == 1 and _cuts(ends, outlines.get(kept[0], [])):
+                kept = []
+            borders = tuple(f"{v.id}/{r}" for r in kept)
             if borders:
                 segments.append(SegmentView(f"{v.id}/l{s.id}", v.id, ends, borders))
     reference = evidence.views[0].id if evidence.views else "00"

@@ -239,3 +239,27 @@ def test_one_wall_and_a_pitched_roof_keep_the_wall_vertical() -> None:
         flat = [region("00/2", front, wall_w), region("00/6", up_world, roof_w)]
         up = estimate_up(flat, camera)
         assert math.degrees(math.acos(float(up @ up_world))) < 0.01
+
+
+def test_a_segment_along_a_notch_of_its_region_is_no_edge_of_its_face() -> None:
+    """Dev seed 58002's front wall region (undistorted enough: k1 -0.012 near the centre):
+    a stone block's top cuts into it 15 px above the wall's foot, a tree's side into its left.
+    Those segments' lines have the region on both sides: no edge of the face. The foot and the
+    right corner are support lines of the region: edges."""
+    from aida_kb.interpret.observe import _cuts
+
+    outline = np.array(
+        [[208, 148], [214, 150], [214, 251], [210, 253], [171, 257], [170, 282], [185, 281],
+         [186, 265], [251, 262], [276, 264], [277, 278], [342, 277], [341, 152]],
+        dtype=np.float64,
+    )  # fmt: skip
+    block_top = np.array([[269.36, 262.50], [230.60, 263.46]])
+    tree_side = np.array([[214.0, 160.0], [214.0, 240.0]])
+    foot = np.array([[340.63, 277.25], [278.15, 278.92]])
+    corner = np.array([[341.04, 148.11], [341.90, 220.61]])
+    assert _cuts(block_top, [outline])
+    assert _cuts(tree_side, [outline])
+    assert not _cuts(foot, [outline])
+    assert not _cuts(corner, [outline])
+    # a face in two pieces (a tree in front of its middle) is still on one side of its edges
+    assert not _cuts(foot, [outline[outline[:, 1] > 200], outline[outline[:, 1] < 200]])
