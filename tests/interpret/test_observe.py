@@ -263,3 +263,25 @@ def test_a_segment_along_a_notch_of_its_region_is_no_edge_of_its_face() -> None:
     assert not _cuts(corner, [outline])
     # a face in two pieces (a tree in front of its middle) is still on one side of its edges
     assert not _cuts(foot, [outline[outline[:, 1] > 200], outline[outline[:, 1] < 200]])
+
+
+def test_a_vertical_that_makes_the_heaviest_wall_overhang_is_rejected() -> None:
+    """Dev seed 58002's regions: a front wall, a sliver of side wall and a 47-deg roof. The
+    side wall and the roof cross along a line 43 deg off the vertical under which the roof is a
+    wall and the front wall overhangs by 42 deg; the front and side walls give the vertical."""
+    from aida_kb.interpret.observe import CameraView, RegionView
+
+    camera = CameraView("00", np.diag([685.0, 685.0, 1.0]), np.eye(3), np.zeros(3), 480, 360)
+
+    def region(rid: str, normal: list[float], weight: float) -> RegionView:
+        n = np.array(normal) / np.linalg.norm(normal)
+        return RegionView(rid, "00", n, np.zeros(3), weight, 1000.0, 0.001)
+
+    regions = [
+        region("00/2", [0.3072, -0.0696, -0.9491], 2428.4),
+        region("00/4", [-0.9545, -0.0202, -0.2977], 24.4),
+        region("00/6", [0.2299, -0.7226, -0.6520], 4395.0),
+    ]
+    truth = np.array([0.0, -0.99826488, 0.05888324])
+    up = estimate_up(regions, camera)
+    assert math.degrees(math.acos(float(up @ truth))) < 1.0
