@@ -508,26 +508,37 @@ def _along(ends_px: FloatArray, polygon_px: FloatArray) -> bool:
     return True
 
 
-# A face of a convex part is a convex polygon in the image: its region (the face's visible
-# part) lies on one side of each of its edges' lines. A segment bordering one region whose
+# A face of a convex part is a convex polygon in the image: its region, where a label image
+# draws it (the face's visible part; a segmented region may leak across the face's edge),
+# lies on one side of each of its edges' lines. A segment bordering one region whose
 # line that region crosses by more than this (px; the outline's simplification and pixels put
-# a face's hull within 2-3 px of its edge lines) runs along a notch of the region, where
-# something in front cuts into it (an occluder's top, a tree's side): no edge of the face.
-# A stone block's top across a front wall, 15 px above the wall's foot, was matched to the
-# wall's foot and tilted the model 8 degrees off its regions (dev seed 58002, nothing found).
+# a face's hull within 2-3 px of its edge lines) beside the segment runs along a notch of the
+# region, where something in front cuts into it (an occluder's top, a tree's side): no edge
+# of the face. A stone block's top across a front wall, 15 px above the wall's foot, was
+# matched to the wall's foot and tilted the model 8 degrees off its regions (dev seed 58002,
+# nothing found).
 CUT_PX = 6.0
+# "Beside": the outline within this many of the segment's lengths beyond either of its ends.
+# A short fragment's direction is not good enough to follow its line much further: a wall's
+# foot broken into 30-px fragments each tilted 6 degrees by the jagged border (dev seed 58020)
+# would have the wall's far corners 40 px beyond the extended line.
+CUT_REACH = 1.0
 
 
 def _cuts(ends_px: FloatArray, polygons: list[FloatArray]) -> bool:
-    """True if the line through a segment (ends (2, 2) px) has the region's outline (closed
-    polygons (M, 2) px) beyond CUT_PX on both of its sides."""
+    """True if the region's outline (closed polygons (M, 2) px) lies beyond CUT_PX on both
+    sides of a segment's line (ends (2, 2) px), beside the segment (`CUT_REACH`)."""
     direction = ends_px[1] - ends_px[0]
     length = float(np.linalg.norm(direction))
     if length < 1e-9 or not polygons:
         return False
-    normal = np.array([-direction[1], direction[0]]) / length
-    signed = (np.concatenate(polygons) - ends_px[0]) @ normal
-    return bool(signed.max() > CUT_PX and signed.min() < -CUT_PX)
+    along = direction / length
+    normal = np.array([-along[1], along[0]])
+    rel = np.concatenate(polygons) - ends_px[0]
+    t = rel @ along
+    beside = (t >= -CUT_REACH * length) & (t <= (1.0 + CUT_REACH) * length)
+    signed = rel[beside] @ normal
+    return bool(len(signed) and signed.max() > CUT_PX and signed.min() < -CUT_PX)
 
 
 def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
@@ -537,8 +548,9 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
     contour pixels are undistorted with the left camera's D. Region ids become
     "VIEW/REGION", segment ids "VIEW/lSEGMENT". Where the evidence gives a region's contour,
     a segment borders that region only if it runs along the contour (`_along`), and a segment
-    along one region only if that region does not cross its line (`_cuts`: a notch, no edge of
-    a face); segments that border no region are left out.
+    along one region drawn in a label image only if that region does not cross its line
+    beside it (`_cuts`: a notch, no edge of a face); segments that border no region are left
+    out.
     """
     cameras: dict[str, CameraView] = {}
     regions: dict[str, RegionView] = {}
@@ -572,6 +584,8 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
             )
         K = np.array(v.left.K, dtype=np.float64)
         D = np.array(v.left.D, dtype=np.float64)
+        # regions drawn in a label image: each a face's visible part, exactly (`_cuts`)
+        drawn = {r.id for r in v.regions if r.label is not None}
         outlines: dict[int, list[FloatArray]] = {}
         for c in v.contours:
             outline = undistort_pixels(np.array(c.points, dtype=np.float64), K, D)
@@ -586,7 +600,7 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
                 for r in s.regions
                 if r not in outlines or any(_along(ends, poly) for poly in outlines[r])
             ]
-            if len(kept) == 1 and _cuts(ends, outlines.get(kept[0], [])):
+            if len(kept) == 1 and kept[0] in drawn and _cuts(ends, outlines.get(kept[0], [])):
                 kept = []
             borders = tuple(f"{v.id}/{r}" for r in kept)
             if borders:

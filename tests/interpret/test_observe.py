@@ -261,6 +261,10 @@ def test_a_segment_along_a_notch_of_its_region_is_no_edge_of_its_face() -> None:
     assert _cuts(tree_side, [outline])
     assert not _cuts(foot, [outline])
     assert not _cuts(corner, [outline])
+    # a wall's foot broken into short fragments, each tilted 6 deg by the jagged border (dev
+    # seed 58020): extended, the line would pass 40 px above the wall's far corners
+    wall = np.array([[270.0, 245.0], [720.0, 245.0], [720.0, 368.0], [270.0, 368.0]])
+    assert not _cuts(np.array([[331.9, 368.8], [363.2, 365.5]]), [wall])
     # a face in two pieces (a tree in front of its middle) is still on one side of its edges
     assert not _cuts(foot, [outline[outline[:, 1] > 200], outline[outline[:, 1] < 200]])
 
