@@ -54,13 +54,30 @@ def anchor_of(forced: dict[str, RegionView]) -> RegionView | None:
 
 
 def ranked_fronts(walls: list[RegionView], evidence: EvidenceView) -> list[RegionView]:
-    """Up to two anchor candidates: the best by `front_region`, then the next best."""
+    """Anchor candidates of a smaller part: the best by `front_region` (weight times facing),
+    the next best, and the leftmost in the reference image of the walls facing its camera.
+
+    The parts of one slot are added from left to right along the body's front
+    (`Interpreter.optional_alternatives`): unless the leftmost wall is tried, a part found
+    right of it leaves no way to add it. Two oriels in view show two fronts and two sides,
+    and the heavier oriel's front and side were the only candidates: the other oriel, left of
+    it, was never found (dev seed 58019).
+    """
     first = front_region(walls, evidence.camera)
     if first is None:
         return []
+    out = [first]
     rest = [w for w in walls if w.id != first.id and _facing(w, evidence) > 0.0]
     second = front_region(rest, evidence.camera)
-    return [first] if second is None else [first, second]
+    if second is not None:
+        out.append(second)
+    left = [w for w in rest if w.id not in {o.id for o in out}]
+    if left:
+        # the leftmost in the reference image: the smallest column of its centroid
+        centroids = np.array([w.centroid_m for w in left])
+        h = np.c_[centroids, np.ones(len(left))] @ evidence.camera.P.T
+        out.append(left[int(np.argmin(h[:, 0] / h[:, 2]))])
+    return out
 
 
 def _facing(region: RegionView, evidence: EvidenceView) -> float:
