@@ -24,12 +24,12 @@ import json
 import sys
 import tempfile
 import time
-from collections import Counter, defaultdict
 from pathlib import Path
 
 from aida_kb.errors import AidaError
 from aida_kb.interpret.evaluate import evaluate
 from aida_kb.interpret.pipeline import reconstruct_scene
+from aida_kb.interpret.robustness import SceneOutcome, scene_rates
 from aida_kb.io.scene import read_scene
 from aida_kb.kb import compile_path
 from aida_kb.kb.model import KnowledgeBase
@@ -49,63 +49,30 @@ def _knowledge(name: str, cache: dict[str, KnowledgeBase]) -> KnowledgeBase:
     return cache[name]
 
 
-def _one(scene_dir: Path, out_dir: Path, cache: dict[str, KnowledgeBase]) -> dict[str, object]:
-    """Reconstruct and evaluate one scene: its row of the report."""
+def _one(scene_dir: Path, out_dir: Path, cache: dict[str, KnowledgeBase]) -> SceneOutcome:
+    """Reconstruct and evaluate one scene (its seed: the truth's, else 0)."""
     try:
         scene = read_scene(scene_dir)
     except AidaError as exc:
-        return {"scene": scene_dir.name, "outcome": "error", "correct": False, "cause": str(exc)}
+        return SceneOutcome.failed(0, "?", False, 0, type(exc).__name__, str(exc), 0.0)
     truth = scene.truth
     if truth is None:
-        return {"scene": scene_dir.name, "outcome": "error", "correct": False, "cause": "no truth"}
+        return SceneOutcome.failed(0, "?", False, 0, "FormatError", "no truth.json", 0.0)
+    seed = int(float(truth.parameters.get("seed", 0)))
     kind = str(truth.parameters.get("kind", truth.object))
+    labels = any(v.labels is not None for v in scene.views)
     kb = _knowledge(str(truth.parameters.get("knowledge", "buildings.kb")), cache)
     start = time.perf_counter()
     try:
         result = reconstruct_scene(kb, scene_dir, out_dir)
     except AidaError as exc:
-        return {
-            "scene": scene_dir.name,
-            "kind": kind,
-            "outcome": "error",
-            "correct": False,
-            "cause": f"error: {type(exc).__name__}: {exc}",
-        }
+        seconds = time.perf_counter() - start
+        name = type(exc).__name__
+        return SceneOutcome.failed(seed, kind, labels, len(scene.views), name, str(exc), seconds)
     judged = evaluate(result.interpretation, truth)
-    return {
-        "scene": scene_dir.name,
-        "kind": kind,
-        "outcome": judged.outcome,
-        "correct": judged.correct,
-        "cause": judged.cause,
-        "seconds": round(time.perf_counter() - start, 1),
-        **judged.summary(),
-    }
-
-
-def _rates(rows: list[dict[str, object]]) -> dict[str, object]:
-    n = len(rows)
-    if n == 0:
-        return {"scenes": 0}
-
-    def rate(k: int) -> float:
-        return round(k / n, 3)
-
-    by_kind: dict[str, list[bool]] = defaultdict(list)
-    for r in rows:
-        by_kind[str(r.get("kind", "?"))].append(bool(r["correct"]))
-    return {
-        "scenes": n,
-        "correct_rate": rate(sum(bool(r["correct"]) for r in rows)),
-        "wrong_accepted_rate": rate(
-            sum(r["outcome"] == "verified" and not r["correct"] for r in rows)
-        ),
-        "doubtful_rate": rate(sum(r["outcome"] == "doubtful" for r in rows)),
-        "nothing_rate": rate(sum(r["outcome"] == "nothing" for r in rows)),
-        "error_rate": rate(sum(r["outcome"] == "error" for r in rows)),
-        "correct_by_kind": {k: f"{sum(v)}/{len(v)}" for k, v in sorted(by_kind.items())},
-        "causes": dict(Counter(str(r["cause"]) for r in rows if not r["correct"]).most_common()),
-    }
+    return SceneOutcome.judged(
+        seed, kind, labels, len(scene.views), judged, time.perf_counter() - start
+    )
 
 
 def main() -> None:
@@ -134,10 +101,13 @@ def main() -> None:
         for scene_dir in scenes:
             row = _one(scene_dir, out_root / scene_dir.name, cache)
             rows.append(row)
-            verdict = "correct" if row["correct"] else f"WRONG {row['cause']}"
-            print(f"{row['scene']} {row.get('kind', '?'):<6} {row['outcome']:<8} {verdict}")
-            print("   " + json.dumps(row), file=sys.stderr)
-    print(json.dumps({"benchmark": "independent", "root": str(root), **_rates(rows)}))
+            verdict = "correct" if row.correct else f"WRONG {row.cause}"
+            print(
+                f"{scene_dir.name} {row.kind:<6} labels={int(row.labels)} views={row.views} "
+                f"{row.outcome:<8} {verdict} ({row.seconds:.0f} s)"
+            )
+            print("   " + json.dumps(row.figures), file=sys.stderr)
+    print(json.dumps({"benchmark": "independent", "root": str(root), **scene_rates(rows)}))
 
 
 if __name__ == "__main__":

@@ -68,6 +68,7 @@ from aida_kb.interpret.robustness import (
     rejudge_street,
     run_random_scene,
     run_random_street,
+    scene_rates,
 )
 from aida_kb.kb import compile_path
 from aida_kb.kb.model import KnowledgeBase
@@ -171,64 +172,6 @@ def _line(r: SceneOutcome) -> str:
     )
 
 
-def _rates(rows: list[SceneOutcome]) -> dict[str, object]:
-    n = len(rows)
-    if n == 0:
-        return {"scenes": 0}
-
-    def rate(k: int) -> float:
-        return round(k / n, 3)
-
-    by_kind: dict[str, list[bool]] = defaultdict(list)
-    for r in rows:
-        by_kind[r.kind].append(r.correct)
-    empty = [r for r in rows if not r.figures.get("expected_object", True)]
-    return {
-        "scenes": n,
-        "correct_rate": rate(sum(r.correct for r in rows)),
-        "wrong_accepted_rate": rate(sum(r.wrong_accepted for r in rows)),
-        "doubtful_rate": rate(sum(r.outcome == "doubtful" for r in rows)),
-        "nothing_rate": rate(sum(r.outcome == "nothing" for r in rows)),
-        "error_rate": rate(sum(r.outcome == "error" for r in rows)),
-        "no_object_nothing_found": f"{sum(r.outcome == 'nothing' for r in empty)}/{len(empty)}",
-        "correct_by_kind": {
-            k: f"{sum(v)}/{len(v)}" for k, v in sorted(by_kind.items(), key=lambda kv: kv[0])
-        },
-        "causes": dict(Counter(r.cause for r in rows if not r.correct).most_common()),
-        **_cameras(rows),
-    }
-
-
-def _cameras(rows: list[SceneOutcome]) -> dict[str, object]:
-    """The registered cameras (not view 00, which sets the world frame) of the scenes where
-    the right specialisations were found: how many, the median rotation error, the share
-    within the 0.1 degree target, and the share within two of the adjustment's standard
-    deviations (its honesty: about 0.95 if they are calibrated)."""
-    errors: list[float] = []
-    within_2sd: list[bool] = []
-    for r in rows:
-        if r.figures.get("specialisations") or r.figures.get("missing"):
-            continue
-        cameras = r.figures.get("cameras")
-        for c in cameras if isinstance(cameras, list) else []:
-            angle = c.get("angle_deg")
-            if c.get("view") == "00" or not isinstance(angle, float) or angle != angle:
-                continue
-            errors.append(angle)
-            sd = c.get("sd_deg")
-            if isinstance(sd, float):
-                within_2sd.append(angle <= 2.0 * sd)
-    if not errors:
-        return {"registered_cameras": 0}
-    ordered = sorted(errors)
-    return {
-        "registered_cameras": len(errors),
-        "camera_error_median_deg": round(ordered[len(ordered) // 2], 3),
-        "cameras_within_0p1_deg": round(sum(e <= 0.1 for e in errors) / len(errors), 3),
-        "cameras_within_2sd": (round(sum(within_2sd) / len(within_2sd), 3) if within_2sd else None),
-    }
-
-
 def main() -> None:
     """Run the scenes, print one line each (stderr) and the JSON summary (stdout)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -287,9 +230,9 @@ def main() -> None:
         "rejudged": bool(args.rejudge),
         "max_views": args.max_views,
         "max_width": args.max_width,
-        "all": _rates(rows),
-        "with_labels": _rates([r for r in rows if r.labels]),
-        "without_labels": _rates([r for r in rows if not r.labels]),
+        "all": scene_rates(rows),
+        "with_labels": scene_rates([r for r in rows if r.labels]),
+        "without_labels": scene_rates([r for r in rows if not r.labels]),
         "median_seconds": sorted(r.seconds for r in rows)[len(rows) // 2] if rows else None,
     }
     if args.streets:

@@ -23,13 +23,14 @@ single-object seeds draw the same kinds whether streets are run or not.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections import Counter, defaultdict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from aida_kb.errors import AidaError
-from aida_kb.interpret.evaluate import evaluate
+from aida_kb.interpret.evaluate import Evaluation, evaluate
 from aida_kb.interpret.pipeline import reconstruct_scene
 from aida_kb.interpret.result import Interpretation, read_interpretation
 from aida_kb.interpret.scene import evaluate_scene, judge_objects, members
@@ -60,6 +61,47 @@ class SceneOutcome:
     cause: str  # '' when correct; the first failed check (or the error's message)
     seconds: float
     figures: dict[str, object]
+
+    @classmethod
+    def judged(
+        cls, seed: int, kind: str, labels: bool, views: int, evaluation: Evaluation, seconds: float
+    ) -> SceneOutcome:
+        """The outcome of a scene whose result `evaluation` judged against its truth."""
+        return cls(
+            seed,
+            kind,
+            labels,
+            views,
+            evaluation.outcome,
+            evaluation.correct,
+            evaluation.cause,
+            seconds,
+            evaluation.summary(),
+        )
+
+    @classmethod
+    def failed(
+        cls,
+        seed: int,
+        kind: str,
+        labels: bool,
+        views: int,
+        error: str,
+        message: str,
+        seconds: float,
+    ) -> SceneOutcome:
+        """The outcome of a scene whose pipeline raised `error` (its class name) with `message`."""
+        return cls(
+            seed,
+            kind,
+            labels,
+            views,
+            "error",
+            False,
+            f"error: {error}",
+            seconds,
+            {"message": message},
+        )
 
     @property
     def wrong_accepted(self) -> bool:
@@ -101,32 +143,20 @@ def run_random_scene(
     except AidaError as exc:
         seconds = time.perf_counter() - start
         (Path(workdir) / f"error-{seed}.txt").write_text(f"{type(exc).__name__}: {exc}\n")
-        return SceneOutcome(
+        return SceneOutcome.failed(
             seed,
             kind,
             spec.write_labels,
             len(spec.views_site),
-            "error",
-            False,
-            f"error: {type(exc).__name__}",
+            type(exc).__name__,
+            str(exc),
             seconds,
-            {"message": str(exc)},
         )
     seconds = time.perf_counter() - start
     truth = read_scene(scene_dir).truth
     assert truth is not None  # render_scene always writes one
     judged = evaluate(result.interpretation, truth, goal=goal)
-    return SceneOutcome(
-        seed,
-        kind,
-        spec.write_labels,
-        len(spec.views_site),
-        judged.outcome,
-        judged.correct,
-        judged.cause,
-        seconds,
-        judged.summary(),
-    )
+    return SceneOutcome.judged(seed, kind, spec.write_labels, len(spec.views_site), judged, seconds)
 
 
 def _kept(
@@ -165,17 +195,7 @@ def rejudge_scene(
     kind = str(truth.parameters.get("kind", truth.object))
     if error.is_file():
         name, _, message = error.read_text().strip().partition(": ")
-        return SceneOutcome(
-            seed,
-            kind,
-            labels,
-            len(scene.views),
-            "error",
-            False,
-            f"error: {name}",
-            0.0,
-            {"message": message},
-        )
+        return SceneOutcome.failed(seed, kind, labels, len(scene.views), name, message, 0.0)
     if not (out_dir / "interpretation.json").is_file():
         return None
     if knowledge is not None:
@@ -184,17 +204,7 @@ def rejudge_scene(
     evidence = read_evidence(out_dir / "evidence.json")
     interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
     judged = evaluate(interp, truth)
-    return SceneOutcome(
-        seed,
-        kind,
-        labels,
-        len(scene.views),
-        judged.outcome,
-        judged.correct,
-        judged.cause,
-        0.0,
-        judged.summary(),
-    )
+    return SceneOutcome.judged(seed, kind, labels, len(scene.views), judged, 0.0)
 
 
 # ---- streets: several houses per scene, judged house by house ------------------------------
@@ -370,3 +380,66 @@ def rejudge_street(kb: KnowledgeBase, seed: int, workdir: str | Path) -> StreetO
     interp = judge_objects(kb, interp, evidence)
     interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
     return _judged_street(role, seed, preset, labels, len(scene.views), interp, truth, 0.0)
+
+
+def scene_rates(rows: Sequence[SceneOutcome]) -> dict[str, object]:
+    """The figures of a robustness run over `rows` (benchmarks/robustness.py's JSON line,
+    benchmarks/independent.py's): rates of correct, wrongly accepted (verified but not
+    correct), doubtful, nothing found and errors, the object-less scenes found empty, the
+    correct share per kind, the failure causes and the registered cameras' figures
+    (`camera_figures`)."""
+    n = len(rows)
+    if n == 0:
+        return {"scenes": 0}
+
+    def rate(k: int) -> float:
+        return round(k / n, 3)
+
+    by_kind: dict[str, list[bool]] = defaultdict(list)
+    for r in rows:
+        by_kind[r.kind].append(r.correct)
+    empty = [r for r in rows if not r.figures.get("expected_object", True)]
+    return {
+        "scenes": n,
+        "correct_rate": rate(sum(r.correct for r in rows)),
+        "wrong_accepted_rate": rate(sum(r.wrong_accepted for r in rows)),
+        "doubtful_rate": rate(sum(r.outcome == "doubtful" for r in rows)),
+        "nothing_rate": rate(sum(r.outcome == "nothing" for r in rows)),
+        "error_rate": rate(sum(r.outcome == "error" for r in rows)),
+        "no_object_nothing_found": f"{sum(r.outcome == 'nothing' for r in empty)}/{len(empty)}",
+        "correct_by_kind": {
+            k: f"{sum(v)}/{len(v)}" for k, v in sorted(by_kind.items(), key=lambda kv: kv[0])
+        },
+        "causes": dict(Counter(r.cause for r in rows if not r.correct).most_common()),
+        **camera_figures(rows),
+    }
+
+
+def camera_figures(rows: Sequence[SceneOutcome]) -> dict[str, object]:
+    """The registered cameras (not view 00, which sets the world frame) of the scenes where
+    the right specialisations were found: how many, the median rotation error, the share
+    within the 0.1 degree target, and the share within two of the adjustment's standard
+    deviations (its honesty: about 0.95 if they are calibrated)."""
+    errors: list[float] = []
+    within_2sd: list[bool] = []
+    for r in rows:
+        if r.figures.get("specialisations") or r.figures.get("missing"):
+            continue
+        cameras = r.figures.get("cameras")
+        for c in cameras if isinstance(cameras, list) else []:
+            angle = c.get("angle_deg")
+            if c.get("view") == "00" or not isinstance(angle, float) or angle != angle:
+                continue
+            errors.append(angle)
+            sd = c.get("sd_deg")
+            if isinstance(sd, float):
+                within_2sd.append(angle <= 2.0 * sd)
+    if not errors:
+        return {"registered_cameras": 0}
+    ordered = sorted(errors)
+    return {
+        "registered_cameras": len(errors),
+        "camera_error_median_deg": round(ordered[len(ordered) // 2], 3),
+        "cameras_within_0p1_deg": round(sum(e <= 0.1 for e in errors) / len(errors), 3),
+        "cameras_within_2sd": (round(sum(within_2sd) / len(within_2sd), 3) if within_2sd else None),
+    }
