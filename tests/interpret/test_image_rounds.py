@@ -33,35 +33,11 @@ from aida_kb.register import (
 )
 from aida_kb.register.evidence import ViewMeasurements
 from aida_kb.testing.segments import simulated_segments
+from tests.register.test_register import _box
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
 K = np.array([[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]])
 Get = Callable[[str], Interpretation]
-
-
-def _box() -> RigidModel:
-    """A 0.4 x 0.25 x 0.3 m box 1.4 m in front of the origin (y down)."""
-    c = np.array([0.0, 0.3, 1.4])
-    x, y, z = 0.2, 0.125, 0.15
-    corner = {
-        (sx, sy, sz): c + np.array([sx * x, sy * y, sz * z])
-        for sx in (-1, 1)
-        for sy in (-1, 1)
-        for sz in (-1, 1)
-    }
-    faces = {
-        "front": ((0, 0, -1), [(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1)]),
-        "back": ((0, 0, 1), [(-1, -1, 1), (-1, 1, 1), (1, 1, 1), (1, -1, 1)]),
-        "left": ((-1, 0, 0), [(-1, -1, -1), (-1, 1, -1), (-1, 1, 1), (-1, -1, 1)]),
-        "right": ((1, 0, 0), [(1, -1, -1), (1, -1, 1), (1, 1, 1), (1, 1, -1)]),
-        "top": ((0, -1, 0), [(-1, -1, -1), (-1, -1, 1), (1, -1, 1), (1, -1, -1)]),
-        "bottom": ((0, 1, 0), [(-1, 1, -1), (1, 1, -1), (1, 1, 1), (-1, 1, 1)]),
-    }
-    names = list(faces)
-    normals = np.array([faces[n][0] for n in names], dtype=float)
-    polys = [np.array([corner[k] for k in faces[n][1]]) for n in names]
-    offsets = np.array([float(n @ p[0]) for n, p in zip(normals, polys, strict=True)])
-    return RigidModel.from_polygons(names, normals, offsets, polys)
 
 
 def _cameras(model: RigidModel) -> tuple[PinholeCamera, PinholeCamera]:
