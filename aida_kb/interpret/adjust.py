@@ -175,6 +175,7 @@ def adjust(
             declared,
             ctx.pinholes,
             tilts,
+            metric=ctx.evidence.metric,
         )
         outcome = verify(verification)
         last = (outcome, verification)

@@ -197,6 +197,8 @@ def build_verification(
     declared: Collection[tuple[str, str]],
     cameras: Sequence[PinholeCamera],
     extra: Sequence[Constraint] = (),
+    *,
+    metric: bool = True,
 ) -> Verification:
     """The verification problem of a hypothesis, its constraints from the knowledge base.
 
@@ -212,6 +214,8 @@ def build_verification(
         concept measures itself) feed that measure, the others their region's contour.
     cameras : the cameras of the edge evidence.
     extra : constraints the interpreter adds (part indices into ``planes``, with origins).
+    metric : the scene's lengths are metres (an edge tolerance given as a length becomes
+        pixels, `edges_in_pixels`).
 
     Constraints among fixed parts only are left out: they were verified with their level.
     """
@@ -257,7 +261,85 @@ def build_verification(
         o = c.source
         out.append(replace(c, label=o.label, origin=replace(o, owner=top.join(o.owner))))
     out += [c for c in extra if not set(c.parts) <= fixed]
+    out = edges_in_pixels(out, planes, cameras, metric=metric)
     return Verification(tuple(planes), tuple(with_edge_scatter(out)), tuple(cameras), found.skipped)
+
+
+# Edge tolerances at the object. The knowledge may give an edge measure's tolerance as a length
+# (``measure edge(edge(front, roof.front)) +- 0.1 m``): how far the edge a photograph shows may
+# lie from where the two planes meet — an eave's overhang, a cornice, a gutter — the same at any
+# distance. Where the edge is seen it becomes pixels: sigma_px = sigma_m · f / Z (f the
+# camera's focal length, pixels; Z the depth of the segment's middle on the first part's
+# starting plane, metres), combined with the image's own noise EDGE_IMAGE_SIGMA_PX as
+# sqrt(EDGE_IMAGE_SIGMA_PX² + sigma_px²): a far edge is still found no better than a pixel. The
+# threshold stays the same multiple of sigma. In a scene of unknown scale a metre has no size
+# in the images: the measure keeps the image's noise alone (threshold likewise).
+EDGE_IMAGE_SIGMA_PX = 1.0  # an image edge's own noise, pixels (the knowledge's Contour measure)
+LENGTH_UNITS = frozenset({"m"})  # the unit of a length tolerance once compiled (SI)
+RAY_PLANE_MIN_COS = 1e-9  # a ray closer to its plane than this meets it nowhere measurable
+
+
+def edges_in_pixels(
+    constraints: Sequence[Constraint],
+    planes: Sequence[PlaneInit],
+    cameras: Sequence[PinholeCamera],
+    *,
+    metric: bool = True,
+) -> list[Constraint]:
+    """The edge measurements whose tolerance is a length, in pixels (see EDGE_IMAGE_SIGMA_PX).
+
+    planes : the problem's parts (the constraints' part indices), their starting planes in
+    metres; cameras : the problem's cameras (the edges' camera indices); metric : the scene's
+    lengths are metres (else the length is not known in pixels). Other constraints unchanged.
+    """
+    out = list(constraints)
+    picked = [
+        k
+        for k, c in enumerate(constraints)
+        if c.edge is not None and c.unit in LENGTH_UNITS and c.sigma is not None
+    ]
+    if not picked:
+        return out
+    sigma_m = np.array([float(constraints[k].sigma or 0.0) for k in picked])
+    sigma_px = np.full(len(picked), EDGE_IMAGE_SIGMA_PX)
+    if metric:
+        z = np.full(len(picked), -1.0)
+        cam_of = np.array([_edge(constraints[k]).camera for k in picked])
+        for ci in np.unique(cam_of):  # per camera (a handful), each camera's edges at once
+            at = np.flatnonzero(cam_of == ci)
+            z[at] = _depth_on_plane([constraints[picked[i]] for i in at], planes, cameras[ci])
+        seen = z > 0
+        f = np.array([float(cameras[c].K[0, 0]) for c in cam_of])
+        sigma_px[seen] = np.hypot(EDGE_IMAGE_SIGMA_PX, sigma_m[seen] * f[seen] / z[seen])
+    for i, k in enumerate(picked):
+        c = constraints[k]
+        scale = float(sigma_px[i] / sigma_m[i])
+        reject = c.reject_above * scale if c.reject_above is not None else None
+        out[k] = replace(c, sigma=float(sigma_px[i]), reject_above=reject, unit="px")
+    return out
+
+
+def _edge(c: Constraint) -> EdgeData:
+    assert c.edge is not None
+    return c.edge
+
+
+def _depth_on_plane(
+    constraints: Sequence[Constraint], planes: Sequence[PlaneInit], camera: PinholeCamera
+) -> FloatArray:
+    """(M,) metres: the depth in ``camera`` where the ray through the middle of each edge
+    constraint's segment meets its first part's starting plane; -1 where it does not (the
+    plane behind the camera or along the ray)."""
+    ends = np.array([[_edge(c).p1_px, _edge(c).p2_px] for c in constraints], np.float64)
+    centre, rays = camera.unproject(ends.mean(axis=1))
+    normals = np.array([planes[c.parts[0]].normal for c in constraints], np.float64)
+    offsets = np.array([planes[c.parts[0]].offset_m for c in constraints], np.float64)
+    along = np.einsum("ij,ij->i", rays, normals)
+    ok = np.abs(along) > RAY_PLANE_MIN_COS
+    t = np.where(ok, (offsets - normals @ centre) / np.where(ok, along, 1.0), -1.0)
+    z = camera.depth(centre[None, :] + t[:, None] * rays)
+    out: FloatArray = np.where((t > 0) & (z > 0), z, -1.0)
+    return out
 
 
 PARALLEL_SIGMAS = 3.0  # a fragment parallel to its edge's others: within this many sd

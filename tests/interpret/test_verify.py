@@ -257,3 +257,45 @@ def test_levels_are_solved_main_parts_first() -> None:
     joint = verify(Verification(free, (body.constraints[0], strict, pos)))
     moved = math.degrees(math.acos(min(1.0, float(joint.planes["body.front"][0] @ n_main))))
     assert moved > 0.1
+
+
+def test_an_edge_tolerance_in_metres_becomes_pixels_where_the_edge_is_seen() -> None:
+    """`measure edge(...) +- 0.1 m reject above 0.5 m` on an edge 20 m away seen with f = 800
+    px: sigma sqrt(1 + 4²) px, the threshold 5 sigma; twice as far, sqrt(1 + 2²); in a scene of
+    unknown scale the pixel alone; a tolerance in pixels stays as it is."""
+    from aida_kb.interpret.verify import edges_in_pixels
+
+    cam = PinholeCamera(np.diag([800.0, 800.0, 1.0]), np.eye(3), np.zeros(3), 640, 480)
+    n = np.array([0.0, 0.0, -1.0])
+    planes = [PlaneInit("near", "Wall", n, -20.0), PlaneInit("far", "Wall", n, -40.0)]
+    eave = EdgeData(0, (300.0, 200.0), (340.0, 200.0))
+
+    def measure(part: int, sigma: float, reject: float, unit: str) -> Constraint:
+        return Constraint(
+            kind="edge",
+            parts=(part, part),
+            sigma=sigma,
+            reject_above=reject,
+            unit=unit,
+            measurement=True,
+            edge=eave,
+        )
+
+    given = [measure(0, 0.1, 0.5, "m"), measure(1, 0.1, 0.5, "m"), measure(0, 1.0, 3.0, "px")]
+    near, far, pixel = edges_in_pixels(given, planes, [cam])
+    assert (near.unit, far.unit) == ("px", "px")
+    assert near.sigma == pytest.approx(math.hypot(1.0, 4.0))
+    assert near.reject_above == pytest.approx(5 * math.hypot(1.0, 4.0))
+    assert far.sigma == pytest.approx(math.hypot(1.0, 2.0))
+    assert pixel == given[2]
+    unscaled = edges_in_pixels(given, planes, [cam], metric=False)
+    assert [c.sigma for c in unscaled] == pytest.approx([1.0, 1.0, 1.0])
+    assert [c.reject_above for c in unscaled] == pytest.approx([5.0, 5.0, 3.0])
+
+
+def test_the_buildings_eaves_are_measured_in_metres(buildings_kb: KnowledgeBase) -> None:
+    """kb/buildings.kb: the eaves over the front have a tolerance at the object, in metres;
+    the walls' corners one in pixels."""
+    body = buildings_kb.concepts["HouseBody"]
+    units = sorted(c.unit for c in body.constraints if c.measurement)
+    assert units == ["m", "px"]

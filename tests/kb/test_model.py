@@ -145,7 +145,12 @@ def test_measurements(kb: KnowledgeBase) -> None:
     assert pos.label == "Region#1"
     edges = [s for s in kb.concepts["HouseBody"].constraints if s.kind == "edge"]
     assert [s.args for s in edges] == [("front", "left"), ("front", "roof.front")]
-    assert all(s.measurement and s.unit == "px" for s in edges)
+    assert all(s.measurement for s in edges)
+    # the side edge is an image measure; the eave is measured at the object, in metres
+    assert [(s.unit, s.sigma, s.reject_above) for s in edges] == [
+        ("px", 1.0, 3.0),
+        ("m", 0.1, 0.5),
+    ]
 
 
 def test_qualifiers_threshold_in_sigmas_and_units() -> None:

@@ -64,3 +64,24 @@ def test_ground_to_the_horizon_gets_a_metric_rms_and_a_random_region_is_left_out
     # region's border band and the outliers the depth map kept, so fewer than all of them
     # (taking the smaller of the rectified and the original count gave all of them)
     assert 0.8 * g.depth_pixel_count < g.inlier_count < 0.97 * g.depth_pixel_count
+
+
+def test_the_strip_the_right_camera_cannot_see_is_a_disparity_wide() -> None:
+    """A wall 20 m before a rig of baseline 0.5 m and focal length 400 px: its points in the
+    left image's leftmost f·B/Z = 10 px (and the matcher's margin) lie beyond the right image;
+    a plane behind the camera has no such pixels."""
+    from aida_kb.io.scene import StereoCalib
+    from aida_kb.vision.evidence import _unseen_by_right, original_rays
+
+    K = np.array([[400.0, 0.0, 79.5], [0.0, 400.0, 59.5], [0.0, 0.0, 1.0]])
+    calib = StereoCalib(
+        K, np.zeros(5), K, np.zeros(5), np.eye(3), np.array([-0.5, 0.0, 0.0]), (160, 120)
+    )
+    rays = original_rays(calib)
+    normals = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])
+    unseen = _unseen_by_right(rays, normals, np.array([-20.0, -5.0]), calib, 2.0)
+    columns = np.flatnonzero(unseen[0][10:-10].any(axis=0))  # rows well inside the margin
+    assert columns.tolist() == list(range(12))  # 10 px of disparity and 2 px of margin
+    assert np.all(unseen[0][10:-10, 12:] == 0)
+    assert np.all(unseen[0][:2])  # the matcher's margin at the top
+    assert not unseen[1].any()
