@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -86,7 +86,9 @@ FloatArray = npt.NDArray[np.float64]
 
 __all__ = [
     "JOINT_EDGE_SIGMA_PX",
+    "JointInputs",
     "consistent_edges",
+    "corroborated",
     "fitted_edges",
     "joint_adjustment",
     "joint_problem",
@@ -162,6 +164,13 @@ IMAGE_KEEP_SEGMENTS = True
 line-detector segments, as in the rounds before (`JOINT_EDGE_SIGMA_PX`): without them the
 parts such edges alone place drift (L-shape preset normals 0.35 -> 1.07 deg, house seed 1
 0.15 -> 0.67) — with them 0.23 and 0.12 deg."""
+STEREO_FIT_CORRELATION = 0.47
+"""The correlation of an edge's fits in a view's left and right images: the same edge, the same
+texture and shading beside it, seen from 0.1-0.3 m apart (the fits' errors against the true model
+and cameras on the dev robustness seeds correlate by 0.47). Counted as independent, two fits of
+one edge would weigh as two edges; their common error is kept by widening each one's sigma by
+``sqrt(1 + rho)`` (the mean of two measurements correlated by rho has ``(1 + rho) / 2`` of one's
+variance)."""
 JOINT_RIGHT_IMAGES = False
 """Whether the joint adjustments also use the segments of each view's right image (through a camera
 that follows the view's by the stereo calibration; registration always does). Off: measured with
@@ -203,17 +212,36 @@ def _model_camera(view: str, cam: PinholeCamera, sd: CameraSd | None = None) -> 
     )
 
 
+@dataclass(frozen=True)
+class JointInputs:
+    """What a joint adjustment measures besides each view's segments and regions.
+
+    angles : the first shape's meeting angles of adjacent parts, rad, by the pair of part
+        indices (a, b), a < b; None: the model's own (`meeting_angles`).
+    internal : the knowledge base's constraints among the parts (`kb_constraints`); with them
+        the first shape's angles are kept only loosely (`PRIOR_ANGLE_SIGMA_DEG`).
+    stereo : per view, the segments of its right image and its rig (or None): their edge
+        factors look through a camera that follows the view's (a derived key of the solve).
+    fitted : per view, the model's edges fitted to its image (`aida_kb.register.image_edges`)
+        or None: where given, they are the view's edge measurements instead of its segments.
+    fitted_right : per view, its rig and the model's edges fitted to its right image, or None:
+        their factors look through a camera that follows the view's, as `stereo`'s do; an edge
+        fitted in both images of a view is one edge seen twice (`STEREO_FIT_CORRELATION`).
+    """
+
+    angles: Mapping[tuple[int, int], float] | None = None
+    internal: Sequence[Constraint] = ()
+    stereo: Sequence[StereoSegments | None] = ()
+    fitted: Sequence[EdgeObservations | None] = ()
+    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = ()
+
+
 def joint_adjustment(
     model: RigidModel,
     cameras: Sequence[PinholeCamera],
     views: Sequence[ViewMeasurements],
     free_cameras: Sequence[int],
-    *,
-    angles: Mapping[tuple[int, int], float] | None = None,
-    internal: Sequence[Constraint] = (),
-    stereo: Sequence[StereoSegments | None] = (),
-    fitted: Sequence[EdgeObservations | None] = (),
-    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = (),
+    inputs: JointInputs = JointInputs(),
 ) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...], ResidualReport]:
     """Adjust the model's planes and the free cameras' poses to all views at once: the
     problem of `joint_problem` (same parameters), solved with JOINT_LOSS / JOINT_F_SCALE.
@@ -228,17 +256,7 @@ def joint_adjustment(
     SolveError
         A degenerate problem.
     """
-    problem = joint_problem(
-        model,
-        cameras,
-        views,
-        free_cameras,
-        angles=angles,
-        internal=internal,
-        stereo=stereo,
-        fitted=fitted,
-        fitted_right=fitted_right,
-    )
+    problem = joint_problem(model, cameras, views, free_cameras, inputs)
     result = solve(problem, loss=JOINT_LOSS, f_scale=JOINT_F_SCALE)
     return result.normals, result.offsets, result.cameras[: len(cameras)], result.report
 
@@ -248,29 +266,17 @@ def joint_problem(
     cameras: Sequence[PinholeCamera],
     views: Sequence[ViewMeasurements],
     free_cameras: Sequence[int],
-    *,
-    angles: Mapping[tuple[int, int], float] | None = None,
-    internal: Sequence[Constraint] = (),
-    stereo: Sequence[StereoSegments | None] = (),
-    fitted: Sequence[EdgeObservations | None] = (),
-    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = (),
+    inputs: JointInputs = JointInputs(),
 ) -> Problem:
     """The problem of adjusting the model's planes and the free cameras' poses to all views.
 
     Parameters
     ----------
-    model : the current model (world frame); its adjacent parts' meeting angles (or `angles`,
-        rad, by the pair of part indices (a, b), a < b) are kept as soft constraints.
+    model : the current model (world frame); its adjacent parts' meeting angles (or
+        ``inputs.angles``) are kept as soft constraints.
     cameras : one per view (world frame); views : their measurements.
     free_cameras : indices of the cameras whose poses are unknowns (the others fix the frame).
-    internal : the knowledge base's constraints among the parts (`kb_constraints`); with them
-        the first shape's angles are kept only loosely (`PRIOR_ANGLE_SIGMA_DEG`).
-    stereo : per view, the segments of its right image and its rig (or None): their edge
-        factors look through a camera that follows the view's (a derived key of the solve).
-    fitted : per view, the model's edges fitted to its image (`aida_kb.register.image_edges`)
-        or None: where given, they are the view's edge measurements instead of its segments.
-    fitted_right : per view, its rig and the model's edges fitted to its right image, or None:
-        their factors look through a camera that follows the view's, as `stereo`'s do.
+    inputs : the further measurements (`JointInputs`).
 
     Each view's regions are measured in its own camera frame (``camera_position`` factors):
     they follow the view's pose while it is adjusted.
@@ -285,25 +291,33 @@ def joint_problem(
     SolveError
         A degenerate problem.
     """
+    angles, internal, stereo = inputs.angles, inputs.internal, inputs.stereo
+    fitted, fitted_right = inputs.fitted, inputs.fitted_right
     opts = RegistrationOptions()
     cons: list[Constraint] = []
     all_cameras = list(cameras)
     derived: list[tuple[int, int, Rig]] = []
     for ci, (cam, m) in enumerate(zip(cameras, views, strict=True)):
         own = fitted[ci] if ci < len(fitted) else None
+        second = fitted_right[ci] if ci < len(fitted_right) else None
+        # an edge fitted in both images of the view: its two fits' errors are correlated
+        twice = (
+            set()
+            if own is None or second is None
+            else _edge_keys(own.faces) & _edge_keys(second[1].faces)
+        )
         if own is None:
             cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view)
         else:
-            cons += _fitted_edge_factors(model, ci, own, m.view)
+            cons += _fitted_edge_factors(model, ci, own, m.view, twice)
             if IMAGE_KEEP_SEGMENTS:  # the segments of the edges no clean fit measures
-                done = {(int(min(a, b)), int(max(a, b))) for a, b in own.faces}
+                done = _edge_keys(own.faces)
                 cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view, skip=done)
-        second = fitted_right[ci] if ci < len(fitted_right) else None
         if second is not None:  # the right image's fitted edges: a camera following this one
             right = len(all_cameras)
             all_cameras.append(second[0].right_of(cam))
             derived.append((right, ci, second[0]))
-            cons += _fitted_edge_factors(model, right, second[1], f"{m.view} (right)")
+            cons += _fitted_edge_factors(model, right, second[1], f"{m.view} (right)", twice)
         pair = stereo[ci] if ci < len(stereo) else None
         if pair is not None:  # the right image: a camera that follows this view's
             right = len(all_cameras)
@@ -405,16 +419,30 @@ def _edge_factors(
     return out
 
 
+def _edge_keys(faces: npt.NDArray[np.integer]) -> set[tuple[int, int]]:
+    """The edges (E, 2) part indices as pairs (low, high)."""
+    return {(int(min(a, b)), int(max(a, b))) for a, b in faces}
+
+
 def _fitted_edge_factors(
-    model: RigidModel, index: int, edges: EdgeObservations, view: str
+    model: RigidModel,
+    index: int,
+    edges: EdgeObservations,
+    view: str,
+    twice: set[tuple[int, int]] | frozenset[tuple[int, int]] = frozenset(),
 ) -> list[Constraint]:
     """Edge factors of model edges fitted to the image of camera ``index`` (they know their
     edge: no matching), each whitened with its own fit's point sigma (`point_sigma`); their
-    labels start with `IMAGE_EDGE_LABEL` (their own variance factor in the covariance)."""
+    labels start with `IMAGE_EDGE_LABEL` (their own variance factor in the covariance). The
+    edges `twice` names (part indices, ascending) are fitted in both images of the view: their
+    sigma is widened by ``sqrt(1 + STEREO_FIT_CORRELATION)`` (`STEREO_FIT_CORRELATION`)."""
     sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX)
     out = []
+    widen = math.sqrt(1.0 + STEREO_FIT_CORRELATION)
     for k in range(edges.size):
         a, b = int(edges.faces[k, 0]), int(edges.faces[k, 1])
+        if (min(a, b), max(a, b)) in twice:
+            sigma[k] *= widen
         e1 = (float(edges.p1[k, 0]), float(edges.p1[k, 1]))
         e2 = (float(edges.p2[k, 0]), float(edges.p2[k, 1]))
         label = f"{IMAGE_EDGE_LABEL}({model.names[a]}, {model.names[b]})@{view}"
@@ -533,25 +561,11 @@ def _adjusted(
     cameras: Sequence[PinholeCamera],
     views: Sequence[ViewMeasurements],
     free: Sequence[int],
-    angles: Mapping[tuple[int, int], float],
-    internal: Sequence[Constraint],
-    stereo: Sequence[StereoSegments | None],
-    fitted: Sequence[EdgeObservations | None] = (),
-    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = (),
+    inputs: JointInputs,
 ) -> tuple[RigidModel, list[FloatArray], list[PinholeCamera], ResidualReport] | str:
     """`joint_adjustment` and the rebuilt model, or why it failed (the caller keeps the old)."""
     try:
-        n, d, adjusted, report = joint_adjustment(
-            model,
-            cameras,
-            views,
-            free,
-            angles=angles,
-            internal=internal,
-            stereo=stereo,
-            fitted=fitted,
-            fitted_right=fitted_right,
-        )
+        n, d, adjusted, report = joint_adjustment(model, cameras, views, free, inputs)
         rigid, polygons = _rebuilt(model, n, d)
     except (GeometryError, SolveError) as exc:
         return str(exc)
@@ -563,11 +577,7 @@ def _camera_deviations(
     cameras: Sequence[PinholeCamera],
     views: Sequence[ViewMeasurements],
     free: Sequence[int],
-    angles: Mapping[tuple[int, int], float],
-    internal: Sequence[Constraint],
-    stereo: Sequence[StereoSegments | None],
-    fitted: Sequence[EdgeObservations | None],
-    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None],
+    inputs: JointInputs,
 ) -> dict[int, CameraSd]:
     """The standard deviations of the free cameras (by index) at the adjusted model, from
     the measurements of that adjustment (`aida_kb.interpret.uncertainty.problem_uncertainty`);
@@ -575,17 +585,7 @@ def _camera_deviations(
     from aida_kb.interpret.uncertainty import problem_uncertainty
 
     try:
-        problem = joint_problem(
-            model,
-            cameras,
-            views,
-            free,
-            angles=angles,
-            internal=internal,
-            stereo=stereo,
-            fitted=fitted,
-            fitted_right=fitted_right,
-        )
+        problem = joint_problem(model, cameras, views, free, inputs)
     except SolveError:
         return {}
     ids = [str(i) for i in free]
@@ -659,11 +659,15 @@ def fitted_edges(
     left: Sequence[npt.NDArray[np.uint8] | None],
     right: Sequence[tuple[Rig, npt.NDArray[np.uint8]] | None],
     reject_sigmas: float | None = None,
+    views: Sequence[ViewMeasurements] | None = None,
 ) -> tuple[list[EdgeObservations | None], list[tuple[Rig, EdgeObservations] | None]]:
     """The model's visible edges fitted to each view's left image (`view_images`) and right
     image (`right_images`) at its camera (`aida_kb.register.image_edges`): the ``fitted`` and
     ``fitted_right`` of `joint_problem`. With `reject_sigmas`, fits whose whitened offset or
-    slope from the model's projected edge exceeds it are left out (`consistent_edges`)."""
+    slope from the model's projected edge exceeds it are left out (`consistent_edges`). With
+    the `views`' segments (found in the images without the model), a left-image fit is kept
+    only where they do not contradict it (`corroborated`) and a right-image fit only where its
+    edge's left-image fit is kept."""
 
     def fit(camera: PinholeCamera, grey: npt.NDArray[np.uint8]) -> EdgeObservations:
         found = _clean(image_edges(model, camera, grey))
@@ -676,18 +680,105 @@ def fitted_edges(
     fl: list[EdgeObservations | None] = [
         None if g is None else fit(c, g) for g, c in zip(left, cameras, strict=True)
     ]
-    fr: list[tuple[Rig, EdgeObservations] | None] = [
-        None if r is None else (r[0], fit(r[0].right_of(c), r[1]))
-        for r, c in zip(right, cameras, strict=True)
-    ]
+    if views is not None:
+        fl = [
+            None if f is None else _subset(f, corroborated(f, m))
+            for f, m in zip(fl, views, strict=True)
+        ]
+    fr: list[tuple[Rig, EdgeObservations] | None] = []
+    for k, (r, c) in enumerate(zip(right, cameras, strict=True)):
+        if r is None:
+            fr.append(None)
+            continue
+        found = fit(r[0].right_of(c), r[1])
+        own = fl[k]
+        if views is not None:  # the same edge as a kept left-image fit, or none
+            keys = set() if own is None else _edge_keys(own.faces)
+            seen = np.array([(int(min(a, b)), int(max(a, b))) in keys for a, b in found.faces])
+            found = _subset(found, seen.astype(bool).reshape(-1))
+        fr.append((r[0], found))
     return fl, fr
+
+
+CORROBORATE_PX = 1.5
+"""A fitted edge is shown by a segment of the view's own (`corroborated`) whose both ends lie
+within this distance of its line, pixels (the line detector's segments lie within 0.5 px of a
+rendered edge in the median, `aida_kb.vision.lines.SEARCH_PX`) ..."""
+CORROBORATE_DEG = 3.0
+"""... that runs within this angle of it ..."""
+CORROBORATE_SHARE = 0.25
+"""... and such segments cover at least this share of its length."""
+CONTRADICT_PX = 25.0
+"""A fitted edge the view's segments do not show is contradicted by segments as `corroborated`
+takes them but within this distance of its line (`aida_kb.interpret.edges.MAX_DISTANCE_PX`,
+the interpreter's reach for an edge's segments): the line detector sees the edge elsewhere.
+A fit is looked for within `aida_kb.vision.lines.SEARCH_PX` of the model's projected edge:
+where the model is off by more, it finds whatever edge lies there and confirms the pose it was
+fitted at (dev seed 58012: view 01's front-right corner fitted 18 px from the true corner, in
+both images, along a clean line on the front wall). The line detector sees the images without
+the model; a texture line within one region is no region's border, so only segments that bound
+a region (`aida_kb.register.evidence.ViewMeasurements.bounding`) show an edge, and a fit on
+segments within one region lies on a texture line (58012's: two 20 px segments on its 145). A
+fit no segment shows or contradicts stays (against the true models and cameras of dev seeds
+58005-58023, 98 of 104 fits are shown by segments; 4 of the others lie on long eaves the line
+detector missed, within 0.01-0.08 px of the true edge; all 104 are kept)."""
+
+
+def corroborated(edges: EdgeObservations, view: ViewMeasurements) -> npt.NDArray[np.bool_]:
+    """(F,) which fitted edges (left image) the view's own segments do not contradict: shown
+    by segments bounding a region (all segments when that is not known) within
+    `CORROBORATE_PX` and `CORROBORATE_DEG` of the fitted line, covering `CORROBORATE_SHARE` of
+    its length; or neither on a texture line (segments within one region lying on it as
+    those would) nor with bounding segments within `CONTRADICT_PX` of it (the edge elsewhere)."""
+    F = edges.size
+    S = view.p1.shape[0]
+    if F == 0 or S == 0:
+        return np.ones(F, dtype=bool)
+    bounding = np.ones(S, dtype=bool) if view.bounding is None else view.bounding
+    d = edges.p2 - edges.p1
+    length = np.maximum(np.linalg.norm(d, axis=1), 1e-9)
+    u = d / length[:, None]  # (F, 2)
+    n = np.stack([-u[:, 1], u[:, 0]], axis=1)
+    r1 = view.p1[None, :, :] - edges.p1[:, None, :]  # (F, S, 2)
+    r2 = view.p2[None, :, :] - edges.p1[:, None, :]
+    off = np.maximum(np.abs(np.einsum("fsc,fc->fs", r1, n)), np.abs(np.einsum("fsc,fc->fs", r2, n)))
+    t1 = np.einsum("fsc,fc->fs", r1, u)
+    t2 = np.einsum("fsc,fc->fs", r2, u)
+    seg = view.p2 - view.p1
+    seg_len = np.maximum(np.linalg.norm(seg, axis=1), 1e-9)
+    parallel = np.abs(np.einsum("fc,sc->fs", n, seg)) / seg_len[None, :] <= math.sin(
+        math.radians(CORROBORATE_DEG)
+    )
+    lo = np.clip(np.minimum(t1, t2), 0.0, length[:, None])
+    hi = np.clip(np.maximum(t1, t2), 0.0, length[:, None])
+
+    def cover(reach: float, which: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
+        near = parallel & (off <= reach) & which[None, :]
+        out: npt.NDArray[np.bool_] = (
+            np.where(near, hi - lo, 0.0).sum(axis=1) >= CORROBORATE_SHARE * length
+        )
+        return out
+
+    shown = cover(CORROBORATE_PX, bounding)
+    texture = cover(CORROBORATE_PX, ~bounding)
+    elsewhere = cover(CONTRADICT_PX, bounding)
+    keep: npt.NDArray[np.bool_] = shown | ~(texture | elsewhere)
+    return keep
+
+
+def _subset(edges: EdgeObservations, keep: npt.NDArray[np.bool_]) -> EdgeObservations:
+    return EdgeObservations(
+        edges.faces[keep],
+        edges.p1[keep],
+        edges.p2[keep],
+        None if edges.sigma_px is None else edges.sigma_px[keep],
+    )
 
 
 def _clean(edges: EdgeObservations) -> EdgeObservations:
     if edges.sigma_px is None:
         return edges
-    keep = edges.sigma_px <= IMAGE_MAX_POINT_SIGMA_PX
-    return EdgeObservations(edges.faces[keep], edges.p1[keep], edges.p2[keep], edges.sigma_px[keep])
+    return _subset(edges, edges.sigma_px <= IMAGE_MAX_POINT_SIGMA_PX)
 
 
 def consistent_edges(
@@ -711,13 +802,8 @@ def consistent_edges(
     sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX)
     offset = np.abs(r1 + r2) / 2.0 / (sigma / np.sqrt(length))
     slope = np.abs(r1 - r2) / 2.0 / (sigma * np.sqrt(3.0 / length))
-    keep = known & (offset <= limit) & (slope <= limit)
-    return EdgeObservations(
-        edges.faces[keep],
-        edges.p1[keep],
-        edges.p2[keep],
-        None if edges.sigma_px is None else edges.sigma_px[keep],
-    )
+    keep: npt.NDArray[np.bool_] = known & (offset <= limit) & (slope <= limit)
+    return _subset(edges, keep)
 
 
 def reconstruct_views(
@@ -788,7 +874,7 @@ def reconstruct_views(
     report: ResidualReport | None = None  # the last adjustment's, for interpretation.json
     if placed:  # the model with the views of known pose, as after a registration
         free = list(range(n_known, len(cams)))
-        step = _adjusted(rigid, cams, views, free, angles, internal, pairs)
+        step = _adjusted(rigid, cams, views, free, JointInputs(angles, internal, pairs))
         if isinstance(step, str):
             notes.append(f"joint adjustment with the views of known pose skipped: {step}")
         else:
@@ -816,7 +902,7 @@ def reconstruct_views(
         pairs.append(stereo if use_right else None)
         # the model and the new view's pose in one joint optimisation (for the second view:
         # the first shape and the second pose), the views before it held where they are
-        step = _adjusted(rigid, cams, views, [len(cams) - 1], angles, internal, pairs)
+        step = _adjusted(rigid, cams, views, [len(cams) - 1], JointInputs(angles, internal, pairs))
         if isinstance(step, str):
             notes.append(f"joint adjustment with view {v.id} skipped: {step}")
         else:
@@ -824,9 +910,8 @@ def reconstruct_views(
     for _ in range(FINAL_ROUNDS if len(cams) > n_known else 0):
         if progress is not None:
             progress(f"refining the model with all {len(cams)} views")
-        step = _adjusted(
-            rigid, cams, views, list(range(n_known, len(cams))), angles, internal, pairs
-        )
+        free = list(range(n_known, len(cams)))
+        step = _adjusted(rigid, cams, views, free, JointInputs(angles, internal, pairs))
         if isinstance(step, str):
             notes.append(f"refinement with all views skipped: {step}")
             break
@@ -841,16 +926,15 @@ def reconstruct_views(
         # the first round's fits are at the segments' pose; later rounds drop those the model
         # no longer explains (a corner's line tilted by what lies beside it)
         limit = IMAGE_REJECT_SIGMAS if round_ else None
-        fitted, fitted_right = fitted_edges(rigid, cams, greys, rights, limit)
+        fitted, fitted_right = fitted_edges(rigid, cams, greys, rights, limit, views)
         free = list(range(n_known, len(cams)))
-        step = _adjusted(rigid, cams, views, free, angles, internal, pairs, fitted, fitted_right)
+        inputs = JointInputs(angles, internal, pairs, fitted, fitted_right)
+        step = _adjusted(rigid, cams, views, free, inputs)
         if isinstance(step, str):
             notes.append(f"refinement with the images' edges skipped: {step}")
             break
         rigid, polygons, cams, report = step
-        own_sd = _camera_deviations(
-            rigid, cams, views, free, angles, internal, pairs, fitted, fitted_right
-        )
+        own_sd = _camera_deviations(rigid, cams, views, free, inputs)
     parts = []
     by_role = {p.role: p for p in model0.parts}
     for i, name in enumerate(rigid.names):

@@ -122,7 +122,12 @@ def adjustment_uncertainty(
     """The standard deviations of `interp`'s model and cameras (module docstring); None
     when there is no model, the first view has no camera or the problem cannot be built."""
     from aida_kb.geometry.camera import PinholeCamera
-    from aida_kb.interpret.multiview import joint_problem, kb_constraints, meeting_angles
+    from aida_kb.interpret.multiview import (
+        JointInputs,
+        joint_problem,
+        kb_constraints,
+        meeting_angles,
+    )
     from aida_kb.register import RigidModel
     from aida_kb.register.evidence import measurements_of
 
@@ -154,8 +159,7 @@ def adjustment_uncertainty(
             cams,
             views,
             free,
-            angles=meeting_angles(rigid),
-            internal=kb_constraints(kb, interp, rigid.names),
+            JointInputs(meeting_angles(rigid), kb_constraints(kb, interp, rigid.names)),
         )
     except AidaError:
         return None

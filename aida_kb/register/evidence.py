@@ -45,7 +45,9 @@ class ViewMeasurements:
     K : (3, 3) left camera matrix; width, height : image size, pixels; p1, p2 : (S, 2)
     undistorted segment end points, pixels; regions : plane fits in the left camera frame;
     sigma_px : (S,) the segments' edge-point sigmas from their edge fits (pixels) when they
-    were fitted to the image, else None.
+    were fitted to the image, else None; bounding : (S,) whether a segment bounds a region
+    (its two sides are not one region: a region's border, not a texture line inside it), None
+    when not known.
     """
 
     view: str
@@ -56,6 +58,7 @@ class ViewMeasurements:
     p2: FloatArray
     regions: RegionMeasurements
     sigma_px: FloatArray | None = None
+    bounding: npt.NDArray[np.bool_] | None = None
 
 
 def measurements_of(
@@ -83,8 +86,20 @@ def measurements_of(
     c = np.array([r.c_init for r in view.regions], dtype=np.float64).reshape(-1, 3)
     rms = np.array([r.rms_m for r in view.regions], dtype=np.float64)
     regions = RegionMeasurements(n @ R.T, c @ R.T + t, rms)
+    inside = np.array(
+        [s.left_region is not None and s.left_region == s.right_region for s in view.lines],
+        dtype=bool,
+    )
     return ViewMeasurements(
-        view.id, K, view.image_width, view.image_height, flat[:, 0], flat[:, 1], regions, sigma
+        view.id,
+        K,
+        view.image_width,
+        view.image_height,
+        flat[:, 0],
+        flat[:, 1],
+        regions,
+        sigma,
+        ~inside,
     )
 
 

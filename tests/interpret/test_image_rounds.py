@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,7 @@ from aida_kb.kb.model import KnowledgeBase
 from aida_kb.register import (
     EdgeObservations,
     RegionMeasurements,
+    Rig,
     RigidModel,
     image_edges,
     turned,
@@ -114,7 +116,9 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
 
     def seen(keep: bool) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]]]:
         monkeypatch.setattr(mv, "IMAGE_KEEP_SEGMENTS", keep)
-        problem = mv.joint_problem(model, [ref, cam], views, [1], fitted=[None, two])
+        problem = mv.joint_problem(
+            model, [ref, cam], views, [1], mv.JointInputs(fitted=[None, two])
+        )
         edges = [c for c in problem.constraints if c.kind == "edge" and c.edge is not None]
         pairs = [tuple(sorted(c.parts)) for c in edges if c.edge is not None and c.edge.camera == 1]
         return pairs, [tuple(sorted(c.parts)) for c in edges if c.edge and c.edge.camera == 0]
@@ -133,7 +137,9 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
     third = turned(ref, vertical_axis(model, ref), model.centroid, math.radians(-30.0))
     views3 = [*views, _view("02", *simulated_segments(model, third, rng, clutter=0))]
     cams = [ref, cam, third]
-    problem = mv.joint_problem(model, cams, views3, [1, 2], fitted=[None, fits, None])
+    problem = mv.joint_problem(
+        model, cams, views3, [1, 2], mv.JointInputs(fitted=[None, fits, None])
+    )
     unc = problem_uncertainty(problem, model.names, cams, [1, 2], ["01", "02"])
     assert unc is not None
     assert unc.measurements - unc.unknowns >= 10
@@ -191,3 +197,55 @@ def test_a_camera_fixed_by_its_image_edges_keeps_that_deviation(
     assert said
     assert "+-0.08 deg" in said[0]
     assert "fitted along the images" in said[0]
+
+
+def test_a_fit_counts_only_where_the_views_own_bounding_segments_show_it() -> None:
+    model = _box()
+    _, cam = _cameras(model)
+    fits = image_edges(model, cam, _image(model, cam))
+    assert fits.size >= 6
+    # one segment of the view on each fitted line, 0.4 px off, along its middle half
+    d = fits.p2 - fits.p1
+    n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1, keepdims=True)
+    p1, p2 = fits.p1 + 0.25 * d + 0.4 * n, fits.p1 + 0.75 * d + 0.4 * n
+    on = _view("01", p1, p2)
+    assert mv.corroborated(fits, on).all()
+    # a texture line within one region shows no edge; nor does a segment 3 px beside the line
+    # or one covering a tenth of its length
+    inside = replace(on, bounding=np.arange(fits.size) != 0)
+    assert mv.corroborated(fits, inside).tolist() == [False] + [True] * (fits.size - 1)
+    beside = _view("01", p1 + 3.0 * n, p2 + 3.0 * n)
+    assert not mv.corroborated(fits, beside).any()
+    short = _view("01", fits.p1 + 0.45 * d, fits.p1 + 0.55 * d)
+    assert not mv.corroborated(fits, short).any()
+    # fitted_edges keeps the left fits the segments show, and the right fits of their edges
+    first = replace(on, bounding=np.arange(fits.size) >= 2)
+    grey = _image(model, cam)
+    fl, _ = mv.fitted_edges(model, [cam], [grey], [None], views=[first])
+    assert fl[0] is not None
+    kept = {tuple(sorted(int(x) for x in f)) for f in fl[0].faces}
+    assert kept == {tuple(sorted(int(x) for x in f)) for f in fits.faces[2:]}
+
+
+def test_an_edge_fitted_in_both_images_weighs_as_one_edge_seen_twice() -> None:
+    model = _box()
+    ref, cam = _cameras(model)
+    fits = image_edges(model, cam, _image(model, cam))
+    views = [_view("00", np.zeros((0, 2)), np.zeros((0, 2))), _view("01", fits.p1, fits.p2)]
+    rig = Rig(K, np.eye(3), np.array([-0.2, 0.0, 0.0]), 640, 480)
+
+    def information(right: bool) -> list[float]:
+        inputs = mv.JointInputs(
+            fitted=[None, fits], fitted_right=[None, (rig, fits) if right else None]
+        )
+        problem = mv.joint_problem(model, [ref, cam], views, [1], inputs)
+        return [
+            float(np.asarray(c.sqrt_information)[0, 0])
+            for c in problem.constraints
+            if c.label.startswith(IMAGE_EDGE_LABEL) and c.edge is not None and c.edge.camera == 1
+        ]
+
+    alone, paired = information(False), information(True)
+    assert len(alone) == len(paired) == fits.size
+    widen = math.sqrt(1.0 + mv.STEREO_FIT_CORRELATION)
+    assert np.allclose(np.array(alone) / np.array(paired), widen)

@@ -476,7 +476,12 @@ def test_a_symmetric_twin_far_from_the_expected_turn_is_not_taken() -> None:
 
 
 def test_a_joint_adjustment_takes_the_model_edges_fitted_to_the_images() -> None:
-    from aida_kb.interpret.multiview import consistent_edges, fitted_edges, joint_adjustment
+    from aida_kb.interpret.multiview import (
+        JointInputs,
+        consistent_edges,
+        fitted_edges,
+        joint_adjustment,
+    )
     from aida_kb.register import RegionMeasurements
     from aida_kb.register.evidence import ViewMeasurements
 
@@ -505,7 +510,9 @@ def test_a_joint_adjustment_takes_the_model_edges_fitted_to_the_images() -> None
     cams = [ref, turned(truth, up, model.centroid, math.radians(0.3))]
     for _ in range(2):
         left, _ = fitted_edges(model, cams, greys, [None, None])
-        normals, _, moved_cams, _ = joint_adjustment(model, cams, views, [1], fitted=left)
+        normals, _, moved_cams, _ = joint_adjustment(
+            model, cams, views, [1], JointInputs(fitted=left)
+        )
         cams = list(moved_cams)
     assert abs(angle_about(truth, cams[1], up)) < 0.03
     cos = np.clip(np.sum(normals * model.normals, axis=1), -1.0, 1.0)
