@@ -806,6 +806,47 @@ def consistent_edges(
     return _subset(edges, keep)
 
 
+def _parts(
+    model0: ReconstructedModel, rigid: RigidModel, polygons: Sequence[FloatArray]
+) -> list[ModelPart]:
+    """The parts of `model0` (their roles and concepts) at the planes and polygons of `rigid`."""
+    by_role = {p.role: p for p in model0.parts}
+    parts = []
+    for i, name in enumerate(rigid.names):
+        nrm = rigid.normals[i]
+        parts.append(
+            ModelPart(
+                role=name,
+                concept=by_role[name].concept,
+                normal=(float(nrm[0]), float(nrm[1]), float(nrm[2])),
+                offset_m=float(rigid.offsets[i]),
+                polygon=[(float(p[0]), float(p[1]), float(p[2])) for p in polygons[i]],
+            )
+        )
+    return parts
+
+
+def _sizes_broken(
+    kb: KnowledgeBase,
+    interp: Interpretation,
+    evidence: Evidence,
+    rigid: RigidModel,
+    polygons: Sequence[FloatArray],
+) -> list[str]:
+    """The knowledge's size ranges (`aida_kb.interpret.verdict.check_attributes`, metres) the
+    model at `rigid`'s planes leaves: a registered view whose adjustment breaks them is not at
+    the model's pose (dev seed 58008: one view's walls went 292 m high, the first view's model
+    was right) and is left out, named."""
+    from aida_kb.interpret.verdict.attributes import check_attributes
+    from aida_kb.interpret.verdict.tolerances import SIZE_UNIT
+
+    model0 = interp.model
+    if model0 is None or evidence.units != "m":
+        return []
+    model = model0.model_copy(update={"parts": _parts(model0, rigid, polygons), "cameras": []})
+    return check_attributes(kb, interp, model, unit=SIZE_UNIT)
+
+
 def reconstruct_views(
     kb: KnowledgeBase,
     evidence: Evidence,
@@ -831,7 +872,8 @@ def reconstruct_views(
     last adjustment of that model: every factor with its origin (the knowledge base's with
     their ``.kb`` lines, each view's segments and regions, the first shape's angles). A view
     that cannot be registered is left out of the model (no camera), and the message names it
-    and says why.
+    and says why; so is a view with which the adjusted model leaves the knowledge's size
+    ranges that it met before (`_sizes_broken`).
     """
     later = [v for v in evidence.views[1:] if v.frame == "camera"]
     # views whose pose the scene gives (structure from motion): they join like registered
@@ -895,7 +937,7 @@ def reconstruct_views(
                 f"view {v.id}: its images fit turns of {turns} deg about as well as the "
                 f"{reg.angle_deg:.1f} deg taken"
             )
-        turn = reg.angle_deg
+        before, turn = turn, reg.angle_deg
         cams.append(reg.camera)
         views.append(measurements_of(v))
         ids.append(v.id)
@@ -905,8 +947,19 @@ def reconstruct_views(
         step = _adjusted(rigid, cams, views, [len(cams) - 1], JointInputs(angles, internal, pairs))
         if isinstance(step, str):
             notes.append(f"joint adjustment with view {v.id} skipped: {step}")
-        else:
-            rigid, polygons, cams, report = step
+            continue
+        broken = _sizes_broken(kb, interp, evidence, step[0], step[1])
+        if broken and not _sizes_broken(kb, interp, evidence, rigid, polygons):
+            # the view's pose is not the model's: what it made of the model is no house
+            notes.append(
+                f"view {v.id} left out: adjusted with it, the model leaves the knowledge's "
+                f"ranges ({'; '.join(broken[:2])})"
+            )
+            for kept in (cams, views, ids, pairs):
+                kept.pop()
+            turn = before
+            continue
+        rigid, polygons, cams, report = step
     for _ in range(FINAL_ROUNDS if len(cams) > n_known else 0):
         if progress is not None:
             progress(f"refining the model with all {len(cams)} views")
@@ -935,22 +988,8 @@ def reconstruct_views(
             break
         rigid, polygons, cams, report = step
         own_sd = _camera_deviations(rigid, cams, views, free, inputs)
-    parts = []
-    by_role = {p.role: p for p in model0.parts}
-    for i, name in enumerate(rigid.names):
-        poly = polygons[i]
-        nrm = rigid.normals[i]
-        parts.append(
-            ModelPart(
-                role=name,
-                concept=by_role[name].concept,
-                normal=(float(nrm[0]), float(nrm[1]), float(nrm[2])),
-                offset_m=float(rigid.offsets[i]),
-                polygon=[(float(p[0]), float(p[1]), float(p[2])) for p in poly],
-            )
-        )
     model = ReconstructedModel(
-        parts=parts,
+        parts=_parts(model0, rigid, polygons),
         cameras=[
             _model_camera(i, c, own_sd.get(k))
             for k, (i, c) in enumerate(zip(ids, cams, strict=True))
