@@ -21,7 +21,7 @@ from aida_kb.interpret.uncertainty import (
     problem_uncertainty,
 )
 from aida_kb.interpret.verdict import camera_doubts, judge, with_verdict
-from aida_kb.io.evidence import read_evidence
+from aida_kb.io.evidence import Evidence, read_evidence
 from aida_kb.io.model import CameraSd
 from aida_kb.kb.model import KnowledgeBase
 from aida_kb.register import (
@@ -150,14 +150,18 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
     assert 0.0 < unc.cameras["02"][0] < 1.0
 
 
+def _house(interpreted: Get) -> tuple[Interpretation, Evidence]:
+    """The house fixture's interpretation and evidence."""
+    return interpreted("house_correct.json"), read_evidence(FIXTURES / "house_correct.json")
+
+
 def test_a_camera_fixed_by_its_image_edges_keeps_that_deviation(
     buildings_kb: KnowledgeBase, interpreted: Get
 ) -> None:
     # the house's one view registered a second time; the reconstruction's image-edge rounds
     # gave its camera 0.03 deg / 0.02 m: the verdict takes those, not its segments' problem
     # (a few tenths of a degree with four segments), and model.json keeps them, marked
-    interp = interpreted("house_correct.json")
-    evidence = read_evidence(FIXTURES / "house_correct.json")
+    interp, evidence = _house(interpreted)
     assert interp.model is not None
     view = evidence.views[0]
     again = view.model_copy(update={"id": "01", "lines": view.lines[:4]})
@@ -259,8 +263,7 @@ def test_a_view_whose_adjustment_breaks_the_size_ranges_is_named(
 ) -> None:
     # the house as interpreted meets its ranges; the same planes 40 times as far from the
     # origin (what a view registered at a wrong pose made of dev seed 58008: 292 m walls) not
-    interp = interpreted("house_correct.json")
-    evidence = read_evidence(FIXTURES / "house_correct.json")
+    interp, evidence = _house(interpreted)
     assert interp.model is not None
     rigid = RigidModel.from_model(interp.model)
     polygons = [np.asarray(p.polygon, dtype=np.float64) for p in interp.model.parts]
