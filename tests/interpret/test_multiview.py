@@ -119,8 +119,9 @@ def test_joint_adjustment_can_take_the_right_images_through_rig_cameras(
     original = mv.joint_adjustment
 
     def spy(*args: object, **kwargs: object) -> object:
-        stereo = kwargs.get("stereo", ())
-        seen.append(sum(s is not None for s in stereo))  # type: ignore[attr-defined]
+        inputs = args[4]
+        assert isinstance(inputs, mv.JointInputs)
+        seen.append(sum(s is not None for s in inputs.stereo))
         return original(*args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(mv, "joint_adjustment", spy)
