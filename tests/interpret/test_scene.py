@@ -274,3 +274,33 @@ def test_a_choice_taken_for_one_object_must_not_lose_another() -> None:
     assert match is not None
     assert match.role == "houses[1]"
     assert _matching(first, frozenset({"00/30"})) is None
+
+
+def test_faces_too_small_for_their_regions_leave_them_outside(
+    street_result: tuple[Path, Evidence, Interpretation],
+) -> None:
+    """`inside_faces`: the faces of an object's model hold the regions on them; the same
+    planes with every face shrunk to half its size about its centre leave about three
+    quarters of the largest region outside (a shed too short for the gable wall a view sees)."""
+    from aida_kb.interpret.scene import _sub_interpretation, inside_faces
+
+    _, evidence, interp = street_result
+    obj = interp.objects[0]
+    model = _sub_interpretation(interp, obj.role, obj).model
+    assert model is not None
+    view = evidence.views[0]
+    held = inside_faces(view, model)
+    assert held is not None
+    assert held > 0.99
+    halves = []
+    for part in model.parts:
+        poly = np.asarray(part.polygon, dtype=np.float64)
+        centre = poly.mean(axis=0)
+        halves.append(
+            part.model_copy(update={"polygon": (centre + 0.5 * (poly - centre)).tolist()})
+        )
+    small = inside_faces(view, model.model_copy(update={"parts": halves}))
+    assert small is not None
+    assert small == pytest.approx(0.25, abs=0.05)
+    # a view the model has no camera for is not judged
+    assert inside_faces(view, model.model_copy(update={"cameras": []})) is None
