@@ -653,9 +653,11 @@ def judge_objects(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
 # `rejudge` does for a single object, object by object: the scene reconstructed again with
 # every tied object taking its tied choice (`Preference`), each object scored on every view
 # but the interpreted one by `object_score`; an object whose tied choice leads by
-# `rejudge.REJUDGE_MARGIN` per such view takes it, the others keep theirs (and their ties).
-# When only some lead, the scene is reconstructed once more with those alone, taken when they
-# still lead.
+# `rejudge.REJUDGE_MARGIN` per such view takes it. When only some lead and no view decides
+# against the others' (none trails by the margin), those keep the choice taken, tied still
+# (`_still_tied`: either explains the views as well; no reconstruction more). Otherwise the
+# others keep theirs (and their ties): the scene is reconstructed once more with the leading
+# alone, taken when they still lead.
 
 
 Score = tuple[float, float | None, float | None]  # explained, seen edges, faces holding
@@ -821,17 +823,16 @@ def _matching(interp: Interpretation, regions: frozenset[str]) -> SceneObject | 
     return best if best is not None and regions & set(best.evidence) else None
 
 
-def _leading(
+def _leads(
     evidence: Evidence,
     before: Interpretation,
     after: Interpretation,
     flips: dict[str, Preference],
-) -> dict[str, Preference]:
-    """The flips whose object in `after` (its tied choice taken) leads its namesake in
-    `before` by `rejudge.REJUDGE_MARGIN` per view other than the interpreted one."""
-    from aida_kb.interpret.rejudge import REJUDGE_MARGIN
-
-    out: dict[str, Preference] = {}
+) -> dict[str, float]:
+    """Per flip (by its object's role in `before`) whose object in `after` took its tied
+    choice: how much it leads its namesake in `before` per view other than the interpreted one
+    (`object_score`; negative: it trails)."""
+    out: dict[str, float] = {}
     for obj in before.objects:
         flip = flips.get(obj.role)
         other = None if flip is None else _matching(after, flip.regions)
@@ -839,12 +840,85 @@ def _leading(
             continue
         interpreted = {r.split("/", 1)[0] for r in obj.evidence}
         views = [v.id for v in evidence.views if v.id not in interpreted]
-        lead = _total(object_score(evidence, after, other), views) - _total(
-            object_score(evidence, before, obj), views
-        )
-        if views and lead >= REJUDGE_MARGIN * len(views):
-            out[obj.role] = flip
+        if views:
+            lead = _total(object_score(evidence, after, other), views) - _total(
+                object_score(evidence, before, obj), views
+            )
+            out[obj.role] = lead / len(views)
     return out
+
+
+def _leading(leads: dict[str, float], flips: dict[str, Preference]) -> dict[str, Preference]:
+    """The flips whose object leads (`_leads`) by `rejudge.REJUDGE_MARGIN` per view."""
+    from aida_kb.interpret.rejudge import REJUDGE_MARGIN
+
+    return {r: flips[r] for r, lead in leads.items() if lead >= REJUDGE_MARGIN}
+
+
+def _still_tied(
+    before: Interpretation, after: Interpretation, undecided: dict[str, Preference]
+) -> Interpretation:
+    """`after` with the objects whose tied choice the other views do not decide (`undecided`,
+    by their role in `before`) named tied again: the choice they gave up is their tie (their
+    verdict doubts it, as `verdict.undecided` says), their message no longer says the views
+    decided it."""
+    from aida_kb.interpret.verdict import undecided as undecided_doubts
+
+    model = after.model
+    if model is None or not undecided:
+        return after
+    chosen = {i.role: i.concept for i in before.instances}
+    restored: dict[str, list[str]] = {}
+    for obj in before.objects:
+        flip = undecided.get(obj.role)
+        other = None if flip is None else _matching(after, flip.regions)
+        if flip is None or other is None:
+            continue
+        given_up = [
+            f"{role}={chosen[f'{obj.role}.{role}']}"
+            for role in dict.fromkeys(t.split("=", 1)[0] for t in obj.ties)
+            if f"{obj.role}.{role}" in chosen
+        ]
+        restored[other.role] = given_up
+    objects: list[SceneObject] = []
+    for obj in after.objects:
+        ties = restored.get(obj.role)
+        if not ties:
+            objects.append(obj)
+            continue
+        ties = list(dict.fromkeys([*obj.ties, *ties]))
+        message = obj.message.split("; the other views decided ", 1)[0]
+        doubts = undecided_doubts(
+            Interpretation(goal=obj.concept, accepted=True, message="", expanded=0, ties=ties)
+        )
+        objects.append(
+            obj.model_copy(
+                update={
+                    "ties": ties,
+                    "verdict": DOUBTFUL,
+                    "doubts": [*obj.doubts, *[d for d in doubts if d not in obj.doubts]],
+                    "message": f"{message}; the other views do not decide it either "
+                    f"({', '.join(ties)}: the choice the re-judging reconstruction took is kept, "
+                    "interpret.scene.reconstruct_objects)",
+                }
+            )
+        )
+    doubtful = [o for o in objects if o.verdict == DOUBTFUL]
+    return after.model_copy(
+        update={
+            "model": model.model_copy(
+                update={
+                    "objects": [
+                        ModelObject(role=o.role, concept=o.concept, verdict=o.verdict)
+                        for o in objects
+                    ]
+                }
+            ),
+            "objects": objects,
+            "verdict": DOUBTFUL if doubtful else VERIFIED,
+            "doubts": [f"{o.role}: {d}" for o in doubtful for d in o.doubts],
+        }
+    )
 
 
 def reconstruct_objects(
@@ -859,9 +933,10 @@ def reconstruct_objects(
     """`rejudge.rejudged_views` (`multiview.reconstruct_views`, a single object's ties
     re-judged by every view), and for a scene of several objects their ties re-judged by the
     other views object by object (see above): at most two more reconstructions of the scene,
-    none when no object has a tie."""
+    none when no object has a tie, one when no view decides against a tied choice taken (the
+    choices they do not decide are kept as taken, still tied: `_still_tied`)."""
     from aida_kb.interpret.multiview import reconstruct_views  # they build on this module
-    from aida_kb.interpret.rejudge import rejudged_views
+    from aida_kb.interpret.rejudge import REJUDGE_MARGIN, rejudged_views
 
     first = rejudged_views(kb, evidence, goal=goal, source=source, scene=scene, progress=progress)
     flips = _ties(first)
@@ -882,12 +957,19 @@ def reconstruct_objects(
         )
 
     second = again(flips)
-    leading = _leading(evidence, first, second, flips) if _keeps(first, second) else {}
+    leads = _leads(evidence, first, second, flips) if _keeps(first, second) else {}
+    leading = _leading(leads, flips)
     if not leading:
         return first
+    if all(lead > -REJUDGE_MARGIN for lead in leads.values()):
+        # no view decides against a choice taken: those they do not decide stay as taken,
+        # tied (either explains the views as well), without reconstructing the scene again
+        return _still_tied(first, second, {r: flips[r] for r in leads if r not in leading})
     if leading != flips:
         second = again(leading)
-        if not _keeps(first, second) or _leading(evidence, first, second, leading) != leading:
+        if not _keeps(first, second):
+            return first
+        if _leading(_leads(evidence, first, second, leading), leading) != leading:
             return first
     return second
 

@@ -304,3 +304,76 @@ def test_faces_too_small_for_their_regions_leave_them_outside(
     assert small == pytest.approx(0.25, abs=0.05)
     # a view the model has no camera for is not judged
     assert inside_faces(view, model.model_copy(update={"cameras": []})) is None
+
+
+def test_a_tie_no_view_decides_stays_a_tie_as_taken() -> None:
+    """When the other views decide one object's tie and no view decides against another's
+    tied choice, the scene is not reconstructed again: that object keeps the choice taken,
+    named tied again (the choice it gave up), and its verdict doubts it (`_still_tied`)."""
+    from aida_kb.interpret.result import Instance, SceneObject
+    from aida_kb.interpret.scene import Preference, _still_tied
+    from aida_kb.io.model import ModelObject, ReconstructedModel
+
+    def roof(concept: str) -> Instance:
+        return Instance(
+            role="houses[0].body.roof",
+            concept=concept,
+            instance_of="Roof",
+            parent="houses[0].body",
+            link="part-of",
+        )
+
+    def scene(obj: SceneObject, concept: str) -> Interpretation:
+        model = ReconstructedModel(
+            parts=[], objects=[ModelObject(role=obj.role, concept="House", verdict=obj.verdict)]
+        )
+        return Interpretation(
+            goal="Street",
+            accepted=True,
+            message="",
+            expanded=1,
+            objects=[obj],
+            instances=[roof(concept)],
+            model=model,
+            verdict=obj.verdict,
+        )
+
+    house = SceneObject(
+        role="houses[0]",
+        concept="House",
+        verdict="doubtful",
+        message="House verified (body.roof=ShedRoof)",
+        expanded=1,
+        evidence=["00/2", "00/4"],
+        ties=["body.roof=GableRoof"],
+        doubts=[
+            "the evidence does not decide body.roof: body.roof=GableRoof explains it about as well"
+        ],
+    )
+    before = scene(house, "ShedRoof")
+    taken = house.model_copy(
+        update={
+            "verdict": "verified",
+            "ties": [],
+            "doubts": [],
+            "message": "House verified (body.roof=GableRoof); the other views decided "
+            "body.roof=GableRoof over body.roof=ShedRoof (re-judged by them)",
+        }
+    )
+    after = scene(taken, "GableRoof")
+    flip = Preference(frozenset(house.evidence), frozenset({"body.roof=GableRoof"}))
+    tied = _still_tied(before, after, {"houses[0]": flip})
+    obj = tied.objects[0]
+    assert obj.ties == ["body.roof=ShedRoof"]
+    assert obj.verdict == "doubtful"
+    assert obj.doubts == [
+        "the evidence does not decide body.roof: body.roof=ShedRoof explains it about as well"
+    ]
+    assert "decided" not in obj.message
+    assert obj.message.startswith("House verified (body.roof=GableRoof); the other views do not")
+    assert tied.verdict == "doubtful"
+    assert tied.model is not None
+    assert [o.verdict for o in tied.model.objects] == ["doubtful"]
+    assert tied.instances == after.instances  # the choice taken stays
+    # nothing undecided: the reconstruction as it is
+    assert _still_tied(before, after, {}) == after
