@@ -28,7 +28,7 @@ from aida_kb.interpret.assign import forced_by, ranked_fronts, vertical
 from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, Context
 from aida_kb.interpret.generate import BodyHypothesis, body_hypotheses
 from aida_kb.interpret.hypotheses import Frame
-from aida_kb.interpret.knowledge import Knowledge, Structure, join
+from aida_kb.interpret.knowledge import Knowledge, join
 from aida_kb.interpret.observe import EvidenceView, RegionView
 from aida_kb.interpret.plausibility import UNEXPLAINED_PENALTY, unexplained
 from aida_kb.interpret.result import INSERTED, Instance
@@ -140,7 +140,6 @@ class Interpreter:
         self.verified_bodies = 0
         # every verified body with its cost (`ties`)
         self.bodies: list[tuple[Level, float]] = []
-        self.framed: list[Structure] = []  # the body's structures with a frame
 
     # ---- level 0: the main body --------------------------------------------------------------
     def body_candidates(self, parent: int) -> list[Pending]:
@@ -155,7 +154,6 @@ class Interpreter:
         role, concept = ctx.body.role, ctx.body.concept
         structures = self.knowledge.structures(concept, role, None if not role else "", "con-of")
         framed = [s for s in structures if s.anchor is not None]
-        self.framed = framed
         if not framed:
             hid = self.trace.create(concept, role, parent)
             self.trace.reject(
@@ -416,18 +414,9 @@ class Interpreter:
             if self.knowledge.weaker(level.structure, body.structure):
                 # it fits no worse only by what it leaves out: the accepted one says more
                 continue
-            # what asserts less than a tie fits at least as well: a rival too, though the
-            # search may not have verified it (an asymmetric gable beside a tied gable)
-            weaker = [
-                s
-                for s in self.framed
-                if self.knowledge.weaker(s, level.structure)
-                and not self.knowledge.weaker(s, body.structure)
-            ]
-            for structure in (level.structure, *weaker):
-                for role, concept in structure.choices:
-                    if chosen.get(role) != concept:
-                        out.add(f"{role}={concept}")
+            for role, concept in level.structure.choices:
+                if chosen.get(role) != concept:
+                    out.add(f"{role}={concept}")
         return sorted(out)
 
     def instances(self, state: State) -> list[Instance]:
