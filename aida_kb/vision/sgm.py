@@ -38,12 +38,14 @@ from aida_kb.errors import VisionError
 from aida_kb.limits import memory_budget
 from aida_kb.vision.stereo import (
     DISTINCT_SCALE,
+    GRADIENT_SNR,
     PEAK_FLOOR,
     DisparityMap,
     _prepare,
     _WindowSums,
     _Workspace,
     checked_pair,
+    image_noise_sd,
 )
 
 F32 = npt.NDArray[np.float32]
@@ -85,8 +87,9 @@ def _cost_volume(L: F32, R: F32, min_disp: int, D: int, window: int) -> tuple[F3
     the left image's flat mask as float (H, W), and its gradient factor (H, W)."""
     H, W = L.shape
     wl, wr, ws = _Workspace(), _Workspace(), _Workspace()
-    left = _prepare(L, window, False, 1.0 / (window * window), wl, with_gradient=True)
-    right = _prepare(R, window, False, 1.0, wr, with_gradient=False)
+    g_scale = GRADIENT_SNR * max(image_noise_sd(L), image_noise_sd(R))
+    left = _prepare(L, window, False, 1.0 / (window * window), wl, gradient_scale=g_scale)
+    right = _prepare(R, window, False, 1.0, wr)
     sums = _WindowSums(left, right, 0, H, ws)
     cost = np.full((D, H, W), 2.0, np.float32)
     scores = np.empty((H, W), np.float32)

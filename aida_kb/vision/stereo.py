@@ -42,7 +42,16 @@ T = TypeVar("T")
 # certainty model (module constants, documented in `ncc_disparity`)
 PEAK_FLOOR = 0.3  # NCC at or below this gets certainty 0
 DISTINCT_SCALE = 0.15  # distinctiveness at which the factor reaches 1
-GRADIENT_SCALE = 4.0  # grey levels / pixel: gradient factor 0.5 at this mean gradient
+# the gradient factor is 0.5 where a window's mean gradient is GRADIENT_SNR times the image
+# noise's sd (`image_noise_sd`): texture fainter than that is more noise than signal. 3.15 keeps
+# the factor the project's renders were tuned with (4 grey levels / pixel at their noise sd of
+# 1.27 as estimated on the rectified images); a cleaner image trusts fainter texture (a
+# path-traced render's plaster wall, 1.8 grey levels of texture at noise 0.4: its disparities
+# lie within 0.15 px of one plane), a noisier one less.
+GRADIENT_SNR = 4.6
+NOISE_FLAT_SHARE = 0.5  # noise measured on this share of pixels with the least gradient
+QUANTISATION_SD = 1.0 / math.sqrt(12.0)  # grey levels: 8-bit rounding, the least noise there is
+SATURATED_MARGIN = 1.0  # grey levels: pixels this close to an image's extremes are clipped
 MIN_STD = 1.0  # grey levels: windows flatter than this in either image get no disparity
 _BAND_ROWS = 48
 
@@ -154,7 +163,8 @@ def ncc_disparity(
         (std < MIN_STD grey levels), where the peak lies on the end of the range, or where
         the left-right check fails. Certainty =
         clip((peak - PEAK_FLOOR) / (1 - PEAK_FLOOR)) * clip(distinctiveness / DISTINCT_SCALE)
-        * g² / (g² + GRADIENT_SCALE²), g the mean gradient magnitude in the window.
+        * g² / (g² + (GRADIENT_SNR · sigma)²), g the mean gradient magnitude in the window,
+        sigma the noise sd of the noisier image (`image_noise_sd`).
     """
     L, R = checked_pair(left, right, min_disp, num_disp, window)
     n_workers = workers if workers is not None else max(1, cv2.getNumThreads())
@@ -198,9 +208,10 @@ def _ncc(
     )
     with _workspace() as wl, _workspace() as wr:
         scale = 1.0 / (window * window)  # folded into the left image: sums are NCC scores
+        g_scale = GRADIENT_SNR * max(image_noise_sd(L), image_noise_sd(R))
         jobs: list[Callable[[], Any]] = [
-            lambda: _prepare(L, window, exact, scale, wl, with_gradient=True),
-            lambda: _prepare(R, window, exact, 1.0, wr, with_gradient=False),
+            lambda: _prepare(L, window, exact, scale, wl, gradient_scale=g_scale),
+            lambda: _prepare(R, window, exact, 1.0, wr),
         ]
         left, right = _run(pool, jobs)
 
@@ -351,9 +362,16 @@ class _Prepared:
 
 
 def _prepare(
-    img: F32, window: int, exact: bool, scale: float, ws: _Workspace, *, with_gradient: bool
+    img: F32,
+    window: int,
+    exact: bool,
+    scale: float,
+    ws: _Workspace,
+    *,
+    gradient_scale: float | None = None,
 ) -> _Prepared:
-    """Window statistics of one whole image (see `_Prepared`), in `ws`'s buffers."""
+    """Window statistics of one whole image (see `_Prepared`), in `ws`'s buffers; with
+    ``gradient_scale`` (grey levels / pixel) the certainty's gradient factor too."""
     half = window // 2
     H, W = img.shape
     mu = _box(img, window, ws.get("mu", (H, W), np.float32))
@@ -375,13 +393,43 @@ def _prepare(
         cv2.multiply(src, inv_sd, dst=src, scale=scale)
     cv2.copyMakeBorder(src, half, half, half, half, cv2.BORDER_REFLECT_101, dst=corr)
     c_grad = np.empty((0, 0), np.float32)
-    if with_gradient:
-        c_grad = _gradient_factor(img, window, ws)
+    if gradient_scale is not None:
+        c_grad = _gradient_factor(img, window, ws, gradient_scale)
     return _Prepared(window, exact, corr, inv_sd, mu, flat, c_grad)
 
 
-def _gradient_factor(img: F32, window: int, ws: _Workspace) -> F32:
-    """g² / (g² + GRADIENT_SCALE²) (H, W), g the window mean of the gradient magnitude."""
+def image_noise_sd(img: npt.ArrayLike) -> float:
+    """The sd of an image's noise, grey levels: (H, W) array of grey levels (any offset).
+
+    Immerkaer's estimator (1996): the mask N = [[1,-2,1],[-2,4,-2],[1,-2,1]] cancels every
+    linear intensity ramp, and white noise of sd sigma gives N * I an sd of 6 sigma (the root
+    of the sum of N's squared weights), so sigma = sqrt(pi/2) mean|N * I| / 6. The mean runs
+    over the NOISE_FLAT_SHARE of pixels with the least gradient (texture and edges would add
+    to it) that are not clipped (within SATURATED_MARGIN of the image's extremes: a blown-out
+    sky has no noise left), and the result is at least QUANTISATION_SD. An image without such
+    pixels has QUANTISATION_SD.
+    """
+    a = np.asarray(img, np.float32)
+    if a.ndim != 2 or min(a.shape) < 3:
+        return QUANTISATION_SD
+    mask = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
+    lap = np.abs(cv2.filter2D(a, cv2.CV_32F, mask)[1:-1, 1:-1])
+    gx = cv2.Sobel(a, cv2.CV_32F, 1, 0, ksize=3)[1:-1, 1:-1]
+    gy = cv2.Sobel(a, cv2.CV_32F, 0, 1, ksize=3)[1:-1, 1:-1]
+    grad = cv2.magnitude(gx, gy)
+    lo, hi = float(a.min()), float(a.max())
+    inner = a[1:-1, 1:-1]
+    unclipped = (inner > lo + SATURATED_MARGIN) & (inner < hi - SATURATED_MARGIN)
+    if not np.any(unclipped):
+        return QUANTISATION_SD
+    flat = unclipped & (grad <= np.quantile(grad[unclipped], NOISE_FLAT_SHARE))
+    sigma = math.sqrt(math.pi / 2.0) * float(lap[flat].mean()) / 6.0
+    return max(sigma, QUANTISATION_SD) if math.isfinite(sigma) else QUANTISATION_SD
+
+
+def _gradient_factor(img: F32, window: int, ws: _Workspace, scale: float) -> F32:
+    """g² / (g² + scale²) (H, W), g the window mean of the gradient magnitude (grey levels per
+    pixel), scale in the same unit."""
     H, W = img.shape
     gx = ws.get("gx", (H, W), np.float32)
     gy = ws.get("gy", (H, W), np.float32)
@@ -390,7 +438,7 @@ def _gradient_factor(img: F32, window: int, ws: _Workspace) -> F32:
     cv2.magnitude(gx, gy, magnitude=gx)
     g = _box(gx, window, gy)
     cv2.multiply(g, g, dst=g)  # g²
-    np.add(g, np.float32(GRADIENT_SCALE**2), out=gx)
+    np.add(g, np.float32(scale**2), out=gx)
     cv2.divide(g, gx, dst=g)
     return g
 

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from aida_kb.errors import VisionError
@@ -12,7 +14,7 @@ from aida_kb.io.scene import read_image, read_labels, read_scene
 from aida_kb.testing.pairs import random_texture, warp_right
 from aida_kb.vision.evaluate import score_disparity, truth_disparity
 from aida_kb.vision.rectify import stereo_rectification
-from aida_kb.vision.stereo import ncc_disparity
+from aida_kb.vision.stereo import QUANTISATION_SD, image_noise_sd, ncc_disparity
 
 
 @pytest.mark.parametrize("exact", [False, True])
@@ -157,3 +159,47 @@ def test_adaptive_range_agrees_with_the_full_search(small_house: Path) -> None:
     err_full = np.abs(full.disparity - truth)[differ & ~np.isnan(truth)]
     err_fast = np.abs(fast.disparity - truth)[differ & ~np.isnan(truth)]
     assert np.mean(err_fast < 1.0) > np.mean(err_full < 1.0)
+
+
+@pytest.mark.parametrize("sigma", [0.5, 1.0, 2.0, 4.0])
+def test_image_noise_sd_finds_the_noise_under_texture_edges_and_clipping(sigma: float) -> None:
+    rng = np.random.default_rng(7)
+    H, W = 240, 320
+    v, u = np.mgrid[0:H, 0:W].astype(np.float64)
+    img = 60.0 + 0.2 * u + 0.1 * v  # a smooth ramp: the mask cancels it
+    img[:, 160:] += 40.0 * (np.sin(u[:, 160:] / 1.5) > 0)  # a stripe texture on a third
+    img[100:, :] += 30.0  # a step edge
+    img += rng.normal(0.0, sigma, img.shape)
+    img[:40, :80] = 255.0  # a blown-out sky: no noise left there
+    img = np.clip(img, 0.0, 255.0)
+    assert image_noise_sd(img) == pytest.approx(sigma, rel=0.12)
+
+
+def test_image_noise_sd_of_a_clean_image_is_the_rounding() -> None:
+    flat = np.full((50, 60), 128.0)
+    assert image_noise_sd(flat) == pytest.approx(QUANTISATION_SD)
+    ramp = np.round(np.mgrid[0:50, 0:60][1] * 0.37)
+    assert image_noise_sd(ramp) == pytest.approx(QUANTISATION_SD, abs=0.1)
+
+
+def test_certainty_follows_the_texture_against_the_noise() -> None:
+    """Faint texture in a clean pair is as certain as strong texture in a noisy one: the
+    gradient factor counts the texture in noise sds (GRADIENT_SNR)."""
+    rng = np.random.default_rng(3)
+    blurred = np.asarray(cv2.GaussianBlur(rng.normal(0.0, 1.0, (120, 200)), (0, 0), 1.2))
+    base = blurred / blurred.std()
+
+    def pair(texture: float, noise: float) -> tuple[npt.NDArray[np.float64], ...]:
+        tex = 128.0 + texture * base
+        left = tex[:, :-8] + rng.normal(0.0, noise, (120, 192))
+        right = tex[:, 8:] + rng.normal(0.0, noise, (120, 192))
+        return np.round(left), np.round(right)
+
+    faint = ncc_disparity(*pair(3.0, 0.3), num_disp=16, window=11)
+    strong = ncc_disparity(*pair(30.0, 3.0), num_disp=16, window=11)
+    inner = (slice(20, -20), slice(30, -30))
+    assert np.nanmedian(faint.disparity[inner]) == pytest.approx(8.0, abs=0.1)
+    c_faint = float(np.median(faint.certainty[inner]))
+    c_strong = float(np.median(strong.certainty[inner]))
+    assert c_faint > 0.3
+    assert c_faint == pytest.approx(c_strong, abs=0.15)
