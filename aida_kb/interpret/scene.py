@@ -64,7 +64,7 @@ from aida_kb.interpret.verdict import (
     judge,
     with_verdict,
 )
-from aida_kb.io.evidence import Evidence, ViewEvidence
+from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import ModelObject, ModelPart, ReconstructedModel
 from aida_kb.io.scene import SceneTruth
 from aida_kb.io.subset import without_regions
@@ -653,23 +653,19 @@ def judge_objects(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
 # `rejudge` does for a single object, object by object: the scene reconstructed again with
 # every tied object taking its tied choice (`Preference`), each object scored on every view
 # but the interpreted one by `object_score`; an object whose tied choice leads by
-# `rejudge.REJUDGE_MARGIN` per such view takes it. When only some lead and no view decides
-# against the others' (none trails by the margin), those keep the choice taken, tied still
-# (`_still_tied`: either explains the views as well; no reconstruction more). Otherwise the
-# others keep theirs (and their ties): the scene is reconstructed once more with the leading
-# alone, taken when they still lead.
+# `rejudge.REJUDGE_MARGIN` per such view takes it, the others keep theirs (and their ties).
+# When only some lead, the scene is reconstructed once more with those alone, taken when they
+# still lead.
 
 
-Score = tuple[float, float | None, float | None]  # explained, seen edges, faces holding
-
-
-def object_score(evidence: Evidence, interp: Interpretation, obj: SceneObject) -> dict[str, Score]:
+def object_score(
+    evidence: Evidence, interp: Interpretation, obj: SceneObject
+) -> dict[str, tuple[float, float | None]]:
     """Per view with a camera in `interp`'s model, what it says of object `obj`'s model
     (as `rejudge.score` for a single object): the explained share of the region weight inside
-    its projection (the view without the regions the other objects explain), the seen share
+    its projection (the view without the regions the other objects explain) and the seen share
     of its visible edges' length (edges between two of its faces; the other objects' faces
-    hide what lies behind them), or None without an edge to check, and how well its faces hold
-    the regions on them (`inside_faces`), or None without a face to judge."""
+    hide what lies behind them), or None without an edge to check."""
     model = interp.model
     if model is None:
         return {}
@@ -677,131 +673,23 @@ def object_score(evidence: Evidence, interp: Interpretation, obj: SceneObject) -
     assert sub is not None  # a copy of `model`
     own = frozenset(p.role for p in _object_parts(model, obj.role))
     rest = without_regions(evidence, explained_by_others(evidence, interp, obj.role))
-    out: dict[str, Score] = {}
+    out: dict[str, tuple[float, float | None]] = {}
     for view, whole_view in zip(rest.views, evidence.views, strict=True):
         check = check_view(view, sub)
         if check is None:
             continue
         explained = check.explained_share if check.inside_weight > 0 else 0.0
-        out[view.id] = (explained, edge_cover(whole_view, model, own), inside_faces(view, sub))
+        out[view.id] = (explained, edge_cover(whole_view, model, own))
     return out
 
 
-def _total(scores: dict[str, Score], views: Sequence[str]) -> float:
-    """A score over `views` (as `rejudge.Candidate.total`): explained plus seen edge share,
-    plus how well the faces hold the regions on them."""
+def _total(scores: dict[str, tuple[float, float | None]], views: Sequence[str]) -> float:
+    """A score over `views` (as `rejudge.Candidate.total`): explained plus seen edge share."""
     out = 0.0
     for v in views:
-        explained, edges, inside = scores.get(v, (0.0, None, None))
+        explained, edges = scores.get(v, (0.0, None))
         out += explained + (edges if edges is not None else 0.0)
-        out += inside if inside is not None else 0.0
     return out
-
-
-# regions are laid over the model's faces on a grid this many pixels wide ...
-INSIDE_GRID_PX = 4.0
-# ... and a face is judged when the regions on it cover this many cells of the grid (800 px):
-# their share outside it is then known to a few per cent
-INSIDE_MIN_CELLS = 50
-
-
-def inside_faces(view: ViewEvidence, model: ReconstructedModel) -> float | None:
-    """How well the faces of `model` hold the regions of `view` lying on them, seen from the
-    view's camera in `model`: 1 minus the largest share of a face's regions' pixels that falls
-    outside the face's projection. A region lies on a face whose plane it lies on
-    (`verdict.views`' tolerances) and whose projection holds some of its pixels (on a grid of
-    `INSIDE_GRID_PX`); faces whose regions cover fewer than `INSIDE_MIN_CELLS` cells are not
-    judged. A model too small for the surfaces it stands on leaves part of them outside — a
-    shed whose back wall stands under the ridge, where view 01 sees the gable wall of a gable
-    reach back beyond it: half of that region outside the shed's side wall, a tenth outside
-    the gable's — which the explained share inside the projection does not see. The largest,
-    not the mean: the one face that differs between two alternatives decides, however many
-    faces they share. None: no camera in the model for the view, or no face judged."""
-    from aida_kb.interpret.verdict.tolerances import (
-        DEPTH_TOLERANCE,
-        DEPTH_TOLERANCE_MIN_M,
-        MIN_WEIGHT_SHARE,
-        NORMAL_TOLERANCE_DEG,
-    )
-    from aida_kb.vision.rectify import undistort_pixels
-
-    camera = next((c for c in model.cameras if c.view == view.id), None)
-    regions = [r for r in view.regions if r.w_c > 0]
-    if camera is None or not regions or not model.parts:
-        return None
-    R = np.asarray(camera.R, dtype=np.float64)
-    t = np.asarray(camera.t, dtype=np.float64)
-    C = -R.T @ t
-    K = np.asarray(view.left.K, dtype=np.float64)
-    D = np.asarray(view.left.D, dtype=np.float64)
-    total = sum(r.w_c for r in regions)
-    shape = (
-        math.ceil(view.image_height / INSIDE_GRID_PX),
-        math.ceil(view.image_width / INSIDE_GRID_PX),
-    )
-    # the faces facing the camera, projected onto the grid
-    faces: list[tuple[FloatArray, float, npt.NDArray[np.bool_]]] = []
-    for part in model.parts:
-        n = np.asarray(part.normal, dtype=np.float64)
-        poly = np.asarray(part.polygon, dtype=np.float64)
-        x_cam = poly @ R.T + t
-        if float(n @ C) - part.offset_m <= 0.0 or np.any(x_cam[:, 2] <= 0.0):
-            continue
-        uv = (x_cam @ K.T)[:, :2] / x_cam[:, 2:3] / INSIDE_GRID_PX
-        mask = _cells(uv, shape)
-        if mask.any():
-            faces.append((n, part.offset_m, mask))
-    outlines: dict[int, list[FloatArray]] = {}
-    for c in view.contours:
-        pts = undistort_pixels(np.asarray(c.points, dtype=np.float64), K, D) / INSIDE_GRID_PX
-        outlines.setdefault(c.region, []).append(pts)
-    cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
-    cells = np.zeros(len(faces))  # per face: its regions' cells, and those outside it
-    outside = np.zeros(len(faces))
-    for r in regions:
-        if r.w_c < MIN_WEIGHT_SHARE * total or r.id not in outlines:
-            continue
-        n_r = np.asarray(r.n_init, dtype=np.float64)
-        c_r = np.asarray(r.c_init, dtype=np.float64)
-        if view.frame == "camera":  # this view's own left camera -> world
-            n_r, c_r = R.T @ n_r, R.T @ (c_r - t)
-        tol = max(DEPTH_TOLERANCE * float(np.linalg.norm(c_r - C)), DEPTH_TOLERANCE_MIN_M)
-        on = [
-            k
-            for k, (n, d, _) in enumerate(faces)
-            if abs(float(n_r @ n)) >= cos_tol and abs(float(c_r @ n) - d) <= tol
-        ]
-        if not on:
-            continue
-        region = np.zeros(shape, dtype=bool)
-        for pts in outlines[r.id]:
-            region ^= _cells(pts, shape)  # even-odd: a hole inside its outline is cut out
-        held = [int((region & faces[k][2]).sum()) for k in on]
-        if max(held) == 0:
-            continue  # on the plane of a face, but elsewhere: another object's
-        k = on[int(np.argmax(held))]
-        cells[k] += float(region.sum())
-        outside[k] += float(region.sum()) - max(held)
-    judged = cells >= INSIDE_MIN_CELLS
-    if not judged.any():
-        return None
-    return 1.0 - float(np.max(outside[judged] / cells[judged]))
-
-
-def _cells(polygon: FloatArray, shape: tuple[int, int]) -> npt.NDArray[np.bool_]:
-    """The cells of a grid (rows, columns) whose centres lie inside `polygon` (K, 2: x, y in
-    cells)."""
-    from aida_kb.texture.raycast import inside_polygon
-
-    mask = np.zeros(shape, dtype=bool)
-    lo = np.clip(np.floor(polygon.min(axis=0)).astype(int), 0, [shape[1], shape[0]])
-    hi = np.clip(np.ceil(polygon.max(axis=0)).astype(int) + 1, 0, [shape[1], shape[0]])
-    if np.any(hi <= lo):
-        return mask
-    xs, ys = np.meshgrid(np.arange(lo[0], hi[0]), np.arange(lo[1], hi[1]))
-    centres = np.stack([xs.ravel(), ys.ravel()], axis=1) + 0.5
-    mask[ys.ravel(), xs.ravel()] = inside_polygon(centres.astype(np.float64), polygon)
-    return mask
 
 
 def _ties(interp: Interpretation) -> dict[str, Preference]:
@@ -823,16 +711,17 @@ def _matching(interp: Interpretation, regions: frozenset[str]) -> SceneObject | 
     return best if best is not None and regions & set(best.evidence) else None
 
 
-def _leads(
+def _leading(
     evidence: Evidence,
     before: Interpretation,
     after: Interpretation,
     flips: dict[str, Preference],
-) -> dict[str, float]:
-    """Per flip (by its object's role in `before`) whose object in `after` took its tied
-    choice: how much it leads its namesake in `before` per view other than the interpreted one
-    (`object_score`; negative: it trails)."""
-    out: dict[str, float] = {}
+) -> dict[str, Preference]:
+    """The flips whose object in `after` (its tied choice taken) leads its namesake in
+    `before` by `rejudge.REJUDGE_MARGIN` per view other than the interpreted one."""
+    from aida_kb.interpret.rejudge import REJUDGE_MARGIN
+
+    out: dict[str, Preference] = {}
     for obj in before.objects:
         flip = flips.get(obj.role)
         other = None if flip is None else _matching(after, flip.regions)
@@ -840,85 +729,12 @@ def _leads(
             continue
         interpreted = {r.split("/", 1)[0] for r in obj.evidence}
         views = [v.id for v in evidence.views if v.id not in interpreted]
-        if views:
-            lead = _total(object_score(evidence, after, other), views) - _total(
-                object_score(evidence, before, obj), views
-            )
-            out[obj.role] = lead / len(views)
+        lead = _total(object_score(evidence, after, other), views) - _total(
+            object_score(evidence, before, obj), views
+        )
+        if views and lead >= REJUDGE_MARGIN * len(views):
+            out[obj.role] = flip
     return out
-
-
-def _leading(leads: dict[str, float], flips: dict[str, Preference]) -> dict[str, Preference]:
-    """The flips whose object leads (`_leads`) by `rejudge.REJUDGE_MARGIN` per view."""
-    from aida_kb.interpret.rejudge import REJUDGE_MARGIN
-
-    return {r: flips[r] for r, lead in leads.items() if lead >= REJUDGE_MARGIN}
-
-
-def _still_tied(
-    before: Interpretation, after: Interpretation, undecided: dict[str, Preference]
-) -> Interpretation:
-    """`after` with the objects whose tied choice the other views do not decide (`undecided`,
-    by their role in `before`) named tied again: the choice they gave up is their tie (their
-    verdict doubts it, as `verdict.undecided` says), their message no longer says the views
-    decided it."""
-    from aida_kb.interpret.verdict import undecided as undecided_doubts
-
-    model = after.model
-    if model is None or not undecided:
-        return after
-    chosen = {i.role: i.concept for i in before.instances}
-    restored: dict[str, list[str]] = {}
-    for obj in before.objects:
-        flip = undecided.get(obj.role)
-        other = None if flip is None else _matching(after, flip.regions)
-        if flip is None or other is None:
-            continue
-        given_up = [
-            f"{role}={chosen[f'{obj.role}.{role}']}"
-            for role in dict.fromkeys(t.split("=", 1)[0] for t in obj.ties)
-            if f"{obj.role}.{role}" in chosen
-        ]
-        restored[other.role] = given_up
-    objects: list[SceneObject] = []
-    for obj in after.objects:
-        ties = restored.get(obj.role)
-        if not ties:
-            objects.append(obj)
-            continue
-        ties = list(dict.fromkeys([*obj.ties, *ties]))
-        message = obj.message.split("; the other views decided ", 1)[0]
-        doubts = undecided_doubts(
-            Interpretation(goal=obj.concept, accepted=True, message="", expanded=0, ties=ties)
-        )
-        objects.append(
-            obj.model_copy(
-                update={
-                    "ties": ties,
-                    "verdict": DOUBTFUL,
-                    "doubts": [*obj.doubts, *[d for d in doubts if d not in obj.doubts]],
-                    "message": f"{message}; the other views do not decide it either "
-                    f"({', '.join(ties)}: the choice the re-judging reconstruction took is kept, "
-                    "interpret.scene.reconstruct_objects)",
-                }
-            )
-        )
-    doubtful = [o for o in objects if o.verdict == DOUBTFUL]
-    return after.model_copy(
-        update={
-            "model": model.model_copy(
-                update={
-                    "objects": [
-                        ModelObject(role=o.role, concept=o.concept, verdict=o.verdict)
-                        for o in objects
-                    ]
-                }
-            ),
-            "objects": objects,
-            "verdict": DOUBTFUL if doubtful else VERIFIED,
-            "doubts": [f"{o.role}: {d}" for o in doubtful for d in o.doubts],
-        }
-    )
 
 
 def reconstruct_objects(
@@ -933,10 +749,9 @@ def reconstruct_objects(
     """`rejudge.rejudged_views` (`multiview.reconstruct_views`, a single object's ties
     re-judged by every view), and for a scene of several objects their ties re-judged by the
     other views object by object (see above): at most two more reconstructions of the scene,
-    none when no object has a tie, one when no view decides against a tied choice taken (the
-    choices they do not decide are kept as taken, still tied: `_still_tied`)."""
+    none when no object has a tie."""
     from aida_kb.interpret.multiview import reconstruct_views  # they build on this module
-    from aida_kb.interpret.rejudge import REJUDGE_MARGIN, rejudged_views
+    from aida_kb.interpret.rejudge import rejudged_views
 
     first = rejudged_views(kb, evidence, goal=goal, source=source, scene=scene, progress=progress)
     flips = _ties(first)
@@ -957,19 +772,12 @@ def reconstruct_objects(
         )
 
     second = again(flips)
-    leads = _leads(evidence, first, second, flips) if _keeps(first, second) else {}
-    leading = _leading(leads, flips)
+    leading = _leading(evidence, first, second, flips) if _keeps(first, second) else {}
     if not leading:
         return first
-    if all(lead > -REJUDGE_MARGIN for lead in leads.values()):
-        # no view decides against a choice taken: those they do not decide stay as taken,
-        # tied (either explains the views as well), without reconstructing the scene again
-        return _still_tied(first, second, {r: flips[r] for r in leads if r not in leading})
     if leading != flips:
         second = again(leading)
-        if not _keeps(first, second):
-            return first
-        if _leading(_leads(evidence, first, second, leading), leading) != leading:
+        if not _keeps(first, second) or _leading(evidence, first, second, leading) != leading:
             return first
     return second
 

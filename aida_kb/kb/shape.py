@@ -464,9 +464,7 @@ def _placements(table: Table, cname: str, g: ast.Unseen, owner: str) -> list[dic
         r = table.resolve_path(cname, p.ref)
         if not isinstance(r, PathRes):
             return []
-        # the ref's own conditions add to the block's (they replaced them: a 'when' block's
-        # mirror placement held for every concept having the line's parts)
-        ref, requires = r.dotted, requires + r.requires
+        ref, requires = r.dotted, r.requires
     if p.line is not None:
         ends = [table.resolve_path(cname, a) for a in p.line.args if isinstance(a, ast.Path)]
         if len(ends) != 2 or not all(isinstance(e, PathRes) for e in ends):
@@ -475,7 +473,7 @@ def _placements(table: Table, cname: str, g: ast.Unseen, owner: str) -> list[dic
         assert isinstance(a, PathRes)
         assert isinstance(b, PathRes)
         line = (a.dotted, b.dotted)
-        requires = tuple(dict.fromkeys(requires + a.requires + b.requires))
+        requires = requires + a.requires + b.requires
     value = attr = None
     if p.value is not None:
         if isinstance(p.value, ast.Path):

@@ -228,10 +228,17 @@ def test_a_fit_the_views_own_segments_contradict_is_left_out() -> None:
     # fitted_edges keeps the left fits not contradicted
     first = replace(on, bounding=np.arange(fits.size) >= 2)
     grey = _image(model, cam)
-    fl, _ = mv.fitted_edges(model, [cam], [grey], [None], views=[first])
+    rig = Rig(K, np.eye(3), np.array([-0.1, 0.0, 0.0]), 640, 480)
+    right = (rig, _image(model, rig.right_of(cam)))
+    fl, fr = mv.fitted_edges(model, [cam], [grey], [right], views=[first])
     assert fl[0] is not None
     kept = {tuple(sorted(int(x) for x in f)) for f in fl[0].faces}
     assert kept == {tuple(sorted(int(x) for x in f)) for f in fits.faces[2:]}
+    # the right image's fits: only those of the edges whose left fit is kept
+    assert fr[0] is not None
+    every_right = image_edges(model, rig.right_of(cam), right[1])
+    assert fr[0][1].size < every_right.size
+    assert {tuple(sorted(int(x) for x in f)) for f in fr[0][1].faces} <= kept
 
 
 def test_an_edge_fitted_in_both_images_weighs_as_one_edge_seen_twice() -> None:
