@@ -393,7 +393,9 @@ class Interpreter:
     def ties(self, state: State) -> list[str]:
         """The other choices along is-a of the accepted body (``ROLE=CONCEPT``, sorted) that
         the evidence does not decide against: a verified body binding the same regions in
-        the same frame, its cost within `TIE_MARGIN` of the accepted body's."""
+        the same frame, its cost within `TIE_MARGIN` of the accepted body's, that does not
+        assert less than it (`Knowledge.weaker`: an asymmetric gable beside the symmetric one
+        accepted is no rival)."""
         if not state.levels:
             return []
         body = state.levels[0]
@@ -408,6 +410,9 @@ class Interpreter:
             if set(level.binding) != set(body.binding):
                 continue
             if not _same_frame(level.frame, body.frame):
+                continue
+            if self.knowledge.weaker(level.structure, body.structure):
+                # it fits no worse only by what it leaves out: the accepted one says more
                 continue
             for role, concept in level.structure.choices:
                 if chosen.get(role) != concept:

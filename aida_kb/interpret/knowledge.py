@@ -338,6 +338,44 @@ class Knowledge:
             orient_span=o.span,
         )
 
+    def asserted(self, structure: Structure) -> frozenset[tuple[object, ...]]:
+        """What the knowledge asserts of `structure`'s planes: every constraint and measure
+        that holds for its fillers, as (kind, absolute role paths, value, measurement) — the
+        same relation declared for two specialisations is one."""
+        fillers = {n.role: n.concept for n in structure.nodes}
+        out: set[tuple[object, ...]] = set()
+        for node in structure.nodes:
+            for spec in self.concept(node.concept).constraints:
+                if self.holds(node.role, spec.requires, fillers):
+                    args = tuple(join(node.role, a) for a in spec.args)
+                    out.add((spec.kind, args, spec.value, spec.measurement))
+        return frozenset(out)
+
+    def weaker(self, a: Structure, b: Structure) -> bool:
+        """True if `a` asserts strictly less than `b` of the same planes: the same planar
+        parts facing the same ways, meeting alike, and `a`'s constraints a proper subset of
+        `b`'s (a gable whose slopes may differ, against the symmetric one). Where both fit the
+        evidence, `b` says more and is preferred (`generate.WEAKER_PENALTY`)."""
+        if a.root != b.root or set(a.adjacency) != set(b.adjacency):
+            return False
+        if {_leaf_key(x) for x in a.leaves} != {_leaf_key(x) for x in b.leaves}:
+            return False
+        return self.asserted(a) < self.asserted(b)
+
+    def weaker_choices(self, concept: str, role: str) -> frozenset[tuple[str, str]]:
+        """Pairs of choices along is-a (``ROLE=CONCEPT``) of `concept` at `role` whose
+        structures differ by that choice only, the first's `weaker` than the second's
+        (``('body.roof=AsymmetricGableRoof', 'body.roof=GableRoof')`` in kb/buildings.kb)."""
+        found = self.structures(concept, role, "" if role else None, "con-of")
+        out: set[tuple[str, str]] = set()
+        for a in found:
+            for b in found:
+                diff_a, diff_b = set(a.choices) - set(b.choices), set(b.choices) - set(a.choices)
+                if len(diff_a) == 1 and len(diff_b) == 1 and self.weaker(a, b):
+                    ((ra, ca),), ((rb, cb),) = diff_a, diff_b
+                    out.add((f"{ra}={ca}", f"{rb}={cb}"))
+        return frozenset(out)
+
     def holds(self, owner: str, requires: Requires, fillers: Mapping[str, str]) -> bool:
         """True if every conditional role path is filled by one of the required concepts."""
         for path, allowed in requires:
@@ -371,6 +409,19 @@ class Knowledge:
             if s.link == "con-of":
                 return s
         return None
+
+
+def _leaf_key(leaf: PlanarPart) -> tuple[object, ...]:
+    """A planar part as the knowledge declares it, not where (its ``orient`` span left out)."""
+    return (
+        leaf.role,
+        leaf.concept,
+        leaf.slope_range_deg,
+        leaf.pitched,
+        leaf.direction,
+        leaf.tilt_deg,
+        leaf.default_tilt_deg,
+    )
 
 
 def _concept_of(name: str, model: ConceptModel) -> Concept:

@@ -15,15 +15,17 @@ Otherwise the first view's interpretation stands with its ties (and the verdict 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
+from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import Interpretation
 from aida_kb.interpret.verdict import check_view
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.scene import Scene
 from aida_kb.kb.model import KnowledgeBase
+from aida_kb.kb.paths import RolePath
 
 # a candidate wins when its score (per view: explained share + seen edge share, each 0..1)
 # leads every other's by this much per view judged. Models with the right roof have their
@@ -73,16 +75,40 @@ def score(interp: Interpretation, evidence: Evidence) -> dict[str, tuple[float, 
     return out
 
 
-def decide(candidates: list[Candidate], views: list[str]) -> Candidate | None:
+def decide(
+    candidates: list[Candidate],
+    views: list[str],
+    weaker: frozenset[tuple[str, str]] = frozenset(),
+    chosen: Mapping[int, frozenset[str]] | None = None,
+) -> Candidate | None:
     """The candidate whose score over `views` (`Candidate.total`) leads every other's by
-    `REJUDGE_MARGIN` per view; None when none does, or when no view but the first (the one
-    that left the choice open) has a camera in any candidate."""
+    `REJUDGE_MARGIN` per view — except the others that assert less than it: `weaker` holds
+    pairs of choices (weak, strong), `Knowledge.weaker_choices`, and `chosen` the choices of
+    each candidate by index (default: its own ``choice``). A weaker candidate fits at least as
+    well by what it leaves out, so it must lead the stronger one, which need not lead it (an
+    asymmetric gable and the symmetric one on a symmetric roof: the symmetric one). The
+    highest scoring of those that qualify; None when none does, or when no view but the first
+    (the one that left the choice open) has a camera in any candidate."""
     if len(candidates) < 2 or not any(v != views[0] for c in candidates for v in c.per_view):
         return None
     totals = [c.total(views) for c in candidates]
-    best = max(range(len(candidates)), key=lambda i: totals[i])
-    lead = min(totals[best] - t for i, t in enumerate(totals) if i != best)
-    return candidates[best] if lead >= REJUDGE_MARGIN * len(views) else None
+    made = [
+        chosen.get(i, frozenset()) if chosen is not None else frozenset({c.choice})
+        for i, c in enumerate(candidates)
+    ]
+    margin = REJUDGE_MARGIN * len(views)
+
+    def asserts_less(j: int, i: int) -> bool:
+        return any((a, b) in weaker for a in made[j] for b in made[i])
+
+    for i in sorted(range(len(candidates)), key=lambda k: -totals[k]):
+        if all(
+            totals[i] - totals[j] >= margin or asserts_less(j, i)
+            for j in range(len(candidates))
+            if j != i
+        ):
+            return candidates[i]
+    return None
 
 
 def rejudged_views(
@@ -117,7 +143,8 @@ def rejudged_views(
         if other.accepted and other.model is not None:
             candidates.append(Candidate(tie, other, score(other, evidence)))
     views = [v.id for v in evidence.views]
-    winner = decide(candidates, views)
+    weaker, made = _weaker(kb, first, candidates)
+    winner = decide(candidates, views, weaker, made)
     if winner is None:
         return first
     decided = [t for t in first.ties if t != winner.choice]
@@ -137,3 +164,27 @@ def rejudged_views(
 def _named(candidate: Candidate) -> str:
     """How the message names a candidate."""
     return candidate.choice or "the first view's choice"
+
+
+def _weaker(
+    kb: KnowledgeBase, first: Interpretation, candidates: list[Candidate]
+) -> tuple[frozenset[tuple[str, str]], dict[int, frozenset[str]]]:
+    """The pairs of tied choices one of which asserts less than the other
+    (`Knowledge.weaker_choices` of the body the ties are choices of), and each candidate's
+    choices among the tied roles (the first view's own: its instances' concepts there)."""
+    roles = sorted({c.choice.partition("=")[0] for c in candidates if c.choice})
+    chosen: dict[int, frozenset[str]] = {}
+    for i, c in enumerate(candidates):
+        if c.choice:
+            chosen[i] = frozenset({c.choice})
+            continue
+        own = {r: inst.concept for r in roles for inst in first.instances if inst.role == r}
+        chosen[i] = frozenset(f"{r}={concept}" for r, concept in own.items())
+    owners = {str(RolePath.parse(r).parent) for r in roles}
+    knowledge = Knowledge.from_kb(kb)
+    pairs: set[tuple[str, str]] = set()
+    for owner in owners:
+        inst = next((x for x in first.instances if x.role == owner), None)
+        if inst is not None:
+            pairs |= knowledge.weaker_choices(inst.concept, owner)
+    return frozenset(pairs), chosen

@@ -464,7 +464,9 @@ def _placements(table: Table, cname: str, g: ast.Unseen, owner: str) -> list[dic
         r = table.resolve_path(cname, p.ref)
         if not isinstance(r, PathRes):
             return []
-        ref, requires = r.dotted, r.requires
+        # the ref's own conditions add to the block's (they replaced them: a 'when' block's
+        # mirror placement held for every concept having the line's parts)
+        ref, requires = r.dotted, requires + r.requires
     if p.line is not None:
         ends = [table.resolve_path(cname, a) for a in p.line.args if isinstance(a, ast.Path)]
         if len(ends) != 2 or not all(isinstance(e, PathRes) for e in ends):
@@ -473,7 +475,7 @@ def _placements(table: Table, cname: str, g: ast.Unseen, owner: str) -> list[dic
         assert isinstance(a, PathRes)
         assert isinstance(b, PathRes)
         line = (a.dotted, b.dotted)
-        requires = requires + a.requires + b.requires
+        requires = tuple(dict.fromkeys(requires + a.requires + b.requires))
     value = attr = None
     if p.value is not None:
         if isinstance(p.value, ast.Path):

@@ -113,8 +113,13 @@ def _asymmetric_gable(rng: np.random.Generator) -> RandomObject:
     model = bld.house(
         width, depth, height, "gable", front, "plaster", "tiles", _floors(height), back
     )
-    # no specialisation of a symmetric gable fits: only the geometry is checked
-    return RandomObject(model, {}, math.hypot(width, depth, height + depth / 2), height * 0.7)
+    # no symmetric gable fits: the knowledge's gable whose slopes differ must be chosen
+    return RandomObject(
+        model,
+        {"body.roof": "AsymmetricGableRoof"},
+        math.hypot(width, depth, height + depth / 2),
+        height * 0.7,
+    )
 
 
 def _lshape(meeting_deg: float) -> Maker:

@@ -60,6 +60,36 @@ def test_the_tie_is_decided_only_by_a_lead_of_the_margin_per_view() -> None:
     assert decide([_candidate("", base), winner], VIEWS[:2]) is winner
 
 
+def test_a_weaker_choice_must_lead_the_stronger_one_that_need_not_lead_it() -> None:
+    weaker = frozenset({("r=A", "r=G")})  # r=A asserts less than r=G
+    shed = _candidate("", {"00": (1.0, 0.4), "01": (0.6, 0.3)})
+    # on a symmetric roof the weaker fits a little better, by what it leaves out
+    gable = _candidate("r=G", {"00": (1.0, 0.7), "01": (1.0, 0.6)})
+    asym = _candidate("r=A", {"00": (1.0, 0.72), "01": (1.0, 0.63)})
+    made = {0: frozenset({"r=S"}), 1: frozenset({"r=G"}), 2: frozenset({"r=A"})}
+    assert decide([shed, gable, asym], VIEWS[:2], weaker, made) is gable
+    assert decide([shed, gable, asym], VIEWS[:2]) is None  # without the knowledge: no lead
+    # where the other views see the slopes differ, the weaker leads by the margin and wins
+    wins = _candidate("r=A", {"00": (1.0, 0.7), "01": (1.0, 0.6 + 2 * REJUDGE_MARGIN + 1e-6)})
+    assert decide([shed, gable, wins], VIEWS[:2], weaker, made) is wins
+
+
+def test_the_asymmetric_gable_asserts_less_than_the_symmetric_one(buildings_kb: Any) -> None:
+    knowledge = Knowledge.from_kb(buildings_kb)
+    pairs = knowledge.weaker_choices("HouseBody", "body")
+    assert pairs == {("body.roof=AsymmetricGableRoof", "body.roof=GableRoof")}
+    found = {s.describe(): s for s in knowledge.structures("HouseBody", "body", "", "con-of")}
+    asym, gable = found["body.roof=AsymmetricGableRoof"], found["body.roof=GableRoof"]
+    # the same planes meeting alike; the symmetric one adds the slopes' symmetry only
+    extra = knowledge.asserted(gable) - knowledge.asserted(asym)
+    assert extra == {
+        ("symmetry", ("body.front", "body.roof.front", "body.back", "body.roof.back"), None, False)
+    }
+    assert knowledge.weaker(asym, gable)
+    assert not knowledge.weaker(gable, asym)
+    assert not knowledge.weaker(found["body.roof=ShedRoof"], found["body.roof=FlatRoof"])
+
+
 def test_no_other_view_registered_decides_nothing() -> None:
     """Only the first view has a camera in every candidate: it left the tie open."""
     a = _candidate("", {"00": (1.0, 0.2)})
@@ -67,7 +97,9 @@ def test_no_other_view_registered_decides_nothing() -> None:
     assert decide([a, b], VIEWS) is None
 
 
-def test_rejudged_views_reconstructs_each_tied_choice(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_rejudged_views_reconstructs_each_tied_choice(
+    monkeypatch: pytest.MonkeyPatch, buildings_kb: Any
+) -> None:
     calls: list[tuple[tuple[str, str], ...]] = []
 
     def fake_views(*args: Any, choices: tuple[tuple[str, str], ...] = (), **kw: Any) -> Any:
@@ -84,7 +116,7 @@ def test_rejudged_views_reconstructs_each_tied_choice(monkeypatch: pytest.Monkey
 
     monkeypatch.setattr(rejudge, "reconstruct_views", fake_views)
     monkeypatch.setattr(rejudge, "score", fake_score)
-    out = rejudged_views(None, ev)  # type: ignore[arg-type]
+    out = rejudged_views(buildings_kb, ev)  # type: ignore[arg-type]
     assert calls == [(), (("body.roof", "GableRoof"),)]
     assert out.ties == []
     assert out.message.startswith("House verified (body.roof=GableRoof)")
@@ -93,7 +125,7 @@ def test_rejudged_views_reconstructs_each_tied_choice(monkeypatch: pytest.Monkey
     )
     # the other view no better: the first view's result stands with its tie (doubtful)
     monkeypatch.setattr(rejudge, "score", lambda i, e: {"00": (1.0, 0.6), "01": (1.0, 0.5)})
-    out = rejudged_views(None, ev)  # type: ignore[arg-type]
+    out = rejudged_views(buildings_kb, ev)  # type: ignore[arg-type]
     assert out.ties == ["body.roof=GableRoof"]
     assert "ShedRoof" in out.message
 

@@ -19,10 +19,11 @@ def _adjacency(kb_text: str, concept: str) -> dict[tuple[str, str], tuple[object
 
 def test_each_roof_kind_meets_the_walls_its_own_way() -> None:
     adj = _adjacency(BUILDINGS, "HouseBody")
-    gable_or_hip = ("roof", ("GableRoof", "HipRoof"))
-    assert adj[("left", "roof.front")] == (gable_or_hip, ("roof", ("GableRoof",)))
+    two_slopes = ("roof", ("AsymmetricGableRoof", "GableRoof", "HipRoof"))
+    gables = ("roof", ("AsymmetricGableRoof", "GableRoof"))
+    assert adj[("left", "roof.front")] == (two_slopes, gables)
     assert adj[("left", "roof.left")] == (("roof", ("HipRoof",)),)
-    assert adj[("front", "roof.front")] == (gable_or_hip,)
+    assert adj[("front", "roof.front")] == (two_slopes,)
     assert adj[("front", "roof.top")] == (("roof", ("FlatRoof", "ShedRoof")),)
     assert adj[("front", "floor")] == ()
 
@@ -35,8 +36,12 @@ def test_block_conditions_reach_constraints_measures_and_placements() -> None:
     assert ("roof", ("FlatRoof", "ShedRoof")) in labels["top_left"].requires
     assert ("roof", ("GableRoof", "HipRoof")) in labels["slopes"].requires
     assert labels["corner_fl"].requires == ()
+    # the asymmetric gable's slopes may differ: neither symmetric nor mirrored about the ridge
+    # (the block's condition and that of the paths through the abstract role both hold)
+    assert ("roof", ("AsymmetricGableRoof", "GableRoof", "HipRoof")) in labels["eaves"].requires
     (back,) = [p for p in body.placements if p.part == "back"]
     assert ("roof", ("GableRoof", "HipRoof")) in back.requires
+    assert ("roof", ("AsymmetricGableRoof", "GableRoof", "HipRoof")) in back.requires
 
 
 def test_narrowing_keeps_the_blocks_that_hold_and_drops_the_others() -> None:

@@ -41,6 +41,7 @@ def test_layers_and_concepts(kb: KnowledgeBase) -> None:
     assert kb.concepts["Roof"].abstract
     assert set(kb.concepts["Roof"].specialisations) == {
         "GableRoof",
+        "AsymmetricGableRoof",
         "HipRoof",
         "FlatRoof",
         "ShedRoof",
@@ -117,7 +118,7 @@ def test_template_expansion_in_si(kb: KnowledgeBase) -> None:
 
 def test_paths_through_an_abstract_role_are_conditional(kb: KnowledgeBase) -> None:
     (eaves,) = _spec(kb, "HouseBody", "eaves")
-    assert eaves.requires == (("roof", ("GableRoof", "HipRoof")),)
+    assert eaves.requires == (("roof", ("AsymmetricGableRoof", "GableRoof", "HipRoof")),)
     (top,) = _spec(kb, "HouseBody", "top_left")
     assert top.requires == (("roof", ("FlatRoof", "ShedRoof")),)
     (corner,) = _spec(kb, "HouseBody", "corner_fl")

@@ -165,7 +165,11 @@ def test_recorded_editing_session_of_buildings_kb(server: ServerClient) -> None:
     assert got[0].range.start == pos(text, "part roof: Roof", 0, len("part "))
     front = types.Position(eaves.line, eaves.character + len("roof."))
     got = server.request(types.TEXT_DOCUMENT_DEFINITION, types.DefinitionParams(doc(uri), front))
-    assert got[0].range.start == pos(text, "part front, back: RoofPlane", 0, len("part "))
+    # a path through the abstract role: a declaration of one of the roofs having 'front'
+    # (GableRoof's, AsymmetricGableRoof's: the first two 'part front, back: RoofPlane')
+    assert got[0].range.start in [
+        pos(text, "part front, back: RoofPlane", n, len("part ")) for n in (0, 1)
+    ]
 
     # rename the role 'roof' of HouseBody: Wing's own 'roof' stays
     prepared = server.request(
@@ -204,6 +208,7 @@ def test_find_references_of_a_concept_and_a_linked_role(
     ]
     declarations = [
         pos(text, "part front, back: RoofPlane", 0, 5),
+        pos(text, "part front, back: RoofPlane", 1, 5),  # AsymmetricGableRoof's
         pos(text, "part front, back, left, right: RoofPlane", 0, 5),
     ]
     assert [loc.range.start for loc in got] == [p for p in expected if p not in declarations]
