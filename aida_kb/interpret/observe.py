@@ -105,11 +105,7 @@ class RegionView:
         matching window, so only one pixel per window counts (`FIT_CORRELATED_PX`); the
         refinement's residual bias (`FIT_FLOOR_DEG`) is added in quadrature.
         """
-        n = self.inliers / FIT_CORRELATED_PX
-        if n < 1.0 or self.area_m2 <= 0.0:
-            return math.inf
-        statistical = self.rms_m / (math.sqrt(n) * math.sqrt(self.area_m2 / 12.0))
-        return math.hypot(statistical, math.radians(FIT_FLOOR_DEG))
+        return float(fit_sigma_rad(self.rms_m, self.inliers / FIT_CORRELATED_PX, self.area_m2))
 
     @property
     def offset_m(self) -> float:
@@ -273,6 +269,28 @@ FIT_CORRELATED_PX = 81.0
 # 360,000 inliers over 3,000-4,400 m², is 0.002-0.008 degrees off (dev seed 7), statistically
 # 0.001-0.004; the floor keeps one huge region from claiming more than that.
 FIT_FLOOR_DEG = 0.01
+
+
+def fit_sigma_rad(
+    rms_m: FloatArray | float, samples: FloatArray | float, area_m2: FloatArray | float
+) -> FloatArray:
+    """1-σ tilt of plane fits, radians (shape of the broadcast inputs; inf where unknown).
+
+    A least-squares plane through ``samples`` independent points scattered by ``rms_m``
+    (metres) about it, spread over a square of ``area_m2`` (radius of gyration
+    ``sqrt(area / 12)`` along each axis), tilts by ``rms_m / (sqrt(samples) · sqrt(area / 12))``;
+    `FIT_FLOOR_DEG` is added in quadrature. inf where ``samples < 1`` or ``area_m2 <= 0``.
+    """
+    rms, n, area = np.broadcast_arrays(
+        np.asarray(rms_m, dtype=np.float64),
+        np.asarray(samples, dtype=np.float64),
+        np.asarray(area_m2, dtype=np.float64),
+    )
+    known = (n >= 1.0) & (area > 0.0)
+    gyration = np.sqrt(np.where(known, area, 1.0) / 12.0)
+    statistical = rms / (np.sqrt(np.where(known, n, 1.0)) * gyration)
+    sigma = np.hypot(statistical, math.radians(FIT_FLOOR_DEG))
+    return np.where(known, sigma, np.inf)
 
 
 def estimate_up(

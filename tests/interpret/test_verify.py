@@ -19,6 +19,7 @@ from aida_kb.interpret.verify import (
     fragment_scatter_px,
     position_data,
     tilt_constraints,
+    tilt_px_per_rad,
     verify,
 )
 from aida_kb.kb.model import KnowledgeBase
@@ -80,6 +81,37 @@ def test_perpendicular_walls_meet_the_regions_part_way() -> None:
     assert corner_row.normalised_cost == pytest.approx((meeting - 90.0) ** 2, rel=0.02)
     assert corner_row.threshold == pytest.approx(25.0)  # (reject above / sigma)²
     assert out.worst_rejected() is None
+
+
+def test_a_region_tilt_counts_pixels_of_what_its_fit_resolves() -> None:
+    # a 96 m² wall of 24,144 inliers, rms 0.138 m (dev seed 59012's front wall): its fit
+    # resolves sqrt(96.3 / 12) · sqrt(24144 / 81) / 0.138 = 354 px/rad (0.16 deg); twice that
+    # sigma with the 1 deg floor in quadrature: 1.05 deg, 0.95 px per degree
+    big = float(tilt_px_per_rad(0.138, 24144, 96.3))
+    assert math.radians(1.0) * big == pytest.approx(0.951, abs=0.002)
+    # a side wall seen edge-on from 134 m (street 62000): 5.5 m², 165 inliers, rms 0.138 m:
+    # sigma_fit 8.2 deg, so 16 deg per pixel: its 10.8 deg tilt costs 0.66 px, not 10.8
+    edge_on = float(tilt_px_per_rad(0.138, 165, 5.5))
+    assert math.radians(10.8) * edge_on == pytest.approx(0.66, abs=0.01)
+    # a region without its fit's statistics (old evidence): a degree, a pixel, as before
+    assert float(tilt_px_per_rad(0.01, 0, 0.0)) == pytest.approx(math.degrees(1.0))
+    # vectorised: one scale per region, the same as one at a time
+    many = tilt_px_per_rad(np.array([0.138, 0.138, 0.01]), np.array([24144, 165, 0]), 96.3)
+    assert many.shape == (3,)
+    assert many[0] == pytest.approx(big)
+    # the constraint carries it: a region with its statistics, at 20 m
+    region = RegionView(
+        "00/1",
+        "00",
+        np.array([0.0, 0.0, -1.0]),
+        np.array([0, 0, 20.0]),
+        9000.0,
+        10000.0,
+        0.138,
+        165,
+        5.5,
+    )
+    assert position_data(region, CAMERA).tilt_px_per_rad == pytest.approx(edge_on)
 
 
 def test_a_contradiction_over_the_threshold_is_flagged_and_fixed_parts_stay() -> None:
