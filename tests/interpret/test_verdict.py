@@ -18,6 +18,7 @@ from aida_kb.interpret.uncertainty import (
 from aida_kb.interpret.verdict import (
     CAMERA_SD_CONFIDENCE,
     DOUBTFUL,
+    NORMAL_TOLERANCE_DEG,
     NOTHING,
     VERIFIED,
     camera_doubts,
@@ -28,6 +29,7 @@ from aida_kb.interpret.verdict import (
     unmeasured_parts,
     with_verdict,
 )
+from aida_kb.interpret.verdict.views import check_view, normal_tolerance_cos
 from aida_kb.io.evidence import Contour, Evidence, read_evidence
 from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 from aida_kb.kb.model import KnowledgeBase
@@ -498,3 +500,37 @@ def test_a_tree_crown_taken_for_a_house_is_nothing_found(buildings_kb: Knowledge
     )
     # `aida-kb interpret` judges the views it interpreted: doubtful there, never verified
     assert judge(buildings_kb, interp, evidence).verdict == DOUBTFUL
+
+
+def test_a_region_whose_plane_stereo_does_not_fix_is_judged_within_its_fit(
+    interpreted: Get,
+) -> None:
+    # a dark roof: 42 of 17,495 pixels with a disparity, no inlier, its fit 11 degrees off its
+    # true face (dev seed 60002) — its orientation is unknown, so it lies on the face; the
+    # same turn of a well-measured region contradicts the model
+    interp = interpreted("house_correct.json")
+    assert interp.model is not None
+    evidence = _evidence("house_correct.json")
+    view = evidence.views[0]
+    before = check_view(view, interp.model)
+    assert before is not None
+    assert not before.contradicting
+    heaviest = max((r for r in view.regions if r.id in before.explained_ids), key=lambda r: r.w_c)
+    n = np.asarray(heaviest.n_init)
+    axis = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    axis /= np.linalg.norm(axis)
+    turn = np.radians(12.0)  # Rodrigues: n stays a unit vector, 12 degrees off
+    turned = n * np.cos(turn) + np.cross(axis, n) * np.sin(turn)
+    turned_normal = tuple(float(x) for x in turned)
+    measured = heaviest.model_copy(
+        update={"n_init": turned_normal, "inlier_count": 50_000, "rms_m": 0.01}
+    )
+    unknown = heaviest.model_copy(update={"n_init": turned_normal, "inlier_count": 0, "rms_m": 0.9})
+    cos = normal_tolerance_cos([measured, unknown])
+    assert np.degrees(np.arccos(cos[0])) == pytest.approx(NORMAL_TOLERANCE_DEG)
+    assert np.degrees(np.arccos(cos[1])) > 30.0
+    for region, contradicts in ((measured, True), (unknown, False)):
+        regions = [region if r.id == heaviest.id else r for r in view.regions]
+        check = check_view(view.model_copy(update={"regions": regions}), interp.model)
+        assert check is not None
+        assert (heaviest.id in {c[0] for c in check.contradicting}) is contradicts

@@ -11,7 +11,9 @@ is **verified** only when it also
 (b) explains the evidence: of the certainty weight of the regions that lie inside the model's
     projection (the ray through a region's centre meets a model face), most lies on a model
     face (the region's plane within `DEPTH_TOLERANCE` of the face and its normal within
-    `NORMAL_TOLERANCE_DEG`, its centre inside the face's polygon). A region the model covers
+    `NORMAL_TOLERANCE_DEG` — or `REGION_NORMAL_SIGMAS` of its own plane fit's sigma where that
+    is wider: a region with little depth does not tell its orientation —, its centre inside
+    the face's polygon). A region the model covers
     but does not explain contradicts it: seen *through* the model (beyond the face the ray
     meets) or on a face at another orientation. A region in front of the model may be
     something standing before it (a tree) and counts neither way — unless it stands close
@@ -158,6 +160,7 @@ from aida_kb.interpret.verdict.tolerances import (
     OUTLINE_TOLERANCE_PX,
     POSITION_TOLERANCE,
     RANGE_SLACK_REL,
+    REGION_NORMAL_SIGMAS,
     SEEN_EDGE_COVER_MIN,
     SIN_SQUARE,
     SIZE_UNIT,
@@ -208,6 +211,7 @@ __all__ = [
     "PLACED_BY_KNOWLEDGE",
     "POSITION_TOLERANCE",
     "RANGE_SLACK_REL",
+    "REGION_NORMAL_SIGMAS",
     "SEEN_EDGE_COVER_MIN",
     "SIN_SQUARE",
     "SIZE_UNIT",

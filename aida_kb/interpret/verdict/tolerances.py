@@ -9,6 +9,9 @@ DEPTH_TOLERANCE = 0.015  # a region lies on a face within 1.5 % of its distance 
 DEPTH_TOLERANCE_MIN_M = 0.05  # ... and never tighter than 5 cm (stereo noise of near faces)
 NORMAL_TOLERANCE_DEG = 8.0  # a region's normal within 8 degrees of the face's (plane fits of
 # small, slanted or weakly textured regions scatter by a few degrees)
+REGION_NORMAL_SIGMAS = 2.0  # ... or within two sigmas of the region's own plane fit where
+# that is wider (verify.TILT_FIT_SIGMA_FACTOR makes the sigma honest: 95 % of the labelled
+# dev regions lie within two of it of their true faces)
 INSIDE_MARGIN = 0.05  # a region's centre may lie this fraction of the face's size outside it
 EXPLAINED_MIN = 0.75  # the explained share of the weight inside the projection, at least
 CONTRADICTION_MAX = 0.08  # one region that contradicts the model may carry at most this

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
 from aida_kb.interpret.verdict.edges import edge_cover
 from aida_kb.interpret.verdict.geometry import (
     FloatArray,
@@ -24,8 +25,10 @@ from aida_kb.interpret.verdict.tolerances import (
     MIN_WEIGHT_SHARE,
     NEAR_MARGIN,
     NORMAL_TOLERANCE_DEG,
+    REGION_NORMAL_SIGMAS,
     STANDING_OUT_MAX,
 )
+from aida_kb.interpret.verify import TILT_FIT_SIGMA_FACTOR
 from aida_kb.io.evidence import Region, ViewEvidence
 from aida_kb.io.model import ReconstructedModel
 
@@ -50,6 +53,7 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
     dist = np.linalg.norm(rays, axis=1)
     tol = np.maximum(DEPTH_TOLERANCE * dist, DEPTH_TOLERANCE_MIN_M)
     cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
+    cos_on = normal_tolerance_cos(regions)  # (M,): lies on a face within its own fit
     m = len(regions)
     explained = np.zeros(m, bool)
     on_face: dict[str, float] = {}
@@ -59,7 +63,7 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
     for role, n, d, poly in model_faces(model):
         # (1) the region lies on this face
         on_plane = np.abs(centres @ n - d) <= tol
-        aligned = np.abs(normals @ n) >= cos_tol
+        aligned = np.abs(normals @ n) >= cos_on
         cand = on_plane & aligned
         if cand.any():
             on = np.zeros(m, bool)
@@ -148,7 +152,7 @@ def adjoining(view: ViewEvidence, model: ReconstructedModel, check: ViewCheck) -
         points, tol = outline_points(view, (r.id,), model)
         if len(points) < 2:
             continue
-        if _continues_face(*_region_plane(view, r, R, t), faces):
+        if _continues_face(*_region_plane(view, r, R, t), faces, _cos_of(r)):
             continue  # it continues a face's plane
         best = (0.0, "")
         for role, n, d, poly in faces:
@@ -183,15 +187,38 @@ def _region_plane(
     return normal, centre, max(DEPTH_TOLERANCE * dist, DEPTH_TOLERANCE_MIN_M)
 
 
+def normal_tolerance_cos(regions: list[Region]) -> FloatArray:
+    """Cosine of the angle within which each region's normal lies on a face's, (M,): the
+    wider of NORMAL_TOLERANCE_DEG and REGION_NORMAL_SIGMAS of its plane fit's sigma
+    (`observe.fit_sigma_rad` of its inliers over its area, times verify's
+    TILT_FIT_SIGMA_FACTOR). A region with little depth (a dark roof: 42 of its 17,495 pixels
+    with a disparity, no inlier, sigma 19 degrees) does not tell its orientation: its fit,
+    11 degrees off its true face, is no surface the model lacks."""
+    if not regions:
+        return np.zeros(0)
+    rms = np.array([r.rms_m for r in regions], dtype=np.float64)
+    samples = np.maximum(np.array([r.inlier_count for r in regions]) / FIT_CORRELATED_PX, 1.0)
+    area = np.array([r.area_m2 for r in regions], dtype=np.float64)
+    sigma = TILT_FIT_SIGMA_FACTOR * fit_sigma_rad(rms, samples, area)  # inf: unknown fit
+    angle = np.maximum(math.radians(NORMAL_TOLERANCE_DEG), REGION_NORMAL_SIGMAS * sigma)
+    return np.cos(np.minimum(angle, 0.5 * math.pi))
+
+
+def _cos_of(region: Region) -> float:
+    """`normal_tolerance_cos` of one region."""
+    return float(normal_tolerance_cos([region])[0])
+
+
 def _continues_face(
     normal: FloatArray,
     centre: FloatArray,
     tol: float,
     faces: list[tuple[str, FloatArray, float, FloatArray]],
+    cos_tol: float,
 ) -> bool:
     """A plane (unit normal (3,), a point (3,), world frame) lies in a face's plane within
-    NORMAL_TOLERANCE_DEG and `tol` metres (the ground continues the floor)."""
-    cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
+    the angle of cosine `cos_tol` (`normal_tolerance_cos`) and `tol` metres (the ground
+    continues the floor)."""
     return any(
         abs(float(normal @ n)) >= cos_tol and abs(float(centre @ n) - d) <= tol
         for _, n, d, _ in faces
@@ -223,7 +250,7 @@ def unexplained_near(
         if r.id not in free or r.depth_pixel_count == 0 or r.w_c < MIN_WEIGHT_SHARE * total:
             continue
         normal, centre, tol = _region_plane(view, r, R, t)
-        if _continues_face(normal, centre, tol, faces):
+        if _continues_face(normal, centre, tol, faces, _cos_of(r)):
             continue
         if bool(np.all(centre >= low)) and bool(np.all(centre <= high)):
             near.append((float(r.w_c), int(r.id)))
