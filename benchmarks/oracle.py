@@ -12,6 +12,9 @@ alone (what the interpretation chose plays no part):
   region, explains at least ``EXPLAINED_MIN`` of the region weight inside its projection,
   its edges are seen along at least ``EDGE_COVER_MIN`` of their length, no region stands out
   of its surface, no region contradicts it beyond ``CONTRADICTION_MAX``;
+- in the first view, the edges between the faces its regions lie on are seen along at least
+  ``SEEN_EDGE_COVER_MIN`` of their length, as segments or outlines of those regions (the
+  interpretation binds those faces to those regions);
 - `verdict.views.adjoining` (a large region meeting the model that it does not explain) and
   `verdict.views.unexplained_near` (at least ``NEAR_EXPLAINED_MIN`` of the weight near it).
 
@@ -30,11 +33,13 @@ from collections import Counter
 from pathlib import Path
 
 from aida_kb.errors import AidaError
+from aida_kb.interpret.verdict.edges import edge_cover
 from aida_kb.interpret.verdict.tolerances import (
     CONTRADICTION_MAX,
     EDGE_COVER_MIN,
     EXPLAINED_MIN,
     NEAR_EXPLAINED_MIN,
+    SEEN_EDGE_COVER_MIN,
     STANDING_OUT_SHARE_MAX,
 )
 from aida_kb.interpret.verdict.views import adjoining, check_view, unexplained_near
@@ -50,6 +55,7 @@ CHECKS = (
     "contradicting",
     "adjoining",
     "near explained",
+    "seen between bound",
 )
 
 
@@ -99,6 +105,13 @@ def failed_checks(evidence: Evidence, model: ReconstructedModel) -> dict[str, li
         share, _ = unexplained_near(view, model, check)
         if share < NEAR_EXPLAINED_MIN:
             fails.append("near explained")
+        if view.id == evidence.views[0].id:
+            # (c) in the interpreted view: the edges between the parts its regions lie on
+            bound = frozenset(role for role, w in check.explained_on.items() if w > 0)
+            outlines = frozenset(check.explained_ids)
+            seen = edge_cover(view, model, bound, outlines) if len(bound) > 1 else None
+            if seen is not None and seen < SEEN_EDGE_COVER_MIN:
+                fails.append("seen between bound")
         for name in fails:
             out.setdefault(name, []).append(view.id)
     return out

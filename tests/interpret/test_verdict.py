@@ -23,6 +23,7 @@ from aida_kb.interpret.verdict import (
     VERIFIED,
     camera_doubts,
     contested,
+    edge_cover,
     judge,
     line_offset_sd,
     unexplained_near,
@@ -534,3 +535,40 @@ def test_a_region_whose_plane_stereo_does_not_fix_is_judged_within_its_fit(
         check = check_view(view.model_copy(update={"regions": regions}), interp.model)
         assert check is not None
         assert (heaviest.id in {c[0] for c in check.contradicting}) is contradicts
+
+
+def test_regions_meeting_along_an_edge_show_it_where_no_segment_does(interpreted: Get) -> None:
+    # two walls alike in texture and light meet in no image segment, but their regions meet
+    # along the corner: the outlines of the bound regions show the edges between bound parts
+    interp = interpreted("house_correct.json")
+    model = interp.model
+    assert model is not None
+    cam = model.cameras[0]
+    K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
+    faces = {p.role: np.asarray(p.polygon) for p in model.parts}
+    bound: set[str] = set()
+
+    def outlines(shift_px: float) -> list[Contour]:
+        out: list[Contour] = []
+        for inst in interp.instances:
+            if inst.link == "con-of" and inst.bindings and inst.parent in faces:
+                bound.add(inst.parent)
+                x = (faces[inst.parent] @ R.T + t) @ K.T
+                px = x[:, :2] / x[:, 2:] + shift_px
+                region = int(inst.bindings[0].split("/")[1])
+                points = [(float(u), float(v)) for u, v in px]
+                out.append(Contour(id=len(out) + 1, region=region, points=points))
+        return out
+
+    view = _evidence("house_correct.json").views[0].model_copy(update={"lines": []})
+    on = view.model_copy(update={"contours": outlines(0.0)})
+    regions = frozenset(c.region for c in on.contours)
+    assert len(bound) > 1
+    assert edge_cover(on, model, frozenset(bound)) is None  # no segment at all
+    seen = edge_cover(on, model, frozenset(bound), regions)
+    assert seen is not None
+    assert seen > 0.95
+    off = view.model_copy(update={"contours": outlines(6.0)})  # 6 px off every edge
+    moved = edge_cover(off, model, frozenset(bound), regions)
+    assert moved is not None
+    assert moved < 0.2

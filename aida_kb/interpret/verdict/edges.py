@@ -16,8 +16,9 @@ from aida_kb.interpret.verdict.tolerances import (
     EDGE_SEEN_SHARE,
     EDGE_SIGMA_PX,
     EDGE_TOLERANCE_PX,
+    OUTLINE_PIECE_MIN_PX,
 )
-from aida_kb.io.evidence import Evidence, ViewEvidence
+from aida_kb.io.evidence import Evidence, LineSegment, ViewEvidence
 from aida_kb.io.model import ModelCamera, ReconstructedModel
 
 if TYPE_CHECKING:
@@ -25,17 +26,20 @@ if TYPE_CHECKING:
 
 
 def edge_coverage(
-    view: ViewEvidence, model: ReconstructedModel
+    view: ViewEvidence, model: ReconstructedModel, outlines_of: frozenset[int] = frozenset()
 ) -> tuple[RigidModel, VisibleEdges, FloatArray] | None:
     """The model edges the view's camera sees (at least EDGE_MIN_LENGTH_PX long) and the
     length of each, pixels, that image segments lie on (within EDGE_TOLERANCE_PX and
     EDGE_ANGLE_DEG; segments undistorted with the view's distortion first). None: no camera
-    or no segments."""
+    or no segments. outlines_of: ids of regions whose outlines count as segments too (each
+    straight piece of their simplified contours at least OUTLINE_PIECE_MIN_PX long)."""
     from aida_kb.register.evidence import camera_of, measurements_of
     from aida_kb.register.match import match_segments
     from aida_kb.register.model import RigidModel
 
     camera = next((c for c in model.cameras if c.view == view.id), None)
+    if outlines_of:
+        view = view.model_copy(update={"lines": [*view.lines, *_outline_pieces(view, outlines_of)]})
     if camera is None or not view.lines:
         return None
     rigid = RigidModel.from_model(model)
@@ -65,14 +69,49 @@ def edge_coverage(
     return rigid, edges, np.minimum(covered, edges.length_px)
 
 
+def _outline_pieces(view: ViewEvidence, regions: frozenset[int]) -> list[LineSegment]:
+    """The straight pieces of the outer contours of `regions`, as segments (ids after the
+    view's own lines), at least OUTLINE_PIECE_MIN_PX long."""
+    out: list[LineSegment] = []
+    next_id = max((s.id for s in view.lines), default=0) + 1
+    for c in view.contours:
+        if c.region not in regions or c.hole:
+            continue
+        p = np.asarray(c.points, dtype=np.float64)
+        q = np.roll(p, -1, axis=0)
+        length = np.linalg.norm(q - p, axis=1)
+        for a, b, n in zip(
+            p[length >= OUTLINE_PIECE_MIN_PX],
+            q[length >= OUTLINE_PIECE_MIN_PX],
+            length[length >= OUTLINE_PIECE_MIN_PX],
+            strict=True,
+        ):
+            out.append(
+                LineSegment(
+                    id=next_id,
+                    p1=(float(a[0]), float(a[1])),
+                    p2=(float(b[0]), float(b[1])),
+                    length_px=float(n),
+                    contrast=0.0,
+                    regions=[c.region],
+                )
+            )
+            next_id += 1
+    return out
+
+
 def edge_cover(
-    view: ViewEvidence, model: ReconstructedModel, between: frozenset[str] | None = None
+    view: ViewEvidence,
+    model: ReconstructedModel,
+    between: frozenset[str] | None = None,
+    outlines_of: frozenset[int] = frozenset(),
 ) -> float | None:
     """The share of the projected length of the model edges the view's camera sees that
     image segments lie on (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG); None: no edge to
     check or no camera. Segments are undistorted with the view's distortion first.
-    between : only the edges both of whose parts are in this set of roles."""
-    found = edge_coverage(view, model)
+    between : only the edges both of whose parts are in this set of roles.
+    outlines_of : regions whose outlines count as segments too (`edge_coverage`)."""
+    found = edge_coverage(view, model, outlines_of)
     if found is None:
         return None
     rigid, edges, covered = found

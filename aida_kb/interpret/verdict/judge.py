@@ -55,6 +55,17 @@ def _bound_parts(interp: Interpretation) -> set[str]:
     return out
 
 
+def _bound_regions(interp: Interpretation, view: str) -> frozenset[int]:
+    """Ids of the regions of `view` the interpretation binds to its parts."""
+    out = set()
+    for inst in interp.instances:
+        for b in inst.bindings:
+            head, _, tail = b.partition("/")
+            if head == view and tail.isdigit():
+                out.add(int(tail))
+    return frozenset(out)
+
+
 def judge(
     kb: KnowledgeBase,
     interp: Interpretation,
@@ -141,7 +152,8 @@ def judge(
     # (c) in the interpreted view, the edges between parts bound to its evidence are seen
     reference = evidence.views[0]
     bound = _bound_parts(interp)
-    seen = edge_cover(reference, model, frozenset(bound)) if len(bound) > 1 else None
+    outlines = _bound_regions(interp, reference.id)
+    seen = edge_cover(reference, model, frozenset(bound), outlines) if len(bound) > 1 else None
     if seen is not None and seen < SEEN_EDGE_COVER_MIN:
         reasons.append(
             f"view {reference.id}: the edges between the parts bound to its evidence are seen "
