@@ -51,13 +51,62 @@ def test_the_tie_is_decided_only_by_a_lead_of_the_margin_per_view() -> None:
     close = _candidate("", {"00": (1.0, 0.715), "01": (1.0, 0.432)})
     rival = _candidate("r=G", {"00": (1.0, 0.715), "01": (0.989, 0.476)})
     assert decide([close, rival], VIEWS[:2]) is None
-    # just under and just over the margin
+    # just under and just over the margin, over the views other than the interpreted one
     base = {"00": (1.0, 0.5), "01": (1.0, 0.5)}
-    under = {"00": (1.0, 0.5), "01": (1.0, 0.5 + 2 * REJUDGE_MARGIN - 1e-6)}
-    over = {"00": (1.0, 0.5), "01": (1.0, 0.5 + 2 * REJUDGE_MARGIN + 1e-6)}
+    under = {"00": (1.0, 0.5), "01": (1.0, 0.5 + REJUDGE_MARGIN - 1e-6)}
+    over = {"00": (1.0, 0.5), "01": (1.0, 0.5 + REJUDGE_MARGIN + 1e-6)}
     assert decide([_candidate("", base), _candidate("r=G", under)], VIEWS[:2]) is None
     winner = _candidate("r=G", over)
     assert decide([_candidate("", base), winner], VIEWS[:2]) is winner
+    # the interpreted view's own difference counts in the lead over all views...
+    ahead = {"00": (1.0, 0.5 + REJUDGE_MARGIN), "01": (1.0, 0.5 + REJUDGE_MARGIN + 1e-6)}
+    assert decide([_candidate("", base), _candidate("r=G", ahead)], VIEWS[:2]) is not None
+    # ... and so does a lead in it alone (58007: the refinement pushed the first choice's
+    # front wall out of its regions); without another view, nothing judges
+    alone = {"00": (1.0, 0.5 + 3 * REJUDGE_MARGIN), "01": (1.0, 0.5)}
+    assert decide([_candidate("", base), _candidate("r=G", alone)], VIEWS[:2]) is not None
+    assert decide([_candidate("", base), _candidate("r=G", alone)], VIEWS[:1]) is None
+
+
+def test_a_view_whose_regions_a_candidate_does_not_cover_judges_none() -> None:
+    """Dev seed 60007 (a gable): view 02 registered on the model's twin in every candidate,
+    its regions covered by none of the shed's, and its edges then favour the wrong shed."""
+    shed = Candidate(
+        "",
+        _interp("shed", []),
+        {"00": (1.0, 0.89), "01": (1.0, 0.67), "02": (0.0, 0.38)},
+        uncovered=frozenset({"02"}),
+    )
+    gable = Candidate(
+        "r=G",
+        _interp("gable", []),
+        {"00": (1.0, 0.89), "01": (1.0, 0.85), "02": (0.0, 0.16)},
+        uncovered=frozenset({"02"}),
+    )
+    assert decide([shed, gable], VIEWS) is gable  # view 01 alone: 0.18 ahead
+    # counted in, view 02 would cancel the lead
+    assert not rejudge.judging([shed, gable], VIEWS) == VIEWS
+    covered = Candidate("r=G", gable.interpretation, gable.per_view)
+    assert decide([Candidate("", shed.interpretation, shed.per_view), covered], VIEWS) is None
+
+
+def test_a_model_that_breaks_its_own_knowledge_is_no_rival() -> None:
+    """Dev seed 60019 (a shed, dark roof): the level roof and the sloping one bound to the same
+    region refine to the same model, scored alike; the level one's top slopes 14.8 deg."""
+    scores = {"00": (1.0, 0.48), "01": (1.0, 0.55), "02": (1.0, 0.58)}
+    flat = Candidate("", _interp("flat", []), dict(scores), broken=("top: slope 14.8 deg",))
+    shed = Candidate("r=S", _interp("shed", []), dict(scores))
+    assert decide([flat, shed], VIEWS) is shed
+    assert decide([shed, flat], VIEWS) is shed
+    # both break theirs: nothing told apart by it, and nothing decided
+    both = Candidate("r=S", shed.interpretation, dict(scores), broken=("x",))
+    assert decide([flat, both], VIEWS) is None
+    # a broken rival that explains the views clearly better: nothing decided
+    better = {"00": (1.0, 0.48), "01": (1.0, 0.75), "02": (1.0, 0.78)}
+    rival = Candidate("", _interp("flat", []), better, broken=("top: slope 14.8 deg",))
+    assert decide([rival, shed], VIEWS) is None
+    # only the first view judges: it left the choice open
+    assert decide([flat, Candidate("r=S", shed.interpretation, {"00": (1.0, 0.48)})], VIEWS) is None
 
 
 def test_a_weaker_choice_must_lead_the_stronger_one_that_need_not_lead_it() -> None:
@@ -112,10 +161,10 @@ def test_rejudged_views_reconstructs_each_tied_choice(
         good = "GableRoof" in interp.message
         return {"00": (1.0, 0.6), "01": (1.0, 0.65 if good else 0.35)}
 
-    ev = SimpleNamespace(views=[SimpleNamespace(id="00"), SimpleNamespace(id="01")])
+    ev = SimpleNamespace(views=[SimpleNamespace(id="00"), SimpleNamespace(id="01")], units="m")
 
     monkeypatch.setattr(rejudge, "reconstruct_views", fake_views)
-    monkeypatch.setattr(rejudge, "score", fake_score)
+    monkeypatch.setattr(rejudge, "judged", lambda i, e: (fake_score(i, e), frozenset()))
     out = rejudged_views(buildings_kb, ev)  # type: ignore[arg-type]
     assert calls == [(), (("body.roof", "GableRoof"),)]
     assert out.ties == []
@@ -124,7 +173,8 @@ def test_rejudged_views_reconstructs_each_tied_choice(
         out.message
     )
     # the other view no better: the first view's result stands with its tie (doubtful)
-    monkeypatch.setattr(rejudge, "score", lambda i, e: {"00": (1.0, 0.6), "01": (1.0, 0.5)})
+    same = {"00": (1.0, 0.6), "01": (1.0, 0.5)}
+    monkeypatch.setattr(rejudge, "judged", lambda i, e: (same, frozenset()))
     out = rejudged_views(buildings_kb, ev)  # type: ignore[arg-type]
     assert out.ties == ["body.roof=GableRoof"]
     assert "ShedRoof" in out.message
