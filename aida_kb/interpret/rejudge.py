@@ -7,8 +7,12 @@ reconstructed in turn (`multiview.reconstruct_views` with that choice made: the 
 interpreted with it, the other views registered to its model and the model refined with all),
 and every candidate is scored by what all views say of its model (`verdict.check_view`): the
 share of each view's region weight inside the projection that the model explains, plus the
-share of its visible edges' projected length that image segments lie along. A view the
-candidate could not register scores 0. The candidate whose summed score leads every other by
+share of its visible edges' projected length that image segments lie along, plus how well its
+faces hold the regions lying on them (`scene.inside_faces`, as a scene's objects are scored,
+`scene.object_score`: a shed's side wall that the region of a gable wall overflows up to the
+ridge; dev seed 60016, an L-shaped gable: the gable's faces hold a tenth more per view than
+the shed's, its edges are seen 0.03-0.06 more). A view the candidate could not register
+scores 0. The candidate whose summed score leads every other by
 `REJUDGE_MARGIN` per view wins; the tie is then decided, and the message says by what.
 Otherwise the first view's interpretation stands with its ties (and the verdict doubts it).
 
@@ -44,7 +48,8 @@ from aida_kb.io.scene import Scene
 from aida_kb.kb.model import KnowledgeBase
 from aida_kb.kb.paths import RolePath
 
-# a candidate wins when its score (per view: explained share + seen edge share, each 0..1)
+# a candidate wins when its score (per view: explained share + seen edge share + the share its
+# faces hold, each 0..1)
 # leads every other's by this much per view judged. Models with the right roof have their
 # edges seen along 52-96 % of their length, a wrong roof's or a missing wing's along 30-47 %
 # (`verdict.EDGE_COVER_MIN`); a tenth per view is a difference that noise of one refinement
@@ -52,7 +57,23 @@ from aida_kb.kb.paths import RolePath
 # view — its front wall pushed out of the regions by the refinement; seed 58003: by 0.01)
 REJUDGE_MARGIN = 0.1
 
-__all__ = ["REJUDGE_MARGIN", "Candidate", "contradicted", "decide", "rejudged_views", "score"]
+__all__ = [
+    "REJUDGE_MARGIN",
+    "Candidate",
+    "ViewScore",
+    "contradicted",
+    "decide",
+    "judged",
+    "judging",
+    "rejudged_views",
+    "score",
+]
+
+
+ViewScore = tuple[float, float | None, float | None]
+"""What one view says of a model: the explained share of the region weight inside its
+projection, the seen share of its visible edges' length (None: no edge to check), and how
+well its faces hold the regions on them (`scene.inside_faces`; None: no face judged)."""
 
 
 @dataclass(frozen=True)
@@ -60,39 +81,44 @@ class Candidate:
     """One tied choice reconstructed with every view: its interpretation and score.
 
     choice : the tied choice (``ROLE=CONCEPT``), '' for the first view's own interpretation;
-    per_view : view id -> (explained share, seen edge share or None), views it has a camera in;
+    per_view : view id -> `ViewScore`, the views it has a camera in;
     uncovered : views it has a camera in whose regions its model covers none of;
     broken : what its model breaks of its own knowledge (`contradicted`; empty: nothing).
     """
 
     choice: str
     interpretation: Interpretation
-    per_view: dict[str, tuple[float, float | None]]
+    per_view: dict[str, ViewScore]
     uncovered: frozenset[str] = frozenset()
     broken: tuple[str, ...] = ()
 
     def total(self, views: list[str]) -> float:
-        """Its score over `views`: explained share plus seen edge share per view (a view
-        without a camera, or without an edge to check, scores 0 for what it lacks)."""
+        """Its score over `views`: explained share plus seen edge share plus the share its
+        faces hold, per view (a view without a camera, without an edge to check or without a
+        face to judge, scores 0 for what it lacks)."""
         out = 0.0
         for v in views:
-            explained, edges = self.per_view.get(v, (0.0, None))
+            explained, edges, held = self.per_view.get(v, (0.0, None, None))
             out += explained + (edges if edges is not None else 0.0)
+            out += held if held is not None else 0.0
         return out
 
 
-def score(interp: Interpretation, evidence: Evidence) -> dict[str, tuple[float, float | None]]:
+def score(interp: Interpretation, evidence: Evidence) -> dict[str, ViewScore]:
     """Per view with a camera in `interp`'s model: (explained share of the region weight
-    inside the projection, seen share of the visible edges' length or None)."""
+    inside the projection, seen share of the visible edges' length or None, how well its
+    faces hold the regions on them or None: `scene.inside_faces`)."""
     return judged(interp, evidence)[0]
 
 
 def judged(
     interp: Interpretation, evidence: Evidence
-) -> tuple[dict[str, tuple[float, float | None]], frozenset[str]]:
+) -> tuple[dict[str, ViewScore], frozenset[str]]:
     """`score`, and the views with a camera in `interp`'s model whose regions it covers none
     of (`Candidate.uncovered`)."""
-    out: dict[str, tuple[float, float | None]] = {}
+    from aida_kb.interpret.scene import inside_faces  # it builds on this module
+
+    out: dict[str, ViewScore] = {}
     uncovered: set[str] = set()
     if interp.model is None:
         return out, frozenset()
@@ -101,7 +127,7 @@ def judged(
         if check is None:
             continue
         explained = check.explained_share if check.inside_weight > 0 else 0.0
-        out[view.id] = (explained, check.edge_cover)
+        out[view.id] = (explained, check.edge_cover, inside_faces(view, interp.model))
         if check.inside_weight <= 0:
             uncovered.add(view.id)
     return out, frozenset(uncovered)

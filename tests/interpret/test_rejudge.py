@@ -13,7 +13,13 @@ from aida_kb.interpret import rejudge
 from aida_kb.interpret.interpreter import Interpreter
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
-from aida_kb.interpret.rejudge import REJUDGE_MARGIN, Candidate, decide, rejudged_views
+from aida_kb.interpret.rejudge import (
+    REJUDGE_MARGIN,
+    Candidate,
+    ViewScore,
+    decide,
+    rejudged_views,
+)
 from aida_kb.interpret.result import Interpretation
 from aida_kb.io.evidence import read_evidence
 from aida_kb.io.model import ReconstructedModel
@@ -34,13 +40,20 @@ def _interp(message: str, ties: list[str]) -> Interpretation:
     )
 
 
+def _scores(per_view: Mapping[str, tuple[float, float | None]]) -> dict[str, ViewScore]:
+    """Explained and seen edge shares, no face judged."""
+    return {v: (e, s, None) for v, (e, s) in per_view.items()}
+
+
 def _candidate(choice: str, per_view: Mapping[str, tuple[float, float | None]]) -> Candidate:
-    return Candidate(choice, _interp(choice, []), dict(per_view))
+    return Candidate(choice, _interp(choice, []), _scores(per_view))
 
 
 def test_a_candidate_scores_explained_and_seen_shares_and_nothing_where_it_has_no_camera() -> None:
     c = _candidate("r=A", {"00": (1.0, 0.7), "01": (0.5, None)})
     assert c.total(VIEWS) == pytest.approx(1.0 + 0.7 + 0.5)  # no camera in 02: 0
+    held = Candidate("r=A", c.interpretation, {"00": (1.0, 0.7, 0.86), "01": (0.5, None, None)})
+    assert held.total(VIEWS) == pytest.approx(1.0 + 0.7 + 0.86 + 0.5)
 
 
 def test_the_tie_is_decided_only_by_a_lead_of_the_margin_per_view() -> None:
@@ -74,18 +87,18 @@ def test_a_view_whose_regions_a_candidate_does_not_cover_judges_none() -> None:
     shed = Candidate(
         "",
         _interp("shed", []),
-        {"00": (1.0, 0.89), "01": (1.0, 0.67), "02": (0.0, 0.38)},
+        _scores({"00": (1.0, 0.89), "01": (1.0, 0.67), "02": (0.0, 0.38)}),
         uncovered=frozenset({"02"}),
     )
     gable = Candidate(
         "r=G",
         _interp("gable", []),
-        {"00": (1.0, 0.89), "01": (1.0, 0.85), "02": (0.0, 0.16)},
+        _scores({"00": (1.0, 0.89), "01": (1.0, 0.85), "02": (0.0, 0.16)}),
         uncovered=frozenset({"02"}),
     )
     assert decide([shed, gable], VIEWS) is gable  # view 01 alone: 0.18 ahead
     # counted in, view 02 would cancel the lead
-    assert not rejudge.judging([shed, gable], VIEWS) == VIEWS
+    assert rejudge.judging([shed, gable], VIEWS) == ["00", "01"]
     covered = Candidate("r=G", gable.interpretation, gable.per_view)
     assert decide([Candidate("", shed.interpretation, shed.per_view), covered], VIEWS) is None
 
@@ -93,7 +106,7 @@ def test_a_view_whose_regions_a_candidate_does_not_cover_judges_none() -> None:
 def test_a_model_that_breaks_its_own_knowledge_is_no_rival() -> None:
     """Dev seed 60019 (a shed, dark roof): the level roof and the sloping one bound to the same
     region refine to the same model, scored alike; the level one's top slopes 14.8 deg."""
-    scores = {"00": (1.0, 0.48), "01": (1.0, 0.55), "02": (1.0, 0.58)}
+    scores = _scores({"00": (1.0, 0.48), "01": (1.0, 0.55), "02": (1.0, 0.58)})
     flat = Candidate("", _interp("flat", []), dict(scores), broken=("top: slope 14.8 deg",))
     shed = Candidate("r=S", _interp("shed", []), dict(scores))
     assert decide([flat, shed], VIEWS) is shed
@@ -102,11 +115,12 @@ def test_a_model_that_breaks_its_own_knowledge_is_no_rival() -> None:
     both = Candidate("r=S", shed.interpretation, dict(scores), broken=("x",))
     assert decide([flat, both], VIEWS) is None
     # a broken rival that explains the views clearly better: nothing decided
-    better = {"00": (1.0, 0.48), "01": (1.0, 0.75), "02": (1.0, 0.78)}
+    better = _scores({"00": (1.0, 0.48), "01": (1.0, 0.75), "02": (1.0, 0.78)})
     rival = Candidate("", _interp("flat", []), better, broken=("top: slope 14.8 deg",))
     assert decide([rival, shed], VIEWS) is None
     # only the first view judges: it left the choice open
-    assert decide([flat, Candidate("r=S", shed.interpretation, {"00": (1.0, 0.48)})], VIEWS) is None
+    lone = Candidate("r=S", shed.interpretation, _scores({"00": (1.0, 0.48)}))
+    assert decide([flat, lone], VIEWS) is None
 
 
 def test_a_weaker_choice_must_lead_the_stronger_one_that_need_not_lead_it() -> None:
@@ -159,7 +173,7 @@ def test_rejudged_views_reconstructs_each_tied_choice(
 
     def fake_score(interp: Interpretation, evidence: Any) -> dict[str, Any]:
         good = "GableRoof" in interp.message
-        return {"00": (1.0, 0.6), "01": (1.0, 0.65 if good else 0.35)}
+        return _scores({"00": (1.0, 0.6), "01": (1.0, 0.65 if good else 0.35)})
 
     ev = SimpleNamespace(views=[SimpleNamespace(id="00"), SimpleNamespace(id="01")], units="m")
 
@@ -173,7 +187,7 @@ def test_rejudged_views_reconstructs_each_tied_choice(
         out.message
     )
     # the other view no better: the first view's result stands with its tie (doubtful)
-    same = {"00": (1.0, 0.6), "01": (1.0, 0.5)}
+    same = _scores({"00": (1.0, 0.6), "01": (1.0, 0.5)})
     monkeypatch.setattr(rejudge, "judged", lambda i, e: (same, frozenset()))
     out = rejudged_views(buildings_kb, ev)  # type: ignore[arg-type]
     assert out.ties == ["body.roof=GableRoof"]
