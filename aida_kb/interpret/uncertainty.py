@@ -6,16 +6,35 @@ segments on the model's edges, its regions on the parts, the knowledge's constra
 the parts and the first shape's angles, loosely). At that solution, with J the Jacobian of
 the whitened (and robustly weighted) residuals, the covariance of the unknowns is
 
-    cov = (Σ_g J_gᵀ J_g / s_g² + J_kᵀ J_k)⁻¹,    s_g² = |r_g|² / (m_g (m - n) / m),
+    cov = (Σ_g J_gᵀ J_g / s_g² + J_kᵀ J_k)⁻¹,    s_g² = |r_g|² / Σ_{i in g} (1 - h_ii),
 
-J_g the rows of one kind of measurement (segments on edges, regions on parts: m_g of the m
-measurement rows; n unknowns) and J_k the knowledge's and the priors' rows (not measured,
-so not rescaled). s_g² is that kind's variance factor: its noise model
-(`JOINT_EDGE_SIGMA_PX` across an edge, a region's fit) scaled to the scatter its residuals
-show, each kind taking its share of the redundancy (with fewer than MIN_REDUNDANCY more
-measurements than unknowns the noise models stand as they are). A direction the evidence
-and the knowledge leave open (a part no factor reaches, a camera seeing one edge) has an
-infinite deviation.
+J_g the rows of one group of measurements (segments on edges, model edges fitted to the
+images, regions on parts) and J_k the knowledge's and the priors' rows (not measured, so not
+rescaled). s_g² is that group's variance factor: its noise model (`JOINT_EDGE_SIGMA_PX` across
+an edge, a fit's own, a region's fit) scaled to the scatter its residuals show, over the
+group's redundancy — the sum of its rows' redundancy numbers ``1 - h_ii``, h the hat matrix of
+the measurements' rows alone (`redundancy_numbers`): the share of their own errors its
+residuals keep, by each row's leverage (variance-component estimation, Förstner's; a row
+alone on an edge keeps none, a direction no measurement reaches takes none). With fewer than
+MIN_REDUNDANCY more measurements than unknowns the noise models stand as they are. A
+direction the evidence and the knowledge leave open (a part no factor reaches, a camera seeing
+one edge) has an infinite deviation.
+
+The knowledge lends no redundancy. Its constraints take unknowns away, so counted in h they
+would leave the measurements more redundancy and smaller factors; but they are the
+hypothesis under test, and a wrong one would certify itself: the tree crown of
+tests/interpret/test_verdict.py (26 measurements, 18 unknowns, redundancy 8 alone, 14.4 with
+the knowledge) got factors 0.06 / 0.006 instead of 1, and was verified as a house.
+
+Calibration. On a synthetic joint adjustment with known noise (a box seen in three views,
+segments with 0.5 px noise against the 4 px noise model, the meeting angles as priors:
+``tests/interpret/test_calibration.py``) the cameras' mean squared error over their squared
+deviation is 0.76 over 30 noise draws (the exact priors' redundancy not counted: 0.97 if it
+were; 0.72 with the redundancy m - n shared by row count, as before). On rendered scenes, over
+the registered cameras of right models (benchmark presets and dev seeds), the error over the
+deviation has a median of 0.6 and a 90th percentile of 1.4 (a calibrated deviation of a 3-D
+rotation: 0.7-0.9 and 1.4-1.6): the deviation of the cameras is mostly the model's orientation
+in the first view's frame (house preset seed 0: 0.09 deg; 0.012 deg given the model).
 
 The deviations, one per part (its normal, degrees; its offset at its centre, metres) and
 one per camera of a view the adjustment moves (its rotation, degrees; its centre, metres),
@@ -222,6 +241,43 @@ def measurement_group(c: Constraint) -> str:
     return c.kind
 
 
+def redundancy_numbers(J: FloatArray) -> FloatArray:
+    """(m,) each row's redundancy number ``1 - h_ii``, h the hat matrix ``J (JᵀJ)⁺ Jᵀ`` of the
+    whitened Jacobian J (m, n): the share of its own error a row's residual keeps at the
+    solution (the rest the unknowns absorb). They sum to m - rank(J); directions J leaves open
+    take none (the pseudo-inverse)."""
+    if J.shape[1] == 0:
+        return np.ones(J.shape[0])
+    w, V = np.linalg.eigh(J.T @ J)
+    keep = w > NULL_EIGEN_REL * max(float(w.max()), 0.0)
+    basis = J @ (V[:, keep] / np.sqrt(w[keep]))  # orthonormal columns spanning J's range
+    out: FloatArray = np.clip(1.0 - (basis * basis).sum(axis=1), 0.0, 1.0)
+    return out
+
+
+def variance_factors(
+    r: FloatArray, J: FloatArray, groups: npt.NDArray[np.str_], measured: npt.NDArray[np.bool_]
+) -> dict[str, float]:
+    """Each group of measurements' variance factor: its whitened residuals' sum of squares over
+    its rows' redundancy numbers (`redundancy_numbers`; r (m,) and J (m, n) of every row,
+    knowledge and priors too, `groups` (m,) each row's group, `measured` (m,) which rows are
+    measurements). 1 for every group when the measurements outnumber the unknowns by fewer
+    than MIN_REDUNDANCY; the fitted image edges' never under IMAGE_EDGE_MIN_FACTOR."""
+    kinds = sorted(set(groups[measured].tolist()))
+    if int(measured.sum()) - J.shape[1] < MIN_REDUNDANCY:
+        return dict.fromkeys(kinds, 1.0)
+    red = redundancy_numbers(J[measured])
+    rm, gm = r[measured], groups[measured]
+    factors = {}
+    for kind in kinds:
+        sel = gm == kind
+        share = float(red[sel].sum())
+        factors[kind] = max(float(rm[sel] @ rm[sel]) / share, FACTOR_FLOOR) if share > 0 else 1.0
+        if kind == IMAGE_EDGE_LABEL:  # fitted around the model's own edges: see the constant
+            factors[kind] = max(factors[kind], IMAGE_EDGE_MIN_FACTOR)
+    return factors
+
+
 def problem_uncertainty(
     problem: Problem,
     names: Sequence[str],
@@ -254,18 +310,7 @@ def problem_uncertainty(
     measured = np.array([c.measurement for c in rows], dtype=bool)
     kinds = np.array([measurement_group(c) for c in rows])
     m, n = int(measured.sum()), ev.n_params
-    # the variance factor of each kind of measurement (segments, fitted image edges, regions:
-    # their noise models differ), each kind's rows taking their share of the redundancy
-    # m - n; without redundancy the noise models stand as they are
-    factors = {}
-    for kind in sorted(set(kinds[measured].tolist())):
-        sel = kinds == kind
-        share = int(sel.sum()) * (m - n) / m
-        factors[kind] = (
-            max(float(r[sel] @ r[sel]) / share, FACTOR_FLOOR) if m - n >= MIN_REDUNDANCY else 1.0
-        )
-        if kind == IMAGE_EDGE_LABEL:  # fitted around the model's own edges: see the constant
-            factors[kind] = max(factors[kind], IMAGE_EDGE_MIN_FACTOR)
+    factors = variance_factors(r, J, kinds, measured)
     info = J[~measured].T @ J[~measured]
     for kind, fk in factors.items():
         sel = kinds == kind

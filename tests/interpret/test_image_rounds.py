@@ -131,9 +131,10 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
     assert sum(p in fitted_pairs for p in both) == 2  # a fitted edge: its fit, no segment
     others = {p for p in both if p not in fitted_pairs}
     assert len(others) >= 3  # the other visible edges: measured by their segments
-    # the covariance: the fits have a variance factor of their own, never under 1 (fitted
-    # at the true pose, their residuals are hundredths of their noise model's); a third view
-    # (segments) gives the redundancy to estimate the factors
+    # the covariance: the fits have a variance factor of their own, never under
+    # IMAGE_EDGE_MIN_FACTOR (fitted at the true pose, their residuals are a fraction of their
+    # noise model's; over their redundancy numbers, 0.125 here); a third view (segments) gives
+    # the redundancy to estimate the factors
     third = turned(ref, vertical_axis(model, ref), model.centroid, math.radians(-30.0))
     views3 = [*views, _view("02", *simulated_segments(model, third, rng, clutter=0))]
     cams = [ref, cam, third]
@@ -144,7 +145,7 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
     assert unc is not None
     assert unc.measurements - unc.unknowns >= 10
     assert set(unc.factors) == {"edge", IMAGE_EDGE_LABEL}
-    assert unc.factors[IMAGE_EDGE_LABEL] == IMAGE_EDGE_MIN_FACTOR
+    assert IMAGE_EDGE_MIN_FACTOR <= unc.factors[IMAGE_EDGE_LABEL] < 0.5
     assert unc.factors["edge"] < 0.2  # segments at 0.5 px noise: a tenth of the 4 px model
     assert 0.0 < unc.cameras["01"][0] < 1.0
     assert 0.0 < unc.cameras["02"][0] < 1.0
@@ -199,7 +200,8 @@ def test_a_camera_fixed_by_its_image_edges_keeps_that_deviation(
     wide_unc = adjustment_uncertainty(buildings_kb, with_camera(wide), two_views)
     said = camera_doubts("01", with_camera(wide).model, wide_unc)  # type: ignore[arg-type]
     assert said
-    assert "+-0.08 deg" in said[0]
+    assert "+-0.16 deg" in said[0]  # at two sd, the figure held against 0.1 deg
+    assert "sd 0.080 deg" in said[0]
     assert "fitted along the images" in said[0]
 
 

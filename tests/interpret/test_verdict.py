@@ -279,7 +279,7 @@ def test_a_registered_camera_is_fixed_by_the_adjustment(
     # 0.1 deg stays likely (about one in three): doubtful, the rule named
     whole = judge(buildings_kb, two, second(12, True))
     assert whole.verdict == DOUBTFUL
-    assert any("(2 sd at most 0.1 deg" in r for r in whole.reasons)
+    assert any("at 2 sd (at most 0.1 deg" in r for r in whole.reasons)
     assert CAMERA_SD_CONFIDENCE * angle > 0.1
     # the same camera fixed twice as well passes check (c)
     assert camera_doubts("01", two.model, replace(full, cameras={"01": (0.04, 0.03)})) == []

@@ -41,10 +41,12 @@ def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None)
         else f"{unc.measurements} measurements, their scatter "
         f"{unc.variance_factor**0.5:.2f} of their noise model"
     )
+    # the figures said are those held against the limits: k sd (the sd itself in brackets)
     return [
-        f"camera is fixed by the adjustment only to +-{angle:.2f} deg and +-{100 * centre:.1f}% "
-        f"of its distance ({k:g} sd at most {CAMERA_ANGLE_SD_MAX_DEG:g} deg and "
-        f"{100 * CAMERA_CENTRE_SD_MAX:g}%; {by})"
+        f"camera is fixed by the adjustment only to +-{k * angle:.2f} deg and "
+        f"+-{100 * k * centre:.1f}% of its distance at {k:g} sd (at most "
+        f"{CAMERA_ANGLE_SD_MAX_DEG:g} deg and {100 * CAMERA_CENTRE_SD_MAX:g}%; sd {angle:.3f} deg; "
+        f"{by})"
     ]
 
 

@@ -1,0 +1,213 @@
+"""Calibration of the registered cameras' standard deviations (not a test). Prints a line per
+camera, then ONE line of JSON.
+
+Reads the per-scene lines of `benchmarks/robustness.py` runs (``seed N kind ... {json}``, e.g.
+the file its output went to) and, over the registered cameras of the scenes whose model is
+right (the right specialisations, normals within 0.5 deg, vertices within 2 %: evaluate's cause
+"", "camera" or "right but doubtful"), compares each camera's true rotation error with the
+standard deviation the adjustment gave it (`aida_kb.interpret.uncertainty`; evaluate's
+``sd_deg``, one sd). For an honest deviation of a 3-D rotation, error / sd has a median of
+0.7-0.9 and a 90th percentile of 1.4-1.6 (0.67 and 1.64 when one axis dominates, as the turn
+about the vertical does here), and about 95 % of the cameras lie within two sd.
+
+Figures: ``cameras`` (counted), ``median_err_over_sd``, ``p90_err_over_sd``, ``within_2sd``;
+``twins``: cameras of right models more than TWIN_DEG off (a view registered on a symmetric
+twin of the model: a registration's failure, left out of the figures above and counted here);
+``passing``: cameras of right models whose two sd meet the verdict's 0.1 deg, and of those
+``passing_off``, more than 0.1 deg off; over the scenes whose model is wrong,
+``wrong_scenes`` and ``wrong_verified`` (verified although wrong: must be 0) and
+``wrong_camera_passing`` (their cameras whose two sd meet 0.1 deg: the camera check alone
+would let them through). Run: ``python benchmarks/camera_sd.py OUT.txt [OUT2.txt ...]``.
+
+Without runs it measures the calibration on a synthetic joint adjustment with known noise
+(`synthetic_calibration`: a box seen in three views, segments with 0.5 px noise against the
+adjustment's 4 px noise model, the meeting angles as exact priors, 30 noise draws; also
+``tests/interpret/test_calibration.py``): ``synthetic_mean_sq`` is the mean of error² / sd²
+(1 when honest), ``synthetic_median_err_over_sd`` and ``synthetic_edge_factor`` the segments'
+variance factor found (the truth: (0.5 / 4)² = 0.0156).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+
+RIGHT_CAUSES = ("", "camera", "right but doubtful")
+"""Evaluate's causes of a scene whose model is right (its cameras may be off or doubted)."""
+TWIN_DEG = 5.0
+"""A camera this far off sits on a symmetric twin of the model (90 or 180 deg): no matter of
+the deviations' calibration."""
+SD_LIMIT_DEG = 0.1
+"""The verdict's limit on a registered camera's two standard deviations, degrees
+(`aida_kb.interpret.verdict.tolerances.CAMERA_ANGLE_SD_MAX_DEG`)."""
+
+
+def scene_lines(paths: list[Path]) -> list[dict[str, object]]:
+    """The JSON figures of every ``seed ...`` line of the files, with its seed."""
+    out = []
+    for path in paths:
+        for line in path.read_text(encoding="utf-8").splitlines():
+            if not line.startswith("seed ") or "{" not in line:
+                continue
+            figures = json.loads(line[line.index("{") :])
+            figures["seed"] = int(line.split()[1])
+            out.append(figures)
+    return out
+
+
+SYNTHETIC_NOISE_PX = 0.5
+"""The synthetic segments' edge-point noise, pixels (an eighth of the 4 px noise model)."""
+
+
+def synthetic_calibration(draws: int = 30) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Errors (degrees), standard deviations (degrees) of the two free cameras of a box seen
+    in three views, adjusted to segments with `SYNTHETIC_NOISE_PX` noise (seeds 0..draws-1),
+    and each draw's variance factor of the segments: (2·draws,), (2·draws,), (draws,)."""
+    import aida_kb.interpret.multiview as mv
+    from aida_kb.geometry.camera import PinholeCamera
+    from aida_kb.interpret.uncertainty import problem_uncertainty
+    from aida_kb.register import RegionMeasurements, RigidModel, turned, vertical_axis
+    from aida_kb.register.evidence import ViewMeasurements
+    from aida_kb.testing.segments import simulated_segments
+
+    c = np.array([0.0, 0.3, 1.4])
+    half = np.array([0.2, 0.125, 0.15])
+    signs = {(i, j, k): c + half * (i, j, k) for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)}
+    quads = (  # outward normal, and the corners counter-clockwise seen from outside
+        ((0, 0, -1), [(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1)]),
+        ((0, 0, 1), [(-1, -1, 1), (-1, 1, 1), (1, 1, 1), (1, -1, 1)]),
+        ((-1, 0, 0), [(-1, -1, -1), (-1, 1, -1), (-1, 1, 1), (-1, -1, 1)]),
+        ((1, 0, 0), [(1, -1, -1), (1, -1, 1), (1, 1, 1), (1, 1, -1)]),
+        ((0, -1, 0), [(-1, -1, -1), (-1, -1, 1), (1, -1, 1), (1, -1, -1)]),
+        ((0, 1, 0), [(-1, 1, -1), (1, 1, -1), (1, 1, 1), (-1, 1, 1)]),
+    )
+    normals = np.array([q[0] for q in quads], dtype=np.float64)
+    polys = [np.array([signs[k] for k in q[1]]) for q in quads]
+    offsets = np.einsum("ij,ij->i", normals, np.array([p[0] for p in polys]))
+    model = RigidModel.from_polygons([f"f{i}" for i in range(6)], normals, offsets, polys)
+    K = np.array([[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]])
+    tilt = math.radians(12.0)  # the reference looks 12 deg down; the others turned about it
+    R = np.array(
+        [
+            [1.0, 0.0, 0.0],
+            [0.0, math.cos(tilt), -math.sin(tilt)],
+            [0, math.sin(tilt), math.cos(tilt)],
+        ]
+    )
+    ref = PinholeCamera(K, R, -R @ np.array([0.0, -0.05, 0.0]), 640, 480)
+    axis = vertical_axis(model, ref)
+    cams = [ref, *(turned(ref, axis, model.centroid, math.radians(a)) for a in (35.0, -30.0))]
+    none = RegionMeasurements(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+    inputs = mv.JointInputs(mv.meeting_angles(model))
+    errors, sds, factors = [], [], []
+    for seed in range(draws):
+        rng = np.random.default_rng(seed)
+        views = [
+            ViewMeasurements(
+                f"0{k}",
+                K,
+                640,
+                480,
+                *simulated_segments(
+                    model,
+                    cam,
+                    rng,
+                    noise_px=SYNTHETIC_NOISE_PX,
+                    clutter=0,
+                    split_fraction=0,
+                    drop_fraction=0,
+                ),
+                none,
+            )
+            for k, cam in enumerate(cams)
+        ]
+        n, d, adjusted, _ = mv.joint_adjustment(model, cams, views, [1, 2], inputs)
+        rigid, _ = mv._rebuilt(model, n, d)
+        problem = mv.joint_problem(rigid, list(adjusted), views, [1, 2], inputs)
+        unc = problem_uncertainty(problem, rigid.names, list(adjusted), [1, 2], ["01", "02"])
+        if unc is None:
+            raise RuntimeError(f"draw {seed}: no covariance")
+        factors.append(unc.factors["edge"])
+        for k, view in ((1, "01"), (2, "02")):
+            Rk = adjusted[k].R_cam_world @ cams[k].R_cam_world.T
+            cos = (float(np.trace(Rk)) - 1.0) / 2.0
+            errors.append(math.degrees(math.acos(min(1.0, max(-1.0, cos)))))
+            sds.append(unc.cameras[view][0])
+    return np.asarray(errors), np.asarray(sds), np.asarray(factors)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Read the runs, print a line per camera and the JSON summary."""
+    parser = argparse.ArgumentParser(
+        description="Calibration of the cameras' deviations over robustness runs.",
+        epilog="example: python benchmarks/camera_sd.py /tmp/rb60/err.txt",
+    )
+    parser.add_argument("runs", nargs="*", type=Path, help="robustness.py output files")
+    runs = parser.parse_args(argv).runs
+    if not runs:
+        errs, sds, factors = synthetic_calibration()
+        z = errs / sds
+        synthetic = {
+            "synthetic_mean_sq": round(float(np.mean(z**2)), 3),
+            "synthetic_median_err_over_sd": round(float(np.median(z)), 3),
+            "synthetic_edge_factor": round(float(np.median(factors)), 4),
+        }
+        print(json.dumps(synthetic))
+        return
+    scenes = scene_lines(runs)
+    ratios: list[float] = []
+    twins = passing = passing_off = wrong = wrong_verified = wrong_passing = 0
+    for s in scenes:
+        listed = s.get("cameras")
+        cams = (
+            [c for c in listed if isinstance(c, dict) and c.get("sd_deg")]
+            if isinstance(listed, list)
+            else []
+        )
+        right = bool(s.get("expected_object")) and s.get("cause") in RIGHT_CAUSES
+        if not right:
+            if s.get("expected_object") and s.get("outcome") != "nothing":
+                wrong += 1
+                wrong_verified += s.get("outcome") == "verified"
+                wrong_passing += sum(2 * c["sd_deg"] <= SD_LIMIT_DEG for c in cams)
+            continue
+        for c in cams:
+            err, sd = float(c["angle_deg"]), float(c["sd_deg"])
+            if not math.isfinite(err) or err > TWIN_DEG:
+                twins += 1
+                continue
+            ratios.append(err / sd)
+            if 2 * sd <= SD_LIMIT_DEG:
+                passing += 1
+                passing_off += err > SD_LIMIT_DEG
+            print(
+                f"seed {s['seed']} view {c['view']}: {err:.4f} deg off, sd {sd:.4f} "
+                f"({err / sd:.2f} sd)",
+                file=sys.stderr,
+            )
+    r = np.asarray(ratios)
+    summary = {
+        "cameras": int(r.size),
+        "median_err_over_sd": round(float(np.median(r)), 3) if r.size else None,
+        "p90_err_over_sd": round(float(np.percentile(r, 90)), 3) if r.size else None,
+        "within_2sd": round(float(np.mean(r <= 2.0)), 3) if r.size else None,
+        "twins": twins,
+        "passing": passing,
+        "passing_off": passing_off,
+        "wrong_scenes": wrong,
+        "wrong_verified": wrong_verified,
+        "wrong_camera_passing": wrong_passing,
+    }
+    print(json.dumps(summary))
+
+
+if __name__ == "__main__":
+    main()
