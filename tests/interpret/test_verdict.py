@@ -21,6 +21,7 @@ from aida_kb.interpret.verdict import (
     NORMAL_TOLERANCE_DEG,
     NOTHING,
     VERIFIED,
+    ViewCheck,
     camera_doubts,
     contested,
     edge_cover,
@@ -572,3 +573,50 @@ def test_regions_meeting_along_an_edge_show_it_where_no_segment_does(interpreted
     moved = edge_cover(off, model, frozenset(bound), regions)
     assert moved is not None
     assert moved < 0.2
+
+
+def test_a_ground_region_centred_behind_the_house_does_not_contradict_it(
+    interpreted: Get,
+) -> None:
+    # a street's ground: its centre lies on the floor's plane behind the house, so the ray
+    # through it meets the house, but its outline lies mostly beside the house. Continuing
+    # the floor's plane it is neutral; a wall there (continuing no face) is seen through it.
+    interp = interpreted("house_correct.json")
+    model = interp.model
+    assert model is not None
+    cam = model.cameras[0]
+    K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
+    C = -R.T @ t
+    floor = next(p for p in model.parts if p.role.endswith("floor"))
+    n, poly = np.asarray(floor.normal), np.asarray(floor.polygon)
+    away = poly.mean(axis=0) - C
+    away -= (away @ n) * n  # along the floor, away from the camera
+    away /= np.linalg.norm(away)
+    size = float(np.ptp(poly, axis=0).max())
+    behind = poly.mean(axis=0) + 0.6 * size * away  # on the floor's plane, hidden by the house
+    x = K @ (R @ behind + t)
+    assert 0 < x[0] / x[2] < 640
+    view = _evidence("house_correct.json").views[0]
+    total = sum(r.w_c for r in view.regions)
+    x_mid, y_mid = x[0] / x[2], x[1] / x[2]
+    outline = [(0.0, 479.0), (639.0, 479.0), (639.0, y_mid), (x_mid + 5, y_mid), (0.0, y_mid)]
+
+    def judged(normal: np.ndarray) -> ViewCheck:
+        ground = view.regions[0].model_copy(
+            update={
+                "id": 99,
+                "n_init": tuple(float(v) for v in normal),
+                "c_init": tuple(float(v) for v in behind),
+                "d_init": float(normal @ behind),
+                "w_c": 0.3 * total,
+            }
+        )
+        contour = Contour(id=1, region=99, points=outline)
+        seen = view.model_copy(update={"regions": [*view.regions, ground], "contours": [contour]})
+        check = check_view(seen, model)
+        assert check is not None
+        return check
+
+    assert 99 not in {c[0] for c in judged(n).contradicting}
+    front = next(p for p in model.parts if p.role.endswith("front"))
+    assert 99 in {c[0] for c in judged(np.asarray(front.normal)).contradicting}

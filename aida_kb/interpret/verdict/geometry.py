@@ -62,7 +62,7 @@ def project(camera: ModelCamera, points: FloatArray) -> FloatArray:
     return out
 
 
-def _densified(polygon_px: FloatArray) -> FloatArray:
+def densified(polygon_px: FloatArray) -> FloatArray:
     """A closed polygon (N, 2) sampled every OUTLINE_STEP_PX along its sides (M, 2)."""
     nxt = np.roll(polygon_px, -1, axis=0)
     steps = np.maximum(1, (np.linalg.norm(nxt - polygon_px, axis=1) // OUTLINE_STEP_PX)).astype(int)
@@ -92,7 +92,7 @@ def outline_points(
     out, tol = [], []
     for c in contours:
         r = planes[c.region]
-        px = _densified(np.asarray(c.points, dtype=np.float64))
+        px = densified(np.asarray(c.points, dtype=np.float64))
         rays = np.linalg.solve(K, np.vstack([px.T, np.ones(len(px))])).T  # (N, 3) camera frame
         n_cam = R_cam_frame @ np.asarray(r.n_init, dtype=np.float64)
         d_cam = float(r.d_init) + float(n_cam @ t_cam_frame)

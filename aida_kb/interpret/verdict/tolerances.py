@@ -12,6 +12,11 @@ NORMAL_TOLERANCE_DEG = 8.0  # a region's normal within 8 degrees of the face's (
 REGION_NORMAL_SIGMAS = 2.0  # ... or within two sigmas of the region's own plane fit where
 # that is wider (verify.TILT_FIT_SIGMA_FACTOR makes the sigma honest: 95 % of the labelled
 # dev regions lie within two of it of their true faces)
+OUTLINE_INSIDE_MIN = 0.5  # a region continuing a face's plane beyond the face, whose centre's
+# ray meets the model, lies inside its projection only if the rays of half its outline do too
+# (a street's ground region, its centre behind a house, lies mostly beside the houses: it was
+# "seen 9 m beyond" the true street 62104; a missing wing's wall continues no face and still
+# contradicts)
 INSIDE_MARGIN = 0.05  # a region's centre may lie this fraction of the face's size outside it
 EXPLAINED_MIN = 0.75  # the explained share of the weight inside the projection, at least
 CONTRADICTION_MAX = 0.08  # one region that contradicts the model may carry at most this

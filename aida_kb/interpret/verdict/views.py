@@ -11,6 +11,7 @@ from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
 from aida_kb.interpret.verdict.edges import edge_cover
 from aida_kb.interpret.verdict.geometry import (
     FloatArray,
+    densified,
     inside_polygon,
     model_faces,
     model_size,
@@ -25,12 +26,13 @@ from aida_kb.interpret.verdict.tolerances import (
     MIN_WEIGHT_SHARE,
     NEAR_MARGIN,
     NORMAL_TOLERANCE_DEG,
+    OUTLINE_INSIDE_MIN,
     REGION_NORMAL_SIGMAS,
     STANDING_OUT_MAX,
 )
 from aida_kb.interpret.verify import TILT_FIT_SIGMA_FACTOR
 from aida_kb.io.evidence import Region, ViewEvidence
-from aida_kb.io.model import ReconstructedModel
+from aida_kb.io.model import ModelCamera, ReconstructedModel
 
 
 def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | None:
@@ -60,7 +62,8 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
     turned_on: dict[str, float] = {}
     nearest = np.full(m, np.inf)  # ray parameter of the first model face the ray meets
     nearest_cos = np.zeros(m)  # |cos| between the region's normal and that face's
-    for role, n, d, poly in model_faces(model):
+    faces = model_faces(model)
+    for role, n, d, poly in faces:
         # (1) the region lies on this face
         on_plane = np.abs(centres @ n - d) <= tol
         aligned = np.abs(normals @ n) >= cos_on
@@ -88,7 +91,15 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
             closer = hit & (s < nearest)
             nearest[closer] = s[closer]
             nearest_cos[closer] = np.abs(normals[closer] @ n)
-    inside = keep & np.isfinite(nearest)
+    # a region lies inside the projection when the ray through its centre meets the model —
+    # except one continuing a face's plane beyond the face (the ground beyond the floors)
+    # whose outline lies mostly outside the projection: a street's ground region, its centre
+    # seen behind one house, lies mostly beside the houses
+    share = _outline_inside_share(view, regions, model, camera)
+    beside = ~explained & (share < OUTLINE_INSIDE_MIN)
+    for i in np.nonzero(beside)[0]:
+        beside[i] = _continues_face(normals[i], centres[i], float(tol[i]), faces, float(cos_on[i]))
+    inside = keep & np.isfinite(nearest) & ~beside
     gap = (nearest - 1.0) * dist  # > 0: the model's surface lies beyond the region
     size = model_size(model)
     # in front of the model: something standing before it (neutral) unless it is close to
@@ -123,6 +134,45 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
         float(weights[standing_out & keep].sum()),
         turned_on,
     )
+
+
+def _outline_inside_share(
+    view: ViewEvidence, regions: list[Region], model: ReconstructedModel, camera: ModelCamera
+) -> FloatArray:
+    """Per region (M,): the share of its outer outline's points (every OUTLINE_STEP_PX) whose
+    rays through the view's model camera meet a model face; NaN where it has no outline."""
+    index = {r.id: i for i, r in enumerate(regions)}
+    pixels, owner = [], []
+    for c in view.contours:
+        if c.hole or c.region not in index:
+            continue
+        px = densified(np.asarray(c.points, dtype=np.float64))
+        pixels.append(px)
+        owner.append(np.full(len(px), index[c.region]))
+    out = np.full(len(regions), np.nan)
+    if not pixels:
+        return out
+    px, who = np.vstack(pixels), np.concatenate(owner)
+    K = np.asarray(camera.K, dtype=np.float64)
+    R = np.asarray(camera.R, dtype=np.float64)
+    t = np.asarray(camera.t, dtype=np.float64)
+    C = -R.T @ t
+    rays = np.linalg.solve(K, np.vstack([px.T, np.ones(len(px))])).T @ R  # (P, 3) world
+    hit = np.zeros(len(px), bool)
+    for _, n, d, poly in model_faces(model):
+        denom = rays @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (d - C @ n) / denom
+        ok = np.isfinite(s) & (s > 0) & ~hit
+        if ok.any():
+            idx = np.nonzero(ok)[0]
+            hit[idx] = inside_polygon(C + s[idx, None] * rays[idx], poly, n)
+    counts = np.bincount(who, minlength=len(regions)).astype(np.float64)
+    hits = np.bincount(who, hit.astype(np.float64), minlength=len(regions))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = hits / counts
+    out[counts > 0] = share[counts > 0]
+    return out
 
 
 def adjoining(view: ViewEvidence, model: ReconstructedModel, check: ViewCheck) -> list[str]:
