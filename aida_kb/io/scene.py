@@ -25,7 +25,7 @@ import contextlib
 import math
 import os
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from tokenize import TokenError
@@ -884,6 +884,13 @@ def _decoded(file: Path, data: npt.NDArray[np.uint8], flags: int) -> npt.NDArray
     if problem is not None:
         raise FormatError(f"{file}: {problem}")
     return np.asarray(img)
+
+
+def left_images(
+    scene: Scene, ids: Collection[str] | None = None
+) -> dict[str, npt.NDArray[np.uint8]]:
+    """View id -> its left image, 8-bit grey, as taken (of every view, or of those in `ids`)."""
+    return {v.id: read_image(v.left, grey=True) for v in scene.views if ids is None or v.id in ids}
 
 
 def read_image(path: str | os.PathLike[str], *, grey: bool = False) -> npt.NDArray[np.uint8]:

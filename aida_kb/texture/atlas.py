@@ -38,6 +38,7 @@ from aida_kb.io.scene import Scene, read_image
 from aida_kb.register.evidence import camera_of
 from aida_kb.texture.raycast import Faces, IntArray, face_buffer, inside_polygon
 from aida_kb.texture.sample import sample_bilinear
+from aida_kb.vision.rectify import distort_pixels
 
 FloatArray = npt.NDArray[np.float64]
 U8 = npt.NDArray[np.uint8]
@@ -194,23 +195,10 @@ def _texel_points(faces: Faces, f: int, chart: _Chart, size_m: float) -> FloatAr
 
 
 def distorted_pixels(points_cam: FloatArray, K: FloatArray, D: FloatArray) -> FloatArray:
-    """Pixels (N, 2) of camera-frame points (N, 3) in the original (distorted) image.
-
-    OpenCV's distortion model; the common 4- and 5-coefficient forms (k1 k2 p1 p2 [k3]) are
-    evaluated here, longer ones by ``cv2.projectPoints``.
-    """
-    if D.size > 5:
-        out, _ = cv2.projectPoints(points_cam, np.zeros(3), np.zeros(3), K, D)
-        return np.asarray(out, np.float64).reshape(-1, 2)
-    k = np.zeros(5)
-    k[: D.size] = D.ravel()
-    x = points_cam[:, 0] / points_cam[:, 2]
-    y = points_cam[:, 1] / points_cam[:, 2]
-    r2 = x * x + y * y
-    radial = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]))
-    xd = x * radial + 2.0 * k[2] * x * y + k[3] * (r2 + 2.0 * x * x)
-    yd = y * radial + k[2] * (r2 + 2.0 * y * y) + 2.0 * k[3] * x * y
-    return np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], axis=1)
+    """Pixels (N, 2) of camera-frame points (N, 3) in the original (distorted) image
+    (`aida_kb.vision.rectify.distort_pixels` of their pinhole pixels)."""
+    pinhole = points_cam @ K.T
+    return distort_pixels(pinhole[:, :2] / pinhole[:, 2:3], K, D)
 
 
 def _visible(buffer: IntArray, f: int, pixels: FloatArray, z: FloatArray) -> npt.NDArray[np.bool_]:

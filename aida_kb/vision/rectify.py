@@ -195,6 +195,30 @@ def sample_points(
     return flat[:, 0] if arr.ndim == 2 else flat
 
 
+def distort_pixels(pixels: F64, K: F64, D: F64) -> F64:
+    """Pixels (N, 2) where pinhole camera K sees points, moved to the original (distorted)
+    image: the inverse of `undistort_pixels`.
+
+    OpenCV's distortion model; the common 4- and 5-coefficient forms (k1 k2 p1 p2 [k3]) are
+    evaluated here, longer ones by ``cv2.projectPoints``. With no distortion (D empty or all
+    zero) ``pixels`` is returned unchanged.
+    """
+    if D.size == 0 or not np.any(D) or pixels.shape[0] == 0:
+        return pixels
+    rays = np.linalg.solve(K, np.vstack([pixels.T, np.ones(len(pixels))])).T  # (N, 3)
+    if D.size > 5:
+        out, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), K, D)
+        return np.asarray(out, np.float64).reshape(-1, 2)
+    k = np.zeros(5)
+    k[: D.size] = D.ravel()
+    x, y = rays[:, 0] / rays[:, 2], rays[:, 1] / rays[:, 2]
+    r2 = x * x + y * y
+    radial = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]))
+    xd = x * radial + 2.0 * k[2] * x * y + k[3] * (r2 + 2.0 * x * x)
+    yd = y * radial + k[2] * (r2 + 2.0 * y * y) + 2.0 * k[3] * x * y
+    return np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], axis=1)
+
+
 def undistort_pixels(pixels: F64, K: F64, D: F64) -> F64:
     """Pixels (N, 2) of the original (distorted) image moved to where pinhole camera K sees them.
 

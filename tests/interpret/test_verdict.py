@@ -620,3 +620,41 @@ def test_a_ground_region_centred_behind_the_house_does_not_contradict_it(
     assert 99 not in {c[0] for c in judged(n).contradicting}
     front = next(p for p in model.parts if p.role.endswith("front"))
     assert 99 in {c[0] for c in judged(np.asarray(front.normal)).contradicting}
+
+
+def test_the_image_shows_edges_no_segment_was_found_along(interpreted: Get) -> None:
+    # the faces a few grey levels apart under texture: the steps across the model's edges
+    # show them (check (c)); the model a metre off finds no steps where its edges fall
+    import cv2
+
+    interp = interpreted("house_correct.json")
+    model = interp.model
+    assert model is not None
+    cam = model.cameras[0]
+    K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
+    C = -R.T @ t
+    view = _evidence("house_correct.json").views[0]
+    image = np.full((view.image_height, view.image_width), 60.0)
+    faces = sorted(model.parts, key=lambda p: -float(np.linalg.norm(np.mean(p.polygon, 0) - C)))
+    for k, part in enumerate(faces):  # far faces first, near ones painted over them
+        if np.asarray(part.normal) @ (np.mean(part.polygon, axis=0) - C) >= 0:
+            continue  # turned away
+        x = (np.asarray(part.polygon) @ R.T + t) @ K.T
+        cv2.fillPoly(image, [np.round(x[:, :2] / x[:, 2:]).astype(np.int32)], 100.0 + 8.0 * k)
+    rng = np.random.default_rng(5)
+    grey = np.clip(image + rng.normal(0.0, 6.0, image.shape), 0, 255).astype(np.uint8)
+    far = view.lines[:1]  # one segment, so that the check runs; it lies on no model edge
+    bare = view.model_copy(
+        update={"lines": [far[0].model_copy(update={"p1": (5.0, 5.0), "p2": (5.0, 60.0)})]}
+    )
+    without = check_view(bare, model)
+    with_image = check_view(bare, model, grey)
+    assert without is not None
+    assert with_image is not None
+    assert without.edge_cover == pytest.approx(0.0)
+    assert with_image.edge_cover is not None
+    assert with_image.edge_cover > 0.9
+    moved = check_view(bare, _moved(model, 1.0, (1.0, 0.0, 0.0)), grey)
+    assert moved is not None
+    assert moved.edge_cover is not None
+    assert moved.edge_cover < 0.5

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from aida_kb.vision.lines import (
     UNREFINED_SIGMA_PX,
     attach_segments,
     detect_segments,
+    edge_steps,
     fit_segments,
     refine_segments,
 )
@@ -154,3 +156,17 @@ def test_region_contours_with_a_hole() -> None:
         (99, 89),
     ]
     assert len(holes[0]) == 4
+
+
+def test_a_faint_steady_step_along_a_line_stands_out_of_texture() -> None:
+    # two faces 4 grey levels apart under texture of sd 8: no segment need be found there,
+    # but along 200 px the step is many standard errors; a line across one face shows none
+    rng = np.random.default_rng(3)
+    img = 120.0 + rng.normal(0.0, 8.0, (200, 300))
+    img[:, 150:] += 4.0
+    grey = np.clip(img, 0, 255).astype(np.uint8)
+    ends = np.array([[[150.0, 0.0], [150.0, 199.0]], [[75.0, 0.0], [75.0, 199.0]]])
+    step, z = edge_steps(grey, ends - [[0.5, 0.0], [0.0, 0.0]])
+    assert abs(step[0]) == pytest.approx(4.0, abs=1.5)
+    assert abs(z[0]) > 5.0
+    assert abs(z[1]) < 3.0

@@ -15,6 +15,8 @@ from aida_kb.interpret.verdict.tolerances import (
     EDGE_MIN_LENGTH_PX,
     EDGE_SEEN_SHARE,
     EDGE_SIGMA_PX,
+    EDGE_STEP_MIN,
+    EDGE_STEP_Z,
     EDGE_TOLERANCE_PX,
     OUTLINE_PIECE_MIN_PX,
 )
@@ -24,15 +26,23 @@ from aida_kb.io.model import ModelCamera, ReconstructedModel
 if TYPE_CHECKING:
     from aida_kb.register.model import RigidModel, VisibleEdges
 
+U8 = npt.NDArray[np.uint8]
+
 
 def edge_coverage(
-    view: ViewEvidence, model: ReconstructedModel, outlines_of: frozenset[int] = frozenset()
+    view: ViewEvidence,
+    model: ReconstructedModel,
+    outlines_of: frozenset[int] = frozenset(),
+    image: U8 | None = None,
 ) -> tuple[RigidModel, VisibleEdges, FloatArray] | None:
     """The model edges the view's camera sees (at least EDGE_MIN_LENGTH_PX long) and the
     length of each, pixels, that image segments lie on (within EDGE_TOLERANCE_PX and
     EDGE_ANGLE_DEG; segments undistorted with the view's distortion first). None: no camera
     or no segments. outlines_of: ids of regions whose outlines count as segments too (each
-    straight piece of their simplified contours at least OUTLINE_PIECE_MIN_PX long)."""
+    straight piece of their simplified contours at least OUTLINE_PIECE_MIN_PX long).
+    image: the view's left image (8-bit grey, as taken); an edge across which it steps
+    steadily (`vision.lines.edge_steps`: at least EDGE_STEP_MIN grey levels at EDGE_STEP_Z
+    standard errors) is seen along its whole length, segments or not."""
     from aida_kb.register.evidence import camera_of, measurements_of
     from aida_kb.register.match import match_segments
     from aida_kb.register.model import RigidModel
@@ -57,7 +67,7 @@ def edge_coverage(
         max_angle_rad=math.radians(EDGE_ANGLE_DEG),
     )
     if matches.size == 0:
-        return rigid, edges, covered
+        return rigid, edges, _stepped(view, edges, covered, image)
     a, b = edges.a[matches.edge], edges.b[matches.edge]
     length = edges.length_px[matches.edge]
     u = (b - a) / np.maximum(length, 1e-12)[:, None]
@@ -66,7 +76,23 @@ def edge_coverage(
     lo = np.clip(np.minimum(t1, t2), 0.0, length)
     hi = np.clip(np.maximum(t1, t2), 0.0, length)
     np.add.at(covered, matches.edge, hi - lo)  # pieces of one edge rarely overlap
-    return rigid, edges, np.minimum(covered, edges.length_px)
+    return rigid, edges, _stepped(view, edges, np.minimum(covered, edges.length_px), image)
+
+
+def _stepped(
+    view: ViewEvidence, edges: VisibleEdges, covered: FloatArray, image: U8 | None
+) -> FloatArray:
+    """`covered` (E,), with the edges the image steps across seen along their whole length."""
+    if image is None or edges.index.size == 0:
+        return covered
+    from aida_kb.vision.lines import edge_steps
+
+    K = np.asarray(view.left.K, dtype=np.float64)
+    D = np.asarray(view.left.D, dtype=np.float64)
+    step, z = edge_steps(image, np.stack([edges.a, edges.b], axis=1), K, D)
+    seen = (np.abs(step) >= EDGE_STEP_MIN) & (np.abs(z) >= EDGE_STEP_Z)
+    out: FloatArray = np.where(seen, edges.length_px, covered)
+    return out
 
 
 def _outline_pieces(view: ViewEvidence, regions: frozenset[int]) -> list[LineSegment]:
@@ -105,13 +131,15 @@ def edge_cover(
     model: ReconstructedModel,
     between: frozenset[str] | None = None,
     outlines_of: frozenset[int] = frozenset(),
+    image: U8 | None = None,
 ) -> float | None:
     """The share of the projected length of the model edges the view's camera sees that
     image segments lie on (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG); None: no edge to
     check or no camera. Segments are undistorted with the view's distortion first.
     between : only the edges both of whose parts are in this set of roles.
-    outlines_of : regions whose outlines count as segments too (`edge_coverage`)."""
-    found = edge_coverage(view, model, outlines_of)
+    outlines_of : regions whose outlines count as segments too; image : the view's left image,
+    whose steps across an edge show it too (`edge_coverage`)."""
+    found = edge_coverage(view, model, outlines_of, image)
     if found is None:
         return None
     rigid, edges, covered = found

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
+import numpy as np
+import numpy.typing as npt
+
 from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.uncertainty import Uncertainty, adjustment_uncertainty
 from aida_kb.interpret.verdict.attributes import check_attributes, check_orientations
@@ -73,13 +78,17 @@ def judge(
     *,
     all_views: bool = False,
     uncertainty: Uncertainty | None = None,
+    images: Mapping[str, npt.NDArray[np.uint8]] | None = None,
 ) -> Verdict:
     """The verdict on `interp` (see the module docstring). all_views: the result stands for
     every view of the evidence (a reconstruction registers them all), so a view it left
     without a camera is doubted; `aida-kb interpret` uses the world-frame views only.
     uncertainty: the adjustment's, where `interp` is one object of a scene adjusted as a whole
     (`interpret.scene.judge_objects`: the cameras are fixed by every object); None: that of
-    `interp` alone."""
+    `interp` alone. images: view id -> its left image (8-bit grey, as taken), where the scene's
+    images are at hand: an edge the image steps across is seen, segment or not (check (c),
+    `verdict.edges.edge_coverage`)."""
+    images = images or {}
     model = interp.model
     if not interp.accepted or model is None:
         return Verdict(NOTHING, (), (), ())
@@ -103,7 +112,7 @@ def judge(
     not_explained = []
     cameras = {c.view for c in model.cameras}
     for view in evidence.views:
-        check = check_view(view, model)
+        check = check_view(view, model, images.get(view.id))
         if check is None:
             if view.id in cameras or all_views:
                 not_explained.append(view.id)
@@ -129,7 +138,8 @@ def judge(
         if check.edge_cover is not None and check.edge_cover < EDGE_COVER_MIN:
             problems.append(
                 f"edges are seen along {100 * check.edge_cover:.0f}% of their length "
-                f"(at least {100 * EDGE_COVER_MIN:.0f}% within {EDGE_TOLERANCE_PX:g} px)"
+                f"(at least {100 * EDGE_COVER_MIN:.0f}%: segments within {EDGE_TOLERANCE_PX:g} "
+                "px, or a steady step across them)"
             )
         if view.id != evidence.views[0].id and check.inside_weight > 0:
             # a registered view: the adjustment fixes its camera to what is asked of it
@@ -153,7 +163,11 @@ def judge(
     reference = evidence.views[0]
     bound = _bound_parts(interp)
     outlines = _bound_regions(interp, reference.id)
-    seen = edge_cover(reference, model, frozenset(bound), outlines) if len(bound) > 1 else None
+    seen = (
+        edge_cover(reference, model, frozenset(bound), outlines, images.get(reference.id))
+        if len(bound) > 1
+        else None
+    )
     if seen is not None and seen < SEEN_EDGE_COVER_MIN:
         reasons.append(
             f"view {reference.id}: the edges between the parts bound to its evidence are seen "

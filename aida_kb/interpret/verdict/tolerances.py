@@ -76,6 +76,11 @@ CAMERA_SD_CONFIDENCE = 2.0  # ... at this many standard deviations: an sd just u
 # target still leaves about one chance in three of an error above it (street2 dev seed 7:
 # view 01 verified at sd < 0.1 deg, 0.173 deg off); two sd make it about one in twenty
 EDGE_SEEN_SHARE = 0.5  # an edge is seen in a view when segments lie along half its length
+EDGE_STEP_MIN = 4.0  # an edge the image steps across by at least 4 grey levels ...
+EDGE_STEP_Z = 5.0  # ... at 5 standard errors of the step along it is seen, segment or not
+# (vision.lines.edge_steps). On the true models of dev 58000-58023, 59000-59023, 60000-60023
+# (1,869 visible edges) 82 % of the edges pass, against 69 % with segments along half their
+# length; the same edges moved 12 px across themselves (onto a face, beside it) pass in 6.6 %
 EDGE_COVER_MIN = 0.5  # at least this share of the visible edges' length is seen as segments
 # (edges between faces of like brightness or under an occluder show no segment: a right
 # model's edges are seen along 52-96 % on development scenes, a wrong roof's or a missing

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
 from aida_kb.interpret.verdict.edges import edge_cover
@@ -35,8 +36,11 @@ from aida_kb.io.evidence import Region, ViewEvidence
 from aida_kb.io.model import ModelCamera, ReconstructedModel
 
 
-def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | None:
-    """Check (b) for one view at the model's camera of that view (None: no such camera)."""
+def check_view(
+    view: ViewEvidence, model: ReconstructedModel, image: npt.NDArray[np.uint8] | None = None
+) -> ViewCheck | None:
+    """Check (b) for one view at the model's camera of that view (None: no such camera);
+    image: its left image, for the edges' steps (`edges.edge_coverage`)."""
     camera = next((c for c in model.cameras if c.view == view.id), None)
     regions = [r for r in view.regions if r.w_c > 0 and r.depth_pixel_count > 0]
     if camera is None or not regions:
@@ -127,7 +131,7 @@ def check_view(view: ViewEvidence, model: ReconstructedModel) -> ViewCheck | Non
         total,
         float(weights[counted & explained].sum()),
         contradicting,
-        edge_cover(view, model),
+        edge_cover(view, model, image=image),
         on_face,
         tuple(int(regions[i].id) for i in np.nonzero(counted & explained)[0]),
         tuple(int(regions[i].id) for i in np.nonzero(~counted)[0]),
