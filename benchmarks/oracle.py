@@ -20,8 +20,10 @@ alone (what the interpretation chose plays no part):
 
     .venv/bin/python benchmarks/oracle.py /tmp/rb60/keep [more keep folders ...]
 
-Prints a line per scene with the checks the truth fails, then ONE line of JSON: scenes,
-views, and per check the share of views (or scenes) where the truth fails it.
+The checks see the scenes' left images, as `aida-kb reconstruct` judges (an edge the image
+steps across is seen); ``--no-images`` judges as `aida-kb interpret` does, from the evidence
+alone. Prints a line per scene with the checks the truth fails, then ONE line of JSON:
+scenes, views, and per check the share of views where the truth fails it.
 """
 
 from __future__ import annotations
@@ -30,7 +32,11 @@ import argparse
 import json
 import sys
 from collections import Counter
+from collections.abc import Mapping
 from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
 
 from aida_kb.errors import AidaError
 from aida_kb.interpret.verdict.edges import edge_cover
@@ -45,7 +51,7 @@ from aida_kb.interpret.verdict.tolerances import (
 from aida_kb.interpret.verdict.views import adjoining, check_view, unexplained_near
 from aida_kb.io.evidence import Evidence, read_evidence
 from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
-from aida_kb.io.scene import SceneTruth, read_scene
+from aida_kb.io.scene import SceneTruth, left_images, read_scene
 
 CHECKS = (
     "covers none",
@@ -81,11 +87,18 @@ def true_model(truth: SceneTruth, evidence: Evidence) -> ReconstructedModel:
     return ReconstructedModel(parts=parts, cameras=cameras)
 
 
-def failed_checks(evidence: Evidence, model: ReconstructedModel) -> dict[str, list[str]]:
-    """Check -> the views (ids) where the model fails it (an empty dict: none failed)."""
+def failed_checks(
+    evidence: Evidence,
+    model: ReconstructedModel,
+    images: Mapping[str, npt.NDArray[np.uint8]] | None = None,
+) -> dict[str, list[str]]:
+    """Check -> the views (ids) where the model fails it (an empty dict: none failed);
+    images: view id -> its left image, as `aida-kb reconstruct` judges with them."""
     out: dict[str, list[str]] = {}
+    images = images or {}
     for view in evidence.views:
-        check = check_view(view, model)
+        image = images.get(view.id)
+        check = check_view(view, model, image)
         if check is None:
             continue
         fails = []
@@ -109,7 +122,7 @@ def failed_checks(evidence: Evidence, model: ReconstructedModel) -> dict[str, li
             # (c) in the interpreted view: the edges between the parts its regions lie on
             bound = frozenset(role for role, w in check.explained_on.items() if w > 0)
             outlines = frozenset(check.explained_ids)
-            seen = edge_cover(view, model, bound, outlines) if len(bound) > 1 else None
+            seen = edge_cover(view, model, bound, outlines, image) if len(bound) > 1 else None
             if seen is not None and seen < SEEN_EDGE_COVER_MIN:
                 fails.append("seen between bound")
         for name in fails:
@@ -120,6 +133,9 @@ def failed_checks(evidence: Evidence, model: ReconstructedModel) -> dict[str, li
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("keep", nargs="+", type=Path, help="folders of scene-SEED/, out-SEED/")
+    parser.add_argument(
+        "--no-images", action="store_true", help="judge without the images (as `interpret` does)"
+    )
     args = parser.parse_args(argv)
     fails: Counter[str] = Counter()
     scenes = views = 0
@@ -136,7 +152,8 @@ def main(argv: list[str] | None = None) -> int:
             if truth is None or not truth.parts:
                 continue  # no object: nothing to explain
             try:
-                found = failed_checks(evidence, true_model(truth, evidence))
+                images = None if args.no_images else left_images(scene)
+                found = failed_checks(evidence, true_model(truth, evidence), images)
             except AidaError as exc:  # not a closed object (a chessboard): nothing to explain
                 print(f"{scene_dir.name}: skipped: {exc}", file=sys.stderr)
                 continue
