@@ -7,6 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 from aida_kb.interpret.result import Instance, Interpretation
@@ -538,14 +539,24 @@ def test_a_region_whose_plane_stereo_does_not_fix_is_judged_within_its_fit(
         assert (heaviest.id in {c[0] for c in check.contradicting}) is contradicts
 
 
+def _house_camera(
+    interpreted: Get,
+) -> tuple[
+    ReconstructedModel, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]
+]:
+    """The correct house's model and its first camera's K, R_cam_world, t_cam_world."""
+    model = interpreted("house_correct.json").model
+    assert model is not None
+    cam = model.cameras[0]
+    K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
+    return model, K, R, t
+
+
 def test_regions_meeting_along_an_edge_show_it_where_no_segment_does(interpreted: Get) -> None:
     # two walls alike in texture and light meet in no image segment, but their regions meet
     # along the corner: the outlines of the bound regions show the edges between bound parts
     interp = interpreted("house_correct.json")
-    model = interp.model
-    assert model is not None
-    cam = model.cameras[0]
-    K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
+    model, K, R, t = _house_camera(interpreted)
     faces = {p.role: np.asarray(p.polygon) for p in model.parts}
     bound: set[str] = set()
 
@@ -581,11 +592,7 @@ def test_a_ground_region_centred_behind_the_house_does_not_contradict_it(
     # a street's ground: its centre lies on the floor's plane behind the house, so the ray
     # through it meets the house, but its outline lies mostly beside the house. Continuing
     # the floor's plane it is neutral; a wall there (continuing no face) is seen through it.
-    interp = interpreted("house_correct.json")
-    model = interp.model
-    assert model is not None
-    cam = model.cameras[0]
-    K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
+    model, K, R, t = _house_camera(interpreted)
     C = -R.T @ t
     floor = next(p for p in model.parts if p.role.endswith("floor"))
     n, poly = np.asarray(floor.normal), np.asarray(floor.polygon)
@@ -627,11 +634,7 @@ def test_the_image_shows_edges_no_segment_was_found_along(interpreted: Get) -> N
     # show them (check (c)); the model a metre off finds no steps where its edges fall
     import cv2
 
-    interp = interpreted("house_correct.json")
-    model = interp.model
-    assert model is not None
-    cam = model.cameras[0]
-    K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
+    model, K, R, t = _house_camera(interpreted)
     C = -R.T @ t
     view = _evidence("house_correct.json").views[0]
     image = np.full((view.image_height, view.image_width), 60.0)
