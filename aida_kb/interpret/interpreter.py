@@ -393,9 +393,12 @@ class Interpreter:
     def ties(self, state: State) -> list[str]:
         """The other choices along is-a of the accepted body (``ROLE=CONCEPT``, sorted) that
         the evidence does not decide against: a verified body binding the same regions in
-        the same frame, its cost within `TIE_MARGIN` of the accepted body's, that does not
-        assert less than it (`Knowledge.weaker`: an asymmetric gable beside the symmetric one
-        accepted is no rival)."""
+        the same frame, or every region the accepted one binds and more (in any frame: an
+        L-shaped house's gable binding the roof region that the shed accepted left
+        unexplained, dev seed 60008), its cost within `TIE_MARGIN` of the accepted body's —
+        each with the penalty for the significant regions it leaves unexplained, as a
+        complete state is charged —, that does not assert less than it (`Knowledge.weaker`:
+        an asymmetric gable beside the symmetric one accepted is no rival)."""
         if not state.levels:
             return []
         body = state.levels[0]
@@ -403,13 +406,18 @@ class Interpreter:
         if own is None:
             return []
         chosen = dict(body.structure.choices)
+        bound = set(body.binding)
+        # each body as if taken alone: its cost and the penalty for the regions it leaves
+        # unexplained (a rival binding more regions is not charged for those it explains)
+        own += _unexplained(self.context, [body])
         out: set[str] = set()
         for level, cost in self.bodies:
-            if level is body or cost > own + TIE_MARGIN:
+            if level is body:
                 continue
-            if set(level.binding) != set(body.binding):
+            same = set(level.binding) == bound and _same_frame(level.frame, body.frame)
+            if not (same or set(level.binding) > bound):
                 continue
-            if not _same_frame(level.frame, body.frame):
+            if cost + _unexplained(self.context, [level]) > own + TIE_MARGIN:
                 continue
             if self.knowledge.weaker(level.structure, body.structure):
                 # it fits no worse only by what it leaves out: the accepted one says more

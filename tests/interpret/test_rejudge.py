@@ -4,6 +4,7 @@ made to take one choice along is-a (`Interpreter.choices`)."""
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -214,3 +215,24 @@ def test_the_interpreter_made_to_take_a_choice_takes_it(buildings_kb: Any) -> No
     assert any(
         "no specialisation of HouseBody makes body.roof=Oriel" in h.reason for h in it.trace.entries
     )
+
+
+def test_a_rival_binding_more_regions_in_another_frame_is_a_tie(buildings_kb: Any) -> None:
+    """Dev seed 60008's first view (an L-shaped gable house, its view 00 only, lines rounded):
+    a shed that leaves the roof region 00/3 unexplained is accepted, and the gable binding
+    every region it binds and 00/3 too, in another frame, costs about as much counted with
+    the penalty for what each leaves unexplained: the evidence does not decide, and the
+    other views may (`rejudge`)."""
+    evidence = read_evidence(Path(__file__).parent / "data" / "house_lshape_rival.json")
+    knowledge = Knowledge.from_kb(buildings_kb)
+    it = Interpreter(knowledge, view_of(evidence, "lshape"), "House")
+    state, _, _ = it.run()
+    assert state is not None
+    body = state.levels[0]
+    assert dict(body.structure.choices) == {"body.roof": "ShedRoof"}
+    assert "00/3" not in body.binding
+    ties = it.ties(state)
+    assert "body.roof=GableRoof" in ties
+    gable = next(lv for lv, _ in it.bodies if ("body.roof", "GableRoof") in lv.structure.choices)
+    assert set(gable.binding) > set(body.binding)
+    assert gable.binding["00/3"] == "body.roof.front"
