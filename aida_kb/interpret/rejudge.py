@@ -23,8 +23,9 @@ model's twin, 100 degrees off, passes every test for want of evidence; dev seed 
 texture). The lead is counted over the judging views, and also over those of them other than
 the interpreted one, whose own evidence the interpreter's cost already found about equal
 for every candidate (that is what a tie is; `scene._leading` judges a scene's objects so): a
-lead of the margin per view over either set decides (60007: the gable leads the shed by 0.18
-in view 01 alone, 0.18 over views 00 and 01).
+lead of the margin per view over either set decides — over the second only when the
+interpreted view does not lead the other way by the margin (then the views disagree; 60007:
+the gable leads the shed by 0.18 in view 01 alone, 0.18 over views 00 and 01).
 
 What the knowledge says of a model. A candidate whose model, refined with every view, breaks
 what its own knowledge fixes — an orientation (`orient top: upward` on a roof sloping 15
@@ -167,7 +168,10 @@ def decide(
 ) -> Candidate | None:
     """The candidate whose score (`Candidate.total`) leads every other's by `REJUDGE_MARGIN`
     per view, over the judging views of `views` (`judging`) or over those of them but the
-    first (the interpreted one) — except the others that assert less than it: `weaker` holds
+    first (the interpreted one), provided the interpreted view does not lead the other way by
+    the margin (the views then disagree: dev 60008, an L-shaped gable, the gable ahead in view
+    00, the wrong shed in view 01, 0.04 apart over both) — except the others that assert less
+    than it: `weaker` holds
     pairs of choices (weak, strong), `Knowledge.weaker_choices`, and `chosen` the choices of
     each candidate by index (default: its own ``choice``). A weaker candidate fits at least as
     well by what it leaves out, so it must lead the stronger one, which need not lead it (an
@@ -193,8 +197,12 @@ def decide(
     def asserts_less(j: int, i: int) -> bool:
         return any((a, b) in weaker for a in made[j] for b in made[i])
 
+    first = [v for v in views if v == interpreted]
+
     def leads(i: int, j: int, over: list[str]) -> bool:
         lead = candidates[i].total(over) - candidates[j].total(over)
+        if over == others and first and leads(j, i, first):
+            return False  # the interpreted view tells them apart the other way: they disagree
         return lead >= REJUDGE_MARGIN * len(over)
 
     def wins(i: int, over: list[str]) -> bool:
@@ -262,7 +270,8 @@ def rejudged_views(
         f"; the views {', '.join(views)} decide "
         f"{', '.join(sorted({t.partition('=')[0] for t in first.ties}))}: "
         f"{_named(winner)} explains them best "
-        f"(explained region share plus seen edge share, summed over the views: {scores}; "
+        f"(explained region share plus seen edge share plus the share its faces hold, summed "
+        f"over the views: {scores}; "
         f"a lead of at least {REJUDGE_MARGIN:g} per view{broken})"
     )
     chosen = winner.interpretation

@@ -82,6 +82,18 @@ def test_the_tie_is_decided_only_by_a_lead_of_the_margin_per_view() -> None:
     assert decide([_candidate("", base), _candidate("r=G", alone)], VIEWS[:1]) is None
 
 
+def test_views_that_disagree_decide_nothing() -> None:
+    """The other view leads by the margin, but the interpreted one the other way by as much
+    (dev seed 60008, an L-shaped gable: the wrong shed ahead in view 01, the gable in view 00,
+    about equal over both): nothing is decided."""
+    shed = _candidate("", {"00": (1.0, 0.70), "01": (1.0, 0.80)})
+    gable = _candidate("r=G", {"00": (1.0, 0.85), "01": (1.0, 0.61)})
+    assert decide([shed, gable], VIEWS[:2]) is None
+    # the interpreted view about equal: the other view decides
+    level = _candidate("r=G", {"00": (1.0, 0.75), "01": (1.0, 0.61)})
+    assert decide([shed, level], VIEWS[:2]) is shed
+
+
 def test_a_view_whose_regions_a_candidate_does_not_cover_judges_none() -> None:
     """Dev seed 60007 (a gable): view 02 registered on the model's twin in every candidate,
     its regions covered by none of the shed's, and its edges then favour the wrong shed."""
