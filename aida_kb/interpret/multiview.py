@@ -53,8 +53,9 @@ from aida_kb.geometry.rig import Rig
 from aida_kb.interpret.closure import check_concurrent
 from aida_kb.interpret.result import Interpretation
 from aida_kb.interpret.run import interpret
+from aida_kb.interpret.transfer import ImageTransfer
 from aida_kb.interpret.uncertainty import IMAGE_EDGE_LABEL
-from aida_kb.io.evidence import Evidence
+from aida_kb.io.evidence import Evidence, ViewEvidence
 from aida_kb.io.model import Cahv, CameraSd, ModelCamera, ModelPart, ReconstructedModel
 from aida_kb.io.scene import Scene
 from aida_kb.kb.paths import RolePath
@@ -848,6 +849,24 @@ def _sizes_broken(
     return check_attributes(kb, interp, model, unit=SIZE_UNIT)
 
 
+def _image_judge(
+    scene: Scene,
+    evidence: Evidence,
+    model: RigidModel,
+    cameras: Sequence[PinholeCamera],
+    views: Sequence[ViewMeasurements],
+    view: ViewEvidence,
+) -> ImageTransfer | None:
+    """The images' support of a candidate pose of `view` (`aida_kb.interpret.transfer`): the
+    registered `views`' images (at their `cameras`) carried into it through `model`; None
+    when its own image or none of theirs can be read, or the model has no polygons."""
+    own = view_images(scene, evidence, [measurements_of(view)])[0]
+    images = view_images(scene, evidence, views)
+    if own is None or not model.polygons or all(g is None for g in images):
+        return None
+    return ImageTransfer(model, cameras, images, own)
+
+
 def reconstruct_views(
     kb: KnowledgeBase,
     evidence: Evidence,
@@ -926,9 +945,12 @@ def reconstruct_views(
         if progress is not None:
             progress(f"registering view {v.id}")
         stereo = None if scene is None else right_segments(scene, v.id)
+        judge = None if scene is None else _image_judge(scene, evidence, rigid, cams, views, v)
         # views of a sequence turn alike: the last turn is the expected one
         try:
-            reg = register_evidence_view(rigid, cams[-1], v, expected_turn_deg=turn, stereo=stereo)
+            reg = register_evidence_view(
+                rigid, cams[-1], v, expected_turn_deg=turn, stereo=stereo, photometric=judge
+            )
         except SolveError as exc:
             notes.append(f"not registered: {exc}")  # the message names the view
             continue

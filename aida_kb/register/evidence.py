@@ -25,6 +25,7 @@ from aida_kb.register.register import (
     StereoSegments,
     register_view,
 )
+from aida_kb.register.twins import PhotometricJudge
 from aida_kb.vision.rectify import undistort_pixels
 
 FloatArray = npt.NDArray[np.float64]
@@ -206,12 +207,14 @@ def register_evidence_view(
     stereo: StereoSegments | None = None,
     options: RegistrationOptions | None = None,
     image: npt.NDArray[np.uint8] | None = None,
+    photometric: PhotometricJudge | None = None,
 ) -> Registration:
     """Register an evidence view (its segments and, if asked, its regions) against `model`.
 
     `stereo`: the segments of the view's right image (`right_segments`), used as well.
     `image`: the view's left image (8-bit grey): its segments are moved onto their edges
-    first (`measurements_of`).
+    first (`measurements_of`). `photometric`: the images' support of a candidate pose
+    (`aida_kb.register.twins`), which decides between poses the segments cannot.
 
     Raises SolveError naming the view when it cannot be registered.
     """
@@ -231,6 +234,7 @@ def register_evidence_view(
             options=options,
             sigma_px=m.sigma_px,
             image=None if image is None else undistorted_image(image, m.K, D),
+            photometric=photometric,
         )
     except SolveError as exc:
         raise SolveError(f"view {view.id}: {exc}") from exc

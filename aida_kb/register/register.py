@@ -33,7 +33,9 @@ with depth) of a known model, without an initial guess:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -50,6 +52,13 @@ from aida_kb.register.pose import (
     RegionObservations,
     fit_pose,
     pose_covariance,
+)
+from aida_kb.register.twins import (
+    PhotometricJudge,
+    PoseSupport,
+    photometric_choice,
+    rivals_of,
+    unsupported_twin,
 )
 
 FloatArray = npt.NDArray[np.float64]
@@ -441,6 +450,28 @@ def region_disagreement_deg(
     return float(np.median(np.degrees(np.arccos(np.clip(cos, 0.0, 1.0)))))
 
 
+Refined = tuple[float, float, PinholeCamera, float, int, int, float]
+"""A refined candidate pose: (chamfer cost, turn from the reference in degrees, camera, RMS
+edge residual in pixels, matched segments, matched regions, the turn it started from)."""
+
+
+class _Measured(NamedTuple):
+    """What `register_view` registers: the segments (S, 2) pixels, the regions, the options,
+    the second image's segments and the segments' sigmas."""
+
+    q1: FloatArray
+    q2: FloatArray
+    regions: RegionMeasurements | None
+    opts: RegistrationOptions
+    stereo: StereoSegments | None
+    sig: FloatArray | None
+
+
+SAME_POSE_DEG = 2.0
+"""Refined candidates whose turns lie within this (degrees) are one pose reached from several
+starts (they converge to within a few hundredths of a degree, or to another pose)."""
+
+
 PLANE_SLACK = 1
 """Plane starts that explain fewer regions than the best one less this many are not refined
 (the oriel preset's view 01: the true pose explains 7 of 8 regions, wrong ones 4)."""
@@ -508,6 +539,7 @@ def register_view(
     options: RegistrationOptions | None = None,
     sigma_px: npt.ArrayLike | None = None,
     image: npt.NDArray[np.uint8] | None = None,
+    photometric: PhotometricJudge | None = None,
 ) -> Registration:
     """The pose of a new view of a fixed model, found with no initial guess.
 
@@ -534,6 +566,13 @@ def register_view(
     image : (H, W) the view's image, 8-bit grey, in the pinhole camera's (undistorted) pixels,
         or None; with it the chosen pose is polished against the image (`polish`; with
         ``stereo.image`` against both), and the covariance is that of the polished edges.
+    photometric : the images' support of a candidate camera (`aida_kb.register.twins`: the
+        registered views' images carried into the view through the model), or None. With it,
+        of the refined poses whose edges fit about as well (`twins.rivals_of`) the one the
+        images confirm is taken (`twins.photometric_choice`: a symmetric model's twin is
+        decided by the faces' content), and where they confirm none, a pose that shares no
+        face with the registered views while a rival does is not taken
+        (`twins.unsupported_twin`: SolveError).
 
     Raises
     ------
@@ -558,6 +597,7 @@ def register_view(
         reference = PinholeCamera(K, reference.R_cam_world, reference.t_cam_world, w, h)
     up = vertical_axis(model, reference) if axis is None else np.asarray(axis, dtype=np.float64)
     up = up / np.linalg.norm(up)
+    given = _Measured(q1, q2, regions, opts, stereo, sig)
     pivot = orbit_pivot(model, reference)
     if init_angle_deg is not None:
         centre, half = float(init_angle_deg), opts.span_deg
@@ -588,7 +628,7 @@ def register_view(
         # a start is a few degrees off at most: the widest schedule alone
         for cam in plane_starts(model, reference, regions, up):
             starts.append((cam, angle_about(reference, cam, up), opts.schedules_px[-1:]))
-    results: list[tuple[float, float, PinholeCamera, float, int, int, float]] = []
+    results: list[Refined] = []
     for start, start_angle, schedules in starts:
         for schedule in schedules:
             try:
@@ -649,6 +689,19 @@ def register_view(
             for r in results
             if any(r is k or _symmetric_gap(r[1], k[1], order) <= opts.span_deg for k in kept)
         ]
+    # the images decide between poses the segments and depth cannot (a symmetric model's
+    # twins): the registered views' images carried into the view at each rival pose
+    rivals: list[tuple[float, PoseSupport]] = []
+    if photometric is not None:
+        if order > 1:  # the twins of a symmetric model's poses: the search spans 360/n only
+            results += _twins(model, reference, up, results, order, given)
+        picked = rivals_of([r[0] for r in results], [r[1] for r in results], SAME_POSE_DEG)
+        supports = [photometric(results[i][2]) for i in picked]
+        rivals = [(results[i][1], s) for i, s in zip(picked, supports, strict=True)]
+        won = photometric_choice([a for a, _ in rivals], supports, opts.span_deg)
+        if won is not None:
+            chosen = results[picked[won]]
+            return _registration(model, reference, up, chosen, results, (), given, image)
     inside = [r for r in results if abs(_wrap(r[1] - centre)) <= half]
     results = inside or results
     best = min(results, key=lambda r: r[0])
@@ -671,6 +724,21 @@ def register_view(
             f"images fit a turn of {final:.1f} degrees best, its twin {twin:.1f} lies nearer "
             f"the expected {centre:.1f}: the evidence does not decide between them"
         )
+    if photometric is not None:
+        taken = [s for a, s in rivals if abs(_wrap(a - final)) <= SAME_POSE_DEG]
+        support = taken[0] if taken else photometric(cam)
+        if not support.shares:
+            # a view of a sequence shares faces with the views before it at its true pose;
+            # a symmetric model's twin sees their backs: nothing confirms such a pose
+            other = unsupported_twin(
+                final, support, [a for a, _ in rivals], [s for _, s in rivals], opts.span_deg
+            )
+            rival = "" if other is None else f" (at {other:.1f} degrees it does)"
+            raise SolveError(
+                f"registration: the view's segments fit a turn of {final:.1f} degrees best, "
+                f"but there the view shares no textured face with the registered views"
+                f"{rival}: nothing confirms the turn (a symmetric model's twin looks the same)"
+            )
     # poses far from the chosen one that explain the image about as well: the view is
     # ambiguous between them (reported, not hidden)
     others: dict[float, float] = {}
@@ -679,6 +747,71 @@ def register_view(
             key = round(r[1], 1)
             others[key] = min(others.get(key, math.inf), r[0])
     alternatives = tuple(sorted(others.items()))
+    chosen = (cost, final, cam, rms, ne, nr, 0.0)
+    return _registration(model, reference, up, chosen, results, alternatives, given, image)
+
+
+def _twins(
+    model: RigidModel,
+    reference: PinholeCamera,
+    up: FloatArray,
+    results: Sequence[Refined],
+    order: int,
+    given: _Measured,
+) -> list[Refined]:
+    """The refined twins of the rival poses of a model that looks the same turned by
+    360/``order`` degrees about `up` through its centroid: each rival's camera turned so,
+    refined with the last schedule (the model is symmetric only to `symmetry_order`'s
+    tolerance), unless a refined pose is there already; those whose regions disagree with the
+    model (`region_disagreement_deg`) are left out."""
+    q1, q2, regions, opts, stereo, sig = given
+    max_angle = math.radians(opts.max_angle_deg)
+    limit = opts.region_disagree_sigmas * opts.region_sigma_deg
+    picked = rivals_of([r[0] for r in results], [r[1] for r in results], SAME_POSE_DEG)
+    known = [r[1] for r in results]
+    out: list[Refined] = []
+    for i in picked:
+        for k in range(1, order):
+            step = 2.0 * math.pi * k / order
+            try:
+                start = turned(results[i][2], up, model.centroid, step)
+            except GeometryError:
+                continue
+            start_angle = angle_about(reference, start, up)
+            if any(abs(_wrap(start_angle - a)) <= SAME_POSE_DEG for a in known):
+                continue
+            try:
+                cam, rms, ne, nr = refine(
+                    model, start, q1, q2, regions, opts, opts.schedules_px[-1], stereo, sig
+                )
+                cost = _score(model, cam, q1, q2, 2.0, max_angle, stereo)
+            except (SolveError, GeometryError):
+                continue
+            off = region_disagreement_deg(model, cam, regions, opts)
+            if off is not None and off > limit:
+                continue
+            final = angle_about(reference, cam, up)
+            known.append(final)
+            out.append((cost, final, cam, rms, ne, nr, start_angle))
+    return out
+
+
+def _registration(
+    model: RigidModel,
+    reference: PinholeCamera,
+    up: FloatArray,
+    chosen: Refined,
+    results: Sequence[Refined],
+    alternatives: tuple[tuple[float, float], ...],
+    given: _Measured,
+    image: npt.NDArray[np.uint8] | None,
+) -> Registration:
+    """The `Registration` of the chosen refined candidate ``(cost, turn, camera, rms,
+    n_edges, n_regions, start turn)``: polished against the image when it is given, with the
+    covariance of its final measurements."""
+    q1, q2, regions, opts, stereo, sig = given
+    cost, final, cam, rms, ne, nr, _ = chosen
+    max_angle = math.radians(opts.max_angle_deg)
     cands = tuple((r[6], r[1], r[0]) for r in results)
     polished = None if image is None else polish(model, cam, image, regions, opts, stereo)
     if polished is not None:

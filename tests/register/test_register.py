@@ -13,6 +13,7 @@ from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.rotation import rotation_from_rvec
 from aida_kb.register import (
     RegionObservations,
+    RegistrationOptions,
     Rig,
     RigidModel,
     StereoSegments,
@@ -517,3 +518,60 @@ def test_a_joint_adjustment_takes_the_model_edges_fitted_to_the_images() -> None
     assert abs(angle_about(truth, cams[1], up)) < 0.03
     cos = np.clip(np.sum(normals * model.normals, axis=1), -1.0, 1.0)
     assert float(np.degrees(np.arccos(cos)).max()) < 0.1
+
+
+def _textured_image(model: RigidModel, camera: PinholeCamera, seed: int) -> np.ndarray:
+    """An 8-bit image of the box with every face its own texture (a few sinusoids of random
+    direction and 3-8 cm wavelength in the face's plane) on a blank background."""
+    from aida_kb.geometry.polygon import plane_bases
+    from aida_kb.texture.raycast import Faces, first_hits
+
+    u, v = plane_bases(model.normals)
+    faces = Faces(model.polygons, model.normals, model.offsets, u, v)
+    ys, xs = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float64)
+    pixels = np.stack([xs.ravel(), ys.ravel()], axis=1)
+    face, depth, rays = first_hits(faces, camera, pixels, grid=True)
+    grey = np.full(face.shape, 90.0)
+    rng = np.random.default_rng(seed)
+    for f in range(len(model.polygons)):
+        on = face == f
+        X = camera.centre + depth[on, None] * rays[on]
+        a, b = X @ u[f], X @ v[f]
+        value = np.full(a.shape, 128.0)
+        for _ in range(3):
+            theta, wave, phase = rng.uniform(0, np.pi), rng.uniform(0.03, 0.08), rng.uniform(0, 6)
+            value += 30.0 * np.sin(
+                2 * np.pi * (a * np.cos(theta) + b * np.sin(theta)) / wave + phase
+            )
+        grey[on] = value
+    return np.asarray(np.clip(grey.reshape(camera.height, camera.width), 0, 255), dtype=np.uint8)
+
+
+def test_the_images_choose_between_a_symmetric_models_twins() -> None:
+    from aida_kb.interpret.transfer import ImageTransfer
+
+    # a box looks the same turned by a half turn: its segments alone register the view turned
+    # 100 degrees at its twin, -80, the turn nearer the expected 0; the faces' textures (the
+    # reference's image carried into the view through the model) tell them apart
+    model = _box()
+    up = vertical_axis(model, _reference())
+    ref = turned(_reference(), up, model.centroid, math.radians(30.0))
+    assert symmetry_order(model, up, model.centroid) == 2
+    truth = turned(ref, up, model.centroid, math.radians(100.0))
+    p1, p2 = simulated_segments(model, truth, np.random.default_rng(3), noise_px=0.3, clutter=10)
+    fast = RegistrationOptions(starts=2, schedules_px=((12.0, 6.0, 3.0, 2.0),))
+    twin = register_view(model, ref, p1, p2, expected_turn_deg=0.0, options=fast)
+    assert abs(twin.angle_deg + 80.0) < 0.5
+    images = [_textured_image(model, cam, seed=5) for cam in (ref, truth)]
+    judge = ImageTransfer(model, [ref], [images[0]], images[1])
+    right, wrong = judge(truth), judge(twin.camera)
+    assert right.confirmed
+    assert right.ncc > 0.75
+    assert wrong.shares  # the twin sees the faces the reference sees, with other textures
+    assert abs(wrong.ncc) < 0.1
+    reg = register_view(model, ref, p1, p2, expected_turn_deg=0.0, photometric=judge, options=fast)
+    assert abs(reg.angle_deg - 100.0) < 0.1
+    # where the registered views show no texture, nothing confirms either twin: not registered
+    blank = ImageTransfer(model, [ref], [np.full_like(images[0], 90)], images[1])
+    with pytest.raises(SolveError, match="shares no textured face"):
+        register_view(model, ref, p1, p2, expected_turn_deg=0.0, photometric=blank, options=fast)
