@@ -611,10 +611,14 @@ def judge_objects(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
                 ],
             }
         )
+        # all_views: the scene stands for every view of the evidence; a view the
+        # reconstruction left without a camera is doubted, an object no other view confirms is
+        # not verified (street 62052: view 01 unregistered, a house verified that way)
         verdict = judge(
             kb,
             sub,
             without_regions(evidence, explained_by_others(evidence, interp, obj.role)),
+            all_views=True,
             uncertainty=None if whole is None else _object_uncertainty(whole, obj.role),
         )
         reasons = list(verdict.reasons)
@@ -866,7 +870,11 @@ def reconstruct_objects(
     from aida_kb.interpret.multiview import reconstruct_views  # they build on this module
     from aida_kb.interpret.rejudge import rejudged_views
 
-    first = rejudged_views(kb, evidence, goal=goal, source=source, scene=scene, progress=progress)
+    first = _every_view(
+        kb,
+        evidence,
+        rejudged_views(kb, evidence, goal=goal, source=source, scene=scene, progress=progress),
+    )
     flips = _ties(first)
     if not flips or len(evidence.views) < 2:
         return first
@@ -884,15 +892,30 @@ def reconstruct_objects(
             prefer=tuple(chosen.values()),
         )
 
-    second = again(flips)
+    second = _every_view(kb, evidence, again(flips))
     leading = _leading(evidence, first, second, flips) if _keeps(first, second) else {}
     if not leading:
         return first
     if leading != flips:
-        second = again(leading)
+        second = _every_view(kb, evidence, again(leading))
         if not _keeps(first, second) or _leading(evidence, first, second, leading) != leading:
             return first
     return second
+
+
+def _every_view(kb: KnowledgeBase, evidence: Evidence, interp: Interpretation) -> Interpretation:
+    """`interp`, its objects judged again on every view (`judge_objects`) where the model has
+    no camera for a view of the evidence and an object is verified: a reconstruction that
+    returned before judging them so (a refinement skipped) must not leave an object verified
+    without the views it left out."""
+    if not interp.objects or interp.model is None:
+        return interp
+    cameras = {c.view for c in interp.model.cameras}
+    if all(v.id in cameras for v in evidence.views):
+        return interp
+    if all(o.verdict != VERIFIED for o in interp.objects):
+        return interp
+    return judge_objects(kb, interp, evidence)
 
 
 def _keeps(first: Interpretation, again: Interpretation) -> bool:

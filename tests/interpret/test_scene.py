@@ -343,3 +343,31 @@ def test_a_tie_is_judged_on_the_views_both_reconstructions_registered(
     assert scene._leading(views, before, after, flips) == flips
     scores[id(before)]["01"] = (1.0, 0.55, 0.99)
     assert scene._leading(views, before, after, flips) == {}
+
+
+def test_no_object_is_verified_without_the_views_left_unregistered(
+    street_result: tuple[Path, Evidence, Interpretation], street_kb: KnowledgeBase
+) -> None:
+    """A scene whose second view the reconstruction left without a camera: every object is
+    judged on every view (`judge_objects`, `_every_view`), none verified by view 00 alone
+    (fresh street 62052: view 01 unregistered, a house verified)."""
+    from aida_kb.interpret.scene import _every_view, judge_objects
+
+    _, evidence, interp = street_result
+    first = evidence.views[0]
+    second = first.model_copy(update={"id": "01", "frame": "camera"})
+    both = evidence.model_copy(update={"views": [first, second]})
+    assert interp.objects
+    # as a reconstruction that returned before judging its objects on every view left them
+    claimed = interp.model_copy(
+        update={
+            "objects": [
+                o.model_copy(update={"verdict": "verified", "doubts": []}) for o in interp.objects
+            ]
+        }
+    )
+    for judged in (judge_objects(street_kb, interp, both), _every_view(street_kb, both, claimed)):
+        assert all(o.verdict == "doubtful" for o in judged.objects)
+        assert all(any("(01)" in d for d in o.doubts) for o in judged.objects)
+    # with every view registered nothing is judged again
+    assert _every_view(street_kb, evidence, claimed) is claimed
