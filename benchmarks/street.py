@@ -34,7 +34,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from aida_kb.interpret.scene import evaluate_scene, reconstruct_objects
+from aida_kb.interpret.scene import evaluate_scene, reconstruct_objects, scene_evidence_of
 from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.scene import read_scene
 from aida_kb.kb.compiler import compile_path
@@ -118,7 +118,7 @@ def main() -> None:
                 render_scene(preset(name, seed=seed, params=params, views=views), folder)
                 start = time.perf_counter()
                 scene = read_scene(folder, with_truth=False)
-                evidence, _ = scene_evidence(scene)
+                evidence = scene_evidence_of(kb, scene_evidence(scene)[0], "Street")
                 interp = reconstruct_objects(kb, evidence, goal="Street", scene=scene)
                 interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
                 seconds = time.perf_counter() - start

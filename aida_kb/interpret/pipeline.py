@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from aida_kb.interpret.kbfile import write_interpretation_kb
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
-from aida_kb.interpret.scene import reconstruct_objects
+from aida_kb.interpret.scene import reconstruct_objects, scene_evidence_of
 from aida_kb.interpret.verdict import NOTHING, judge, with_verdict
 from aida_kb.io.atomic import check_outputs, check_publishable, output_lock, publish_dir
 from aida_kb.io.evidence import Evidence, write_evidence
@@ -128,6 +128,8 @@ def _reconstruct(
 
     params = VisionParams(num_disp=max_disp)
     evidence, products = scene_evidence(scene, views=views, params=params, stage=stage)
+    # a street's terraces split at their party walls (what evidence.json then holds)
+    evidence = scene_evidence_of(kb, evidence, goal)
     for prod in products:
         for text in prod.warnings:
             if warn is not None:

@@ -180,6 +180,17 @@ def meet(view: EvidenceView, a: str, b: str) -> int:
     return len(pixels) if float(np.median(gap / depth)) <= MEET_TOLERANCE else 0
 
 
+def scene_evidence_of(kb: KnowledgeBase, evidence: Evidence, goal: str | None) -> Evidence:
+    """The evidence a goal is interpreted on: for a goal holding several objects (`members`),
+    the reference view's regions split at the party walls it shows (`party.split_terraces`:
+    a terrace's touching houses, merged by the segmentation); for one object, `evidence`."""
+    from aida_kb.interpret.party import split_terraces
+    from aida_kb.interpret.run import check_goal
+
+    slot = members(Knowledge.from_kb(kb), check_goal(kb, goal))
+    return evidence if slot is None else split_terraces(evidence)
+
+
 def _near(points: FloatArray, polygon: FloatArray) -> npt.NDArray[np.bool_]:
     """Which of the points (N, 2) lie within `BORDER_PX` of the closed polygon (M, 2)."""
     edge = np.roll(polygon, -1, axis=0) - polygon
