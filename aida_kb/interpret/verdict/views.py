@@ -99,7 +99,7 @@ def check_view(
     # except one continuing a face's plane beyond the face (the ground beyond the floors)
     # whose outline lies mostly outside the projection: a street's ground region, its centre
     # seen behind one house, lies mostly beside the houses
-    share = _outline_inside_share(view, regions, model, camera)
+    share = _outline_inside_share(view, regions, faces, camera)
     beside = ~explained & (share < OUTLINE_INSIDE_MIN)
     for i in np.nonzero(beside)[0]:
         beside[i] = _continues_face(normals[i], centres[i], float(tol[i]), faces, float(cos_on[i]))
@@ -141,10 +141,14 @@ def check_view(
 
 
 def _outline_inside_share(
-    view: ViewEvidence, regions: list[Region], model: ReconstructedModel, camera: ModelCamera
+    view: ViewEvidence,
+    regions: list[Region],
+    faces: list[tuple[str, FloatArray, float, FloatArray]],
+    camera: ModelCamera,
 ) -> FloatArray:
     """Per region (M,): the share of its outer outline's points (every OUTLINE_STEP_PX) whose
-    rays through the view's model camera meet a model face; NaN where it has no outline."""
+    rays through the view's model camera meet one of the model's `faces` (`model_faces`);
+    NaN where it has no outline."""
     index = {r.id: i for i, r in enumerate(regions)}
     pixels, owner = [], []
     for c in view.contours:
@@ -163,7 +167,7 @@ def _outline_inside_share(
     C = -R.T @ t
     rays = np.linalg.solve(K, np.vstack([px.T, np.ones(len(px))])).T @ R  # (P, 3) world
     hit = np.zeros(len(px), bool)
-    for _, n, d, poly in model_faces(model):
+    for _, n, d, poly in faces:
         denom = rays @ n
         with np.errstate(divide="ignore", invalid="ignore"):
             s = (d - C @ n) / denom
