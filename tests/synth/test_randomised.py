@@ -14,7 +14,9 @@ from aida_kb.synth import buildings as bld
 from aida_kb.synth.randomised import (
     MAX_OCCLUSION,
     RANDOM_KINDS,
+    _corners,
     _coverage,
+    framed,
     random_scene,
 )
 from aida_kb.synth.render import GROUND_LABEL, Lighting, in_shadow, surfaces
@@ -65,6 +67,18 @@ def test_occluders_cover_at_most_the_limit() -> None:
         R0, t0 = spec.views_site[0]
         cover = _coverage(spec.model, spec.occluders, R0, t0, spec.rig.K1, spec.rig.size)
         assert cover <= MAX_OCCLUSION
+
+
+def test_every_view_frames_the_whole_object() -> None:
+    # dev seed 60019 drew a distance that left a quarter of the shed's corners outside all three
+    # views; the orbit grows until every corner is in the image
+    for seed in [*range(40), 60017, 60019, 61123]:
+        spec = random_scene(seed, max_views=3)
+        assert framed(_corners(spec.model), spec.views_site, spec.rig), seed
+    spec = random_scene(60019, max_views=3)
+    R, t = spec.views_site[0]
+    closer = t - np.array([0.0, 0.0, 0.6 * float(spec.model.parameters["distance_m"])])
+    assert not framed(_corners(spec.model), [(R, closer)], spec.rig)
 
 
 def test_a_box_shadows_the_ground_behind_it_from_the_sun() -> None:
