@@ -169,6 +169,12 @@ BAD_CONDITION = register(
     "a 'when' block names no part, a concept that cannot fill it, a member that is no "
     "relation, or a relation that never holds under its condition",
 )
+BAD_SHARE = register(
+    "KB156",
+    _E,
+    "a 'touching ... share' names no part role that can hold several objects, or a path that "
+    "is no part with specialisations to share",
+)
 # instances
 ABSTRACT_INSTANCE = register("KB140", _E, "an instance is declared of an abstract concept")
 MISSING_ROLE = register("KB141", _E, "an instance leaves an obligatory role unbound")

@@ -332,7 +332,18 @@ class Attach:
     span: Span
 
 
-Geometry: TypeAlias = Frame | Orient | Unseen | Attach
+@dataclass(frozen=True, slots=True)
+class Touching:
+    """``touching houses share body.roof, body.height``: members of the scene's part role
+    ``role`` that touch one another (a party wall between them) are filled alike at every path
+    of ``paths`` (relative to the role's concept): the same concept along is-a."""
+
+    role: Name
+    paths: tuple[Path, ...]
+    span: Span
+
+
+Geometry: TypeAlias = Frame | Orient | Unseen | Attach | Touching
 
 
 @dataclass(frozen=True, slots=True)

@@ -383,6 +383,12 @@ class _Builder(Transformer[Token, Any]):
         name = self.name(ch[-1]) if isinstance(ch[-1], Token) and ch[-1].type == "NAME" else None
         return ast.Attach(paths[0], face, contact, tuple(paths[1:]), name, self.span(ch))
 
+    def touching(self, ch: list[Any]) -> ast.Touching:
+        # "touching" NAME "share" path ("," path)*
+        role = next(c for c in ch if isinstance(c, Token) and c.type == "NAME")
+        paths = tuple(c for c in ch if isinstance(c, ast.Path))
+        return ast.Touching(self.name(role), paths, self.span(ch))
+
     def contact(self, ch: list[Token]) -> ast.Name:
         return self.name(ch[0])
 
@@ -738,7 +744,7 @@ def _declaration_starts(text: str) -> list[int]:
 _MEMBER_START = re.compile(
     r'//[^\n]*|/\*.*?(?:\*/|\Z)|"(?:[^"\\\n]|\\.)*"?'
     r"|(?<![A-Za-z0-9_.-])(optional\s+part|part|con-of|attribute|adjacent|constraint|measure"
-    r"|frame|orient|unseen|attach|when)(?![A-Za-z0-9_-])",
+    r"|frame|orient|unseen|attach|when|touching)(?![A-Za-z0-9_-])",
     re.S,
 )
 #: A concept body with more broken members than this is reported up to this many (each retry
@@ -911,6 +917,8 @@ _AFTER_KEYWORD: dict[str, str] = {
     "IS": "expected a measure after 'is', such as slope(self) or height(self)",
     "AS": "expected a name for the face after 'as'",
     "WHEN": "expected a role after 'when', as in 'when roof is HipRoof { ... }'",
+    "TOUCHING": "expected a part role after 'touching', as in 'touching houses share body.roof'",
+    "SHARE": "expected a role path after 'share', as in 'share body.roof'",
 }
 _TERMINAL_WORDS: dict[str, str] = {
     "NAME": "a name",
@@ -932,6 +940,7 @@ _MEMBER_KEYWORDS = {
     "UNSEEN",
     "ATTACH",
     "WHEN",
+    "TOUCHING",
 }
 
 
@@ -1075,7 +1084,7 @@ def _describe_token(lark: Lark, exc: UnexpectedToken, text: str, file: str, off:
     elif expected & _MEMBER_KEYWORDS:
         message = (
             "expected a member (part, optional part, con-of, attribute, adjacent, constraint, "
-            "measure, frame, orient, unseen, attach, when) or '}'"
+            "measure, frame, orient, unseen, attach, when, touching) or '}'"
         )
         if tok.type == "NAME":
             hint = "a role is declared with 'part NAME: Concept'"

@@ -81,6 +81,13 @@ class SceneObject(_Frozen):
         default_factory=list,
         description="its choices along is-a the evidence does not decide (as Interpretation.ties)",
     )
+    shared: list[str] = Field(
+        default_factory=list,
+        description=(
+            "its choices along is-a that the evidence left open and the knowledge decided: a "
+            "touching object's ('touching ROLE share PATH', e.g. 'body.roof=GableRoof')"
+        ),
+    )
 
 
 class Interpretation(_Frozen):

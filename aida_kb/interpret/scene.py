@@ -375,6 +375,7 @@ def interpret_scene(
     reference = {r for r in view.regions if view.regions[r].view == view.reference_view}
     weight = object_weight(Context.build(knowledge, view, slot.concept))
     failed: set[str] = set()  # anchors whose search found nothing
+    taken: dict[int, list[str]] = {}  # choices the knowledge decided, by attempt
     while len(found) < limit:
         ctx = Context.build(knowledge, view, slot.concept, frozenset(explained), weight)
         free = {r.id for r in ctx.regions}
@@ -399,13 +400,15 @@ def interpret_scene(
             )
             state, n, goal_id = interpreter.run()
             expanded += n
-            wanted = next((p.choices for p in prefer if anchor.id in p.regions), frozenset())
+            pref = next((p for p in prefer if anchor.id in p.regions), None)
+            wanted = pref.choices if pref is not None else frozenset()
             swapped = None if state is None or not wanted else preferred(interpreter, state, wanted)
             if swapped is not None:
                 state = swapped[0]
             attempt = interpretation_of(interpreter, state, n, goal_id, evidence)
-            if swapped is not None:
-                attempt = _decided(attempt, wanted, swapped[1])
+            if swapped is not None and pref is not None:
+                attempt = _decided(attempt, wanted, swapped[1], pref.reason)
+                taken[id(attempt)] = sorted(wanted) if pref.reason else []
             if attempt.accepted and attempt.model is not None and _bound(attempt) - explained:
                 one = attempt
                 break
@@ -456,8 +459,20 @@ def interpret_scene(
                 expanded=judged.expanded,
                 evidence=sorted(own),
                 ties=list(judged.ties),
+                shared=taken.get(id(one), []),
             )
         )
+    if parts:  # what touching objects share, judged on the objects' models together
+        draft = Interpretation(
+            goal=goal,
+            accepted=True,
+            message="",
+            instances=instances,
+            model=ReconstructedModel(parts=parts),
+            objects=objects,
+            expanded=expanded,
+        )
+        objects = alike_doubts(kb, draft, objects)
     counts = f"{len(objects)} {slot.concept} found in {len(found) + 1} rounds"
     if len(objects) < max(slot.min, 1):
         why = "; ".join(dropped) or stop or "nothing found"
@@ -500,10 +515,13 @@ def interpret_scene(
 @dataclass(frozen=True)
 class Preference:
     """Choices along is-a (``ROLE=CONCEPT``, roles relative to the object) that views other
-    than the interpreted one decided for the object explaining `regions` ('VIEW/REGION')."""
+    than the interpreted one, or the knowledge (`reason`), decided for the object explaining
+    `regions` ('VIEW/REGION')."""
 
     regions: frozenset[str]
     choices: frozenset[str]
+    # why, when the knowledge decided them (`shared_choices`; empty: the other views did)
+    reason: str = ""
 
 
 def preferred(
@@ -539,10 +557,11 @@ def preferred(
 
 
 def _decided(
-    attempt: Interpretation, wanted: frozenset[str], given_up: tuple[str, ...]
+    attempt: Interpretation, wanted: frozenset[str], given_up: tuple[str, ...], reason: str = ""
 ) -> Interpretation:
     """`attempt` (its body the tied one making the choices `wanted`) with the choices given up
-    no longer named as ties: the other views decided between them."""
+    no longer named as ties: the other views decided between them, or the knowledge
+    (`reason`)."""
     ties = [t for t in attempt.ties if t not in given_up]
     message = attempt.message.replace(
         f"; the evidence does not decide it from {', '.join(attempt.ties)}",
@@ -551,7 +570,9 @@ def _decided(
     return attempt.model_copy(
         update={
             "ties": ties,
-            "message": f"{message}; the other views decided {', '.join(sorted(wanted))} over "
+            "message": f"{message}; {reason}"
+            if reason
+            else f"{message}; the other views decided {', '.join(sorted(wanted))} over "
             f"{', '.join(given_up)} (re-judged by them, interpret.scene.reconstruct_objects)",
         }
     )
@@ -643,6 +664,7 @@ def judge_objects(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
                 }
             )
         )
+    objects = alike_doubts(kb, interp, objects)
     doubtful = [o for o in objects if o.verdict == DOUBTFUL]
     model = interp.model.model_copy(
         update={
@@ -876,8 +898,9 @@ def reconstruct_objects(
 ) -> Interpretation:
     """`rejudge.rejudged_views` (`multiview.reconstruct_views`, a single object's ties
     re-judged by every view), and for a scene of several objects their ties re-judged by the
-    other views object by object (see above): at most two more reconstructions of the scene,
-    none when no object has a tie."""
+    other views object by object (see above), then the ties still open that the knowledge
+    decides (`shared_choices`: a touching object's choice): at most three more reconstructions
+    of the scene, none when no object has a tie."""
     from aida_kb.interpret.multiview import reconstruct_views  # they build on this module
     from aida_kb.interpret.rejudge import rejudged_views
 
@@ -887,7 +910,7 @@ def reconstruct_objects(
         rejudged_views(kb, evidence, goal=goal, source=source, scene=scene, progress=progress),
     )
     flips = _ties(first)
-    if not flips or len(evidence.views) < 2:
+    if not flips:
         return first
 
     def again(chosen: dict[str, Preference]) -> Interpretation:
@@ -903,15 +926,234 @@ def reconstruct_objects(
             prefer=tuple(chosen.values()),
         )
 
-    second = _every_view(kb, evidence, again(flips))
-    leading = _leading(evidence, first, second, flips) if _keeps(first, second) else {}
-    if not leading:
-        return first
-    if leading != flips:
-        second = _every_view(kb, evidence, again(leading))
-        if not _keeps(first, second) or _leading(evidence, first, second, leading) != leading:
-            return first
-    return second
+    result, chosen = first, dict[str, Preference]()
+    if len(evidence.views) >= 2:
+        second = _every_view(kb, evidence, again(flips))
+        leading = _leading(evidence, first, second, flips) if _keeps(first, second) else {}
+        if leading and leading != flips:
+            second = _every_view(kb, evidence, again(leading))
+            if not _keeps(first, second) or _leading(evidence, first, second, leading) != leading:
+                leading = {}
+        if leading:
+            result, chosen = second, leading
+    shared = shared_choices(kb, result)
+    if shared:
+        wanted = _kept_choices(result, chosen)
+        for role, pref in shared.items():
+            had = wanted.get(role)
+            wanted[role] = (
+                pref if had is None else replace(pref, choices=pref.choices | had.choices)
+            )
+        third = _every_view(kb, evidence, again(wanted))
+        result = third if _keeps(result, third) else result
+    confirmed = confirmed_choices(kb, result)
+    return result if confirmed is result else judge_objects(kb, confirmed, evidence)
+
+
+def _kept_choices(interp: Interpretation, chosen: dict[str, Preference]) -> dict[str, Preference]:
+    """The preferences `chosen` that made `interp`, each keyed by the role its object has in
+    `interp` (a reconstruction may find the objects in another order)."""
+    out: dict[str, Preference] = {}
+    for pref in chosen.values():
+        obj = _matching(interp, pref.regions)
+        if obj is not None:
+            out[obj.role] = pref
+    return out
+
+
+# ---- what touching objects share (kb: 'touching ROLE share PATH', docs/language.md 3.14) ----
+# Two objects touch where a face of one lies in a face of the other, facing it: a terrace's
+# party wall, inserted by each house from its own evidence (no view sees it). Their normals
+# are opposite within this angle (the two copies of dev terraces 62202/62205 lay 0.02-1.1 deg
+# apart) ...
+TOUCH_ANGLE_DEG = 3.0
+# ... their planes this fraction of the smaller object's size apart (its bounding-box
+# diagonal: the copies lay 0.03-0.91 m apart on houses 15-20 m across; the street presets'
+# free-standing houses stand at least 3 m apart) ...
+TOUCH_GAP = 0.08
+# ... and their polygons' bounding boxes overlap, grown by that gap.
+
+
+def touching(model: ReconstructedModel, a: str, b: str) -> bool:
+    """True if the objects with roles `a` and `b` in `model` touch (see above)."""
+    pa, pb = _object_parts(model, a), _object_parts(model, b)
+    if not pa or not pb:
+        return False
+    gap = TOUCH_GAP * min(_size(pa), _size(pb))
+    na = np.array([p.normal for p in pa], dtype=np.float64)  # (A, 3)
+    nb = np.array([p.normal for p in pb], dtype=np.float64)  # (B, 3)
+    da = np.array([p.offset_m for p in pa], dtype=np.float64)
+    db = np.array([p.offset_m for p in pb], dtype=np.float64)
+    facing = na @ nb.T < -math.cos(math.radians(TOUCH_ANGLE_DEG))
+    close = np.abs(da[:, None] + db[None, :]) <= gap  # opposite normals: d_a = -d_b
+    for i, j in zip(*np.nonzero(facing & close), strict=True):
+        a_pts = np.asarray(pa[int(i)].polygon, dtype=np.float64)
+        b_pts = np.asarray(pb[int(j)].polygon, dtype=np.float64)
+        if np.all(a_pts.min(axis=0) <= b_pts.max(axis=0) + gap) and np.all(
+            b_pts.min(axis=0) <= a_pts.max(axis=0) + gap
+        ):
+            return True
+    return False
+
+
+def _shared_paths(kb: KnowledgeBase, interp: Interpretation) -> dict[str, str]:
+    """The paths (relative to a member object) that touching members of the goal's part role
+    share, each with where the knowledge says so ('FILE:LINE')."""
+    concept = kb.concepts.get(interp.goal)
+    if concept is None or not interp.objects:
+        return {}
+    roles = {o.role.split("[", 1)[0] for o in interp.objects}
+    return {s.path: f"{s.span.file}:{s.span.line}" for s in concept.shares if s.role in roles}
+
+
+def _filler(interp: Interpretation, role: str) -> str | None:
+    """The concept filling role path `role` in `interp` (None: no instance there)."""
+    return next((i.concept for i in interp.instances if i.role == role), None)
+
+
+def shared_choices(kb: KnowledgeBase, interp: Interpretation) -> dict[str, Preference]:
+    """The ties the knowledge decides (``touching houses share body.roof``): an object tied
+    at a shared path (``body.roof=GableRoof`` explains its evidence about as well) takes the
+    choice of an object touching it whose choice there is decided — by the evidence (no tie
+    there), or so by a neighbour of its own (along a terrace). Keyed by role, with the reason
+    (`Preference.reason`); an object touching two decided neighbours of different choices
+    takes neither."""
+    paths = _shared_paths(kb, interp)
+    model = interp.model
+    if not paths or model is None:
+        return {}
+    decided: dict[tuple[str, str], str] = {}
+    for o in interp.objects:
+        for path in paths:
+            filler = _filler(interp, f"{o.role}.{path}")
+            if filler is not None and not any(t.startswith(path + "=") for t in o.ties):
+                decided[(o.role, path)] = filler
+    pairs = {
+        (a.role, b.role)
+        for a in interp.objects
+        for b in interp.objects
+        if a.role < b.role and touching(model, a.role, b.role)
+    }
+    near = {
+        o.role: sorted({b for a, b in pairs if a == o.role} | {a for a, b in pairs if b == o.role})
+        for o in interp.objects
+    }
+    out: dict[str, Preference] = {}
+    grown = True
+    while grown:  # along a terrace: a decided neighbour decides the next
+        grown = False
+        for o in interp.objects:
+            for tie in o.ties:
+                path, concept = tie.split("=", 1)
+                if path not in paths or (o.role, path) in decided:
+                    continue
+                theirs = {decided[(n, path)] for n in near[o.role] if (n, path) in decided}
+                if theirs != {concept}:
+                    continue
+                source = next(n for n in near[o.role] if decided.get((n, path)) == concept)
+                decided[(o.role, path)] = concept
+                done = out.get(o.role)
+                choices = (done.choices if done is not None else frozenset()) | {tie}
+                reason = (
+                    f"the knowledge decided {tie}: touching {source} has it "
+                    f"(touching objects share {path}, {paths[path]})"
+                )
+                out[o.role] = Preference(
+                    frozenset(o.evidence),
+                    choices,
+                    f"{done.reason}; {reason}" if done is not None else reason,
+                )
+                grown = True
+    return out
+
+
+def confirmed_choices(kb: KnowledgeBase, interp: Interpretation) -> Interpretation:
+    """`interp` with the ties the knowledge decides for the choice an object already made: an
+    object whose touching objects' choices at a shared path are all its own (and one at
+    least decided, by the evidence or so) no longer names its other choices there as ties;
+    they go to `SceneObject.shared` (judged by `alike_doubts`), the message says why."""
+    paths = _shared_paths(kb, interp)
+    model = interp.model
+    if not paths or model is None:
+        return interp
+    objects: list[SceneObject] = []
+    changed = False
+    for o in interp.objects:
+        near = [n for n in interp.objects if n.role != o.role and touching(model, o.role, n.role)]
+        ties, shared, why = list(o.ties), list(o.shared), []
+        for path, where in paths.items():
+            mine = _filler(interp, f"{o.role}.{path}")
+            open_ = [t for t in ties if t.startswith(path + "=")]
+            theirs = {_filler(interp, f"{n.role}.{path}") for n in near}
+            settled = [n for n in near if not any(t.startswith(path + "=") for t in n.ties)]
+            if mine is None or not open_ or theirs != {mine} or not settled:
+                continue
+            ties = [t for t in ties if t not in open_]
+            shared.append(f"{path}={mine}")
+            why.append(
+                f"the knowledge decided {path}={mine} over {', '.join(open_)}: touching "
+                f"{', '.join(n.role for n in near)} have it (touching objects share {path}, "
+                f"{where})"
+            )
+        if why:
+            changed = True
+            o = o.model_copy(
+                update={"ties": ties, "shared": shared, "message": f"{o.message}; {'; '.join(why)}"}
+            )
+        objects.append(o)
+    if not changed:
+        return interp
+    return interp.model_copy(update={"objects": objects})
+
+
+def alike_doubts(
+    kb: KnowledgeBase, interp: Interpretation, objects: list[SceneObject]
+) -> list[SceneObject]:
+    """`objects` (judged, of `interp`'s model) with the doubts of what touching objects share:
+    two touching objects filled otherwise at a shared path are both doubtful (the knowledge
+    says they are alike), and a choice the knowledge took from a touching object
+    (`SceneObject.shared`) stands only on a verified neighbour that made it from its own
+    evidence."""
+    paths = _shared_paths(kb, interp)
+    model = interp.model
+    if not paths or model is None:
+        return objects
+    by_role = {o.role: o for o in objects}
+    extra: dict[str, list[str]] = {o.role: [] for o in objects}
+    for a in objects:
+        for b in objects:
+            if a.role == b.role or not touching(model, a.role, b.role):
+                continue
+            for path, where in paths.items():
+                fa, fb = _filler(interp, f"{a.role}.{path}"), _filler(interp, f"{b.role}.{path}")
+                if fa is not None and fb is not None and fa != fb:
+                    extra[a.role].append(
+                        f"{path} is a {fa}, but touching {b.role}'s is a {fb}: the knowledge "
+                        f"says touching objects share it ({where})"
+                    )
+    for o in objects:
+        for choice in o.shared:
+            path, concept = choice.split("=", 1)
+            if not any(
+                n.verdict == VERIFIED
+                and _filler(interp, f"{n.role}.{path}") == concept
+                and choice not in n.shared
+                and touching(model, o.role, n.role)
+                for n in objects
+                if n.role != o.role
+            ):
+                extra[o.role].append(
+                    f"{choice} was taken from a touching object (the evidence leaves it open), "
+                    "and no touching object verified on its own evidence has it"
+                )
+    return [
+        by_role[o.role].model_copy(
+            update={"verdict": DOUBTFUL, "doubts": [*o.doubts, *extra[o.role]]}
+        )
+        if extra[o.role]
+        else o
+        for o in objects
+    ]
 
 
 def _every_view(kb: KnowledgeBase, evidence: Evidence, interp: Interpretation) -> Interpretation:

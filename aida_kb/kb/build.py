@@ -31,6 +31,7 @@ from aida_kb.kb.model import (
     PartModel,
     PlacementModel,
     ResidualUnit,
+    ShareModel,
     TemplateModel,
     ValueType,
     ValueUnit,
@@ -205,6 +206,7 @@ def _concept(table: Table, cname: str, info: CInfo) -> ConceptModel:
         orientations={k: _make(OrientationModel, **v) for k, v in shape["orientations"].items()},
         placements=tuple(_make(PlacementModel, **v) for v in shape["placements"]),
         attachments={k: _make(AttachmentModel, **v) for k, v in shape["attachments"].items()},
+        shares=tuple(_make(ShareModel, **v) for v in shape["shares"]),
     )
 
 

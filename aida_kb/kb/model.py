@@ -216,11 +216,23 @@ class AttachmentModel(_Frozen):
     span: Span
 
 
+class ShareModel(_Frozen):
+    """``touching ROLE share PATH``: members of the part role ``role`` (objects of a scene)
+    that touch one another are filled alike at ``path`` (relative to the role's concept): the
+    same concept along is-a (docs/language.md §3.14)."""
+
+    role: str
+    path: str
+    declared_in: str
+    span: Span
+
+
 class ConceptModel(_Frozen):
     """A concept with every member resolved: own and inherited, overrides applied.
 
     The geometry members: ``frame`` (None: the concept uses its whole's frame),
-    ``orientations`` and ``placements`` by part path, ``attachments`` by attached part.
+    ``orientations`` and ``placements`` by part path, ``attachments`` by attached part;
+    ``shares``: what touching objects of a part role have alike (a scene concept).
     """
 
     name: str
@@ -239,6 +251,7 @@ class ConceptModel(_Frozen):
     orientations: dict[str, OrientationModel] = {}
     placements: tuple[PlacementModel, ...] = ()
     attachments: dict[str, AttachmentModel] = {}
+    shares: tuple[ShareModel, ...] = ()
 
 
 class ParamModel(_Frozen):

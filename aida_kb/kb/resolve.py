@@ -678,7 +678,7 @@ def _own_members(table: Table, cname: str, info: CInfo) -> Iterator[Diagnostic]:
                 info.own_slots = True
         elif isinstance(m, ast.Adjacency):
             info.adjacency.append((m, cname))
-        elif isinstance(m, ast.Frame | ast.Orient | ast.Unseen | ast.Attach):
+        elif isinstance(m, ast.Frame | ast.Orient | ast.Unseen | ast.Attach | ast.Touching):
             info.geometry.append((m, cname))
         elif isinstance(m, ast.Constraint) and m.label is not None:
             label = m.label.text

@@ -196,6 +196,8 @@ def check_shape(table: Table, info: CInfo) -> Iterator[Diagnostic]:
             yield from _check_unseen(table, cname, g)
         elif isinstance(g, ast.Attach):
             yield from _check_attach(table, cname, g)
+        elif isinstance(g, ast.Touching):
+            yield from _check_touching(table, cname, g)
     for i, f in enumerate(frames):
         if i > 0:
             yield diag(
@@ -378,6 +380,39 @@ def _check_attach(table: Table, cname: str, g: ast.Attach) -> Iterator[Diagnosti
             yield d
 
 
+def _check_touching(table: Table, cname: str, g: ast.Touching) -> Iterator[Diagnostic]:
+    res, d = _part(table, cname, ast.Path((g.role,), g.role.span))
+    if d is not None:
+        yield d
+        return
+    if res is None or res.slot is None:
+        return
+    if res.slot.max is not None and res.slot.max < 2:
+        yield diag(
+            codes.BAD_SHARE,
+            f"'{g.role.text}' holds at most one {res.concept}: no two of them can touch",
+            g.role.span,
+            "name a part role of several objects, such as 'part houses: House [1..*]'",
+        )
+        return
+    for path in g.paths:
+        if res.concept is None or res.concept not in table.concepts:
+            return
+        inner, d = _part(table, res.concept, path)
+        if d is not None:
+            yield d
+        elif inner is not None and not table.concepts.get(inner.concept or "", None):
+            continue
+        elif inner is not None and not table.concepts[inner.concept or ""].children:
+            yield diag(
+                codes.BAD_SHARE,
+                f"'{path.dotted}' of {res.concept} is a {inner.concept}, which has no "
+                "specialisation: there is no choice to share",
+                path.span,
+                "share a part whose concept has specialisations (a roof of several kinds)",
+            )
+
+
 # ---- build -------------------------------------------------------------------------------
 def attribute_measure(node: ast.Attribute) -> dict[str, Any] | None:
     """The fields of an attribute's `MeasureModel` (None without a measure)."""
@@ -395,12 +430,13 @@ def attribute_measure(node: ast.Attribute) -> dict[str, Any] | None:
 def build_shape(table: Table, cname: str, info: CInfo) -> dict[str, Any]:
     """The geometry fields of a concept's model, as plain values (the build makes the models):
     ``frame`` (anchor, owner, span) or None; ``orientations`` part -> dict; ``placements``
-    list of dicts; ``attachments`` part -> dict. Later declarations override earlier ones (a
-    concept's own over inherited)."""
+    list of dicts; ``attachments`` part -> dict; ``shares`` list of dicts. Later declarations
+    override earlier ones (a concept's own over inherited)."""
     frame: dict[str, Any] | None = None
     orientations: dict[str, dict[str, Any]] = {}
     placements: list[dict[str, Any]] = []
     attachments: dict[str, dict[str, Any]] = {}
+    shares: dict[tuple[str, str], dict[str, Any]] = {}
     for g, owner in info.geometry:
         if isinstance(g, ast.Frame):
             res = table.resolve_path(cname, g.anchor)
@@ -432,6 +468,19 @@ def build_shape(table: Table, cname: str, info: CInfo) -> dict[str, Any]:
                 }
         elif isinstance(g, ast.Unseen):
             placements.extend(_placements(table, cname, g, owner))
+        elif isinstance(g, ast.Touching):
+            role = table.resolve_path(cname, ast.Path((g.role,), g.role.span))
+            if not isinstance(role, PathRes) or role.concept is None:
+                continue
+            for path in g.paths:
+                res = table.resolve_path(role.concept, path)
+                if isinstance(res, PathRes):
+                    shares[(role.dotted, res.dotted)] = {
+                        "role": role.dotted,
+                        "path": res.dotted,
+                        "declared_in": owner,
+                        "span": g.span,
+                    }
         else:
             res = table.resolve_path(cname, g.part)
             planes = [table.resolve_path(cname, p) for p in g.planes]
@@ -450,6 +499,7 @@ def build_shape(table: Table, cname: str, info: CInfo) -> dict[str, Any]:
         "orientations": orientations,
         "placements": placements,
         "attachments": attachments,
+        "shares": list(shares.values()),
     }
 
 

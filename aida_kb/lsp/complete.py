@@ -46,6 +46,7 @@ MEMBER_KEYWORDS = (
     "orient",
     "unseen",
     "attach",
+    "touching",
 )
 #: Words that qualify a relation.
 QUALIFIER_KEYWORDS = ("weight", "reject")
@@ -63,6 +64,7 @@ NEXT_KEYWORDS: tuple[tuple[str, tuple[str, ...]], ...] = (
     (r"^\s*orient\s[^:]*:\s*\w+\s+\w*$", ("tilted",)),
     (r"\btilted\s+\w*$", ("by",)),
     (r"\breject\s+\w*$", ("above",)),
+    (rf"^\s*touching\s+{_NAME}\s+\w*$", ("share",)),
     (rf"^\s*attribute\s+{_NAME}\s*:\s*{_NAME}\s+\w*$", ("in", "is")),
 )
 

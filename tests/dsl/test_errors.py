@@ -67,7 +67,8 @@ def _only(text: str) -> tuple[str, int, int, str]:
             3,
             1,
             "expected a member (part, optional part, con-of, attribute, adjacent, constraint, "
-            "measure, frame, orient, unseen, attach, when) or '}', found the end of the file",
+            "measure, frame, orient, unseen, attach, when, touching) or '}', found the end of "
+            "the file",
         ),
         ("concept H in world { constraint front }", "KB009", 1, 33, "'front' is not a relation"),
         (
@@ -84,7 +85,7 @@ def _only(text: str) -> tuple[str, int, int, str]:
             1,
             22,
             "expected a member (part, optional part, con-of, attribute, adjacent, constraint, "
-            "measure, frame, orient, unseen, attach, when) or '}', found 'wall'",
+            "measure, frame, orient, unseen, attach, when, touching) or '}', found 'wall'",
         ),
         (
             "concept L is-a { }",

@@ -456,6 +456,25 @@ CASES = [
         4,
         16,
     ),
+    (
+        "share-one",
+        H + "concept W in world { }\nconcept R in world { part t: W }\n"
+        "concept F is-a R { }\nconcept G in world { part r: R }\n"
+        "concept K in scene { con-of g: G }\n"
+        "concept S in scene { part k: K\n touching k share g.r }",
+        "KB156",
+        8,
+        11,
+    ),
+    (
+        "share-plane",
+        H + "concept W in world { }\nconcept G in world { part f: W }\n"
+        "concept K in scene { con-of g: G }\nconcept S in scene { part ks: K [0..*]\n"
+        " touching ks share g.f }",
+        "KB156",
+        6,
+        20,
+    ),
     ("unreachable", H + "concept H in scene { }\nconcept W in world { }", "KB301", 3, 9),
     (
         "unverifiable",
