@@ -4,6 +4,7 @@ plausible one of least misfit kept as a verified level, or the reason none is, i
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
@@ -17,7 +18,7 @@ from aida_kb.interpret.assign import anchor_of, assignments
 from aida_kb.interpret.blame import Reason, blame, first_named, over
 from aida_kb.interpret.closure import ClosingFace
 from aida_kb.interpret.context import Context
-from aida_kb.interpret.hypotheses import Frame
+from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD, Frame
 from aida_kb.interpret.knowledge import Structure
 from aida_kb.interpret.observe import RegionView
 from aida_kb.interpret.plausibility import (
@@ -32,6 +33,7 @@ from aida_kb.interpret.plausibility import (
 from aida_kb.interpret.support import EdgeSupport, edge_support, overflow
 from aida_kb.interpret.trace import Trace
 from aida_kb.interpret.unseen import Planes, UnseenError
+from aida_kb.interpret.verdict.tolerances import ORIENTATION_TOLERANCE_DEG
 from aida_kb.interpret.verify import Outcome, Verification
 
 FloatArray = npt.NDArray[np.float64]
@@ -78,6 +80,39 @@ def unseen_by_edges(ctx: Context, visible: tuple[str, ...], edges: EdgeSupport) 
                 f"{role} would face camera {ctx.evidence.camera.view} but no region fits it, "
                 f"and segments show {shown} of its edges' length "
                 f"(at least {100 * VISIBLE_SEEN_MIN:.0f}%)"
+            )
+    return ""
+
+
+# a part the knowledge orients level (``orient top: upward``), bound to a region, whose
+# adjusted plane slopes more than this is not that part: the verdict doubts such a model for
+# the knowledge's orientation at the same figure (`verdict.check_orientations`), and a rival
+# that lets the part slope explains the same region without breaking it (dev seed 61120: a
+# shed's top sloping 10.6 degrees, bound as a flat roof's top, cost the flat roof exactly what
+# it cost the shed, and the result named the flat roof as a rival the evidence could not
+# rule out)
+LEVEL_TOLERANCE_DEG = ORIENTATION_TOLERANCE_DEG
+
+
+def level_violation(
+    structure: Structure, binding: dict[str, str], planes: Planes, up: FloatArray
+) -> str:
+    """Why a part bound to a region (`binding`: region id -> role path) breaks the level
+    orientation the knowledge gives it ('' if none does): its plane in `planes` (role path ->
+    (unit normal (3,), offset m), world) slopes more than `LEVEL_TOLERANCE_DEG` from facing
+    straight up or down (`up` (3,) unit, world)."""
+    bound = set(binding.values())
+    for leaf in structure.leaves:
+        if leaf.role not in bound or leaf.pitched or leaf.direction not in (UPWARD, DOWNWARD):
+            continue
+        normal = planes[leaf.role][0] / np.linalg.norm(planes[leaf.role][0])
+        facing = up if leaf.direction == UPWARD else -up
+        slope = math.degrees(math.acos(float(np.clip(normal @ facing, -1.0, 1.0))))
+        if slope > LEVEL_TOLERANCE_DEG:
+            return (
+                f"{leaf.role} ({leaf.concept}) slopes {slope:.1f} deg where its region lies, "
+                f"but the knowledge orients it {leaf.direction} (within "
+                f"{LEVEL_TOLERANCE_DEG:g} deg)"
             )
     return ""
 
@@ -172,6 +207,10 @@ def verify_alternative(
         violation = attribute_violation(ctx, structure, frame, outcome.planes, polygons)
         if violation is not None:
             reasons.append((violation.text, violation))
+            continue
+        tilted = level_violation(structure, binding, outcome.planes, frame.up)
+        if tilted:
+            reasons.append((tilted, None))
             continue
         solid = {leaf.role: outcome.planes[leaf.role] for leaf in structure.leaves}
         solid.update({c.role: (c.normal, c.offset_m) for c in closing})

@@ -33,6 +33,7 @@ from aida_kb.interpret.hypotheses import (
 )
 from aida_kb.interpret.knowledge import Attribute, Node, Structure
 from aida_kb.interpret.observe import RegionView, slope_deg
+from aida_kb.interpret.outline import outline_pitch
 from aida_kb.interpret.verify import PlaneInit
 
 FloatArray = npt.NDArray[np.float64]
@@ -106,7 +107,12 @@ def initial_planes(
             start[leaf.role] = (region.normal, region.offset_m)
             continue
         tilt = leaf.tilt_deg if leaf.tilt_deg is not None else DEFAULT_PITCH_DEG
-        n = predicted_normal(leaf, frame, pitch if pitch is not None else tilt)
+        # a slope left to the evidence: the outlines of the walls it meets (`outline`)
+        traced = (
+            outline_pitch(ctx, structure, leaf, frame, binding) if leaf.tilt_deg is None else None
+        )
+        start_pitch = traced if traced is not None else pitch if pitch is not None else tilt
+        n = predicted_normal(leaf, frame, start_pitch)
         if len(points):
             d = support_offset(n, points)
         else:
