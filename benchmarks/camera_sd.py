@@ -144,6 +144,130 @@ def synthetic_calibration(draws: int = 30) -> tuple[FloatArray, FloatArray, Floa
     return np.asarray(errors), np.asarray(sds), np.asarray(factors)
 
 
+REGION_MATCH_DEG = 20.0
+"""A region lies on the true face whose normal is within this of its own (as
+`aida_kb.register.match_regions` pairs them) ..."""
+REGION_MATCH_SIZE = 0.05
+"""... and whose plane is nearest its centre, within this share of the object's size."""
+
+
+def _truth_planes(truth: dict[str, object]) -> tuple[list[str], FloatArray, FloatArray, float]:
+    """The true faces of a truth.json: roles, normals (P, 3), offsets (P,), the object's size
+    (its bounding box diagonal, metres)."""
+    parts = truth.get("parts")
+    assert isinstance(parts, list)
+    roles = [str(p["role"]) for p in parts]
+    N = np.array([p["normal"] for p in parts], dtype=np.float64).reshape(-1, 3)
+    D = np.array([p["d"] for p in parts], dtype=np.float64)
+    corners = np.vstack([np.asarray(p["polygon"], dtype=np.float64) for p in parts])
+    return roles, N, D, float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
+
+
+def region_calibration(keeps: list[Path]) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Over the kept scenes (``scene-SEED/truth.json``, ``out-SEED/evidence.json``) every
+    region lying on a true face (`REGION_MATCH_DEG`, `REGION_MATCH_SIZE`, at the true camera of
+    its view): its normal's error against that face, degrees; its plane fit's own 1-σ tilt
+    (`aida_kb.interpret.observe.fit_sigma_rad`), degrees; the joint adjustments' 1-σ of it
+    (`aida_kb.interpret.multiview.region_normal_sigma_rad`), degrees: three (R,) arrays."""
+    from aida_kb.interpret.multiview import region_normal_sigma_rad
+    from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
+    from aida_kb.register import RegionMeasurements
+
+    errors, fits, used = [], [], []
+    for keep in keeps:
+        for scene in sorted(keep.glob("scene-*")):
+            seed = scene.name.split("-", 1)[1]
+            evidence_path = keep / f"out-{seed}" / "evidence.json"
+            if not (scene / "truth.json").is_file() or not evidence_path.is_file():
+                continue
+            truth = json.loads((scene / "truth.json").read_text(encoding="utf-8"))
+            if not truth.get("parts"):
+                continue
+            _, N, D, size = _truth_planes(truth)
+            true_views = {v["view"]: v for v in truth["views"]}
+            evidence = json.loads(evidence_path.read_text(encoding="utf-8"))
+            for view in evidence["views"]:
+                tv = true_views.get(view["id"])
+                if tv is None or not view["regions"]:
+                    continue
+                R_ev, t_ev = np.asarray(view["left"]["R"]), np.asarray(view["left"]["t"])
+                R_true, t_true = np.asarray(tv["R"]), np.asarray(tv["t"])
+                regions = view["regions"]
+                n_cam = np.array([r["n_init"] for r in regions]) @ R_ev.T
+                c_cam = np.array([r["c_init"] for r in regions]) @ R_ev.T + t_ev
+                n_world = n_cam @ R_true
+                c_world = (c_cam - t_true) @ R_true
+                agree = n_world @ N.T
+                dist = np.abs(c_world @ N.T - D)
+                ok = (agree > math.cos(math.radians(REGION_MATCH_DEG))) & (
+                    dist < REGION_MATCH_SIZE * size
+                )
+                best = np.argmin(np.where(ok, dist, np.inf), axis=1)
+                on = ok[np.arange(len(regions)), best]
+                rms = np.array([r["rms_m"] for r in regions], dtype=np.float64)
+                inliers = np.array([r["inlier_count"] for r in regions], dtype=np.float64)
+                area = np.array([r["area_m2"] for r in regions], dtype=np.float64)
+                fit = fit_sigma_rad(rms, np.maximum(inliers / FIT_CORRELATED_PX, 1.0), area)
+                sigma = region_normal_sigma_rad(
+                    RegionMeasurements(n_cam, c_cam, rms, inliers, area)
+                )
+                cos = np.clip(agree[np.arange(len(regions)), best], -1.0, 1.0)
+                keep_rows = on & (inliers > 0) & (area > 0)
+                errors.append(np.degrees(np.arccos(cos))[keep_rows])
+                fits.append(np.degrees(fit)[keep_rows])
+                if sigma is not None:
+                    used.append(np.degrees(sigma)[keep_rows])
+                else:
+                    used.append(np.full(int(keep_rows.sum()), np.nan))
+    if not errors:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    return np.concatenate(errors), np.concatenate(fits), np.concatenate(used)
+
+
+def part_calibration(keeps: list[Path]) -> tuple[FloatArray, FloatArray]:
+    """Over the kept scenes' results whose parts are the truth's (the same roles, every normal
+    within `TWIN_DEG`: a right model) every part a region measures with a standard deviation
+    (model ``sd``): its normal's error against the truth and that sd, degrees, two (N,)."""
+    from aida_kb.interpret.result import read_interpretation
+
+    errors, sds = [], []
+    for keep in keeps:
+        for scene in sorted(keep.glob("scene-*")):
+            seed = scene.name.split("-", 1)[1]
+            path = keep / f"out-{seed}" / "interpretation.json"
+            if not (scene / "truth.json").is_file() or not path.is_file():
+                continue
+            truth = json.loads((scene / "truth.json").read_text(encoding="utf-8"))
+            if not truth.get("parts"):
+                continue
+            roles, N, _, _ = _truth_planes(truth)
+            model = read_interpretation(path).model
+            if model is None or sorted(p.role for p in model.parts) != sorted(roles):
+                continue
+            index = {r: i for i, r in enumerate(roles)}
+            got = np.array([p.normal for p in model.parts], dtype=np.float64)
+            want = N[[index[p.role] for p in model.parts]]
+            err = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", got, want), -1.0, 1.0)))
+            if float(err.max()) > TWIN_DEG:
+                continue
+            for p, e in zip(model.parts, err, strict=True):
+                if p.sd is not None and p.sd.normal_deg:
+                    errors.append(float(e))
+                    sds.append(float(p.sd.normal_deg))
+    return np.asarray(errors), np.asarray(sds)
+
+
+def _quantiles(z: FloatArray) -> dict[str, float | int | None]:
+    """Count, median and 90th percentile of ratios (None when there are none)."""
+    if z.size == 0:
+        return {"n": 0, "median": None, "p90": None}
+    return {
+        "n": int(z.size),
+        "median": round(float(np.median(z)), 3),
+        "p90": round(float(np.percentile(z, 90)), 3),
+    }
+
+
 def main(argv: list[str] | None = None) -> None:
     """Read the runs, print a line per camera and the JSON summary."""
     parser = argparse.ArgumentParser(
@@ -151,7 +275,33 @@ def main(argv: list[str] | None = None) -> None:
         epilog="example: python benchmarks/camera_sd.py /tmp/rb60/err.txt",
     )
     parser.add_argument("runs", nargs="*", type=Path, help="robustness.py output files")
-    runs = parser.parse_args(argv).runs
+    parser.add_argument(
+        "--keep",
+        nargs="+",
+        type=Path,
+        default=[],
+        help="kept robustness folders: calibrate the regions' and the parts' normals instead",
+    )
+    parsed = parser.parse_args(argv)
+    runs = parsed.runs
+    if parsed.keep:
+        region_err, fit, used = region_calibration(parsed.keep)
+        part_err, part_sd = part_calibration(parsed.keep)
+        print(
+            json.dumps(
+                {
+                    "regions": int(region_err.size),
+                    "region_err_median_deg": (
+                        round(float(np.median(region_err)), 3) if region_err.size else None
+                    ),
+                    "region_err_over_fit": _quantiles(region_err / fit),
+                    "region_err_over_sigma": _quantiles(region_err / used),
+                    "rayleigh_honest": {"median": 1.177, "p90": 2.146},
+                    "parts": _quantiles(part_err / part_sd if part_sd.size else part_sd),
+                }
+            )
+        )
+        return
     if not runs:
         errs, sds, factors = synthetic_calibration()
         z = errs / sds

@@ -51,6 +51,7 @@ from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.polyhedron import Polyhedron
 from aida_kb.geometry.rig import Rig
 from aida_kb.interpret.closure import check_concurrent
+from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
 from aida_kb.interpret.result import Interpretation
 from aida_kb.interpret.run import interpret
 from aida_kb.interpret.transfer import ImageTransfer
@@ -61,6 +62,7 @@ from aida_kb.io.scene import Scene
 from aida_kb.kb.paths import RolePath
 from aida_kb.register import (
     EdgeObservations,
+    RegionMeasurements,
     RegistrationOptions,
     RigidModel,
     StereoSegments,
@@ -105,6 +107,36 @@ JOINT_EDGE_SIGMA_PX = 4.0
 edge, pixels (loose: a model edge is not exactly an image edge — eaves, shading, texture); a
 segment's mean end-point residual gets ``sigma / sqrt(length)``, their half difference
 ``sigma·sqrt(3/length)`` (`segment_sqrt_information`)."""
+REGION_FIT_SCALE = 1.25
+"""A region's normal is known to its plane fit's own 1-σ tilt
+(`aida_kb.interpret.observe.fit_sigma_rad`: the fit's RMS over the root of its independent
+points — neighbouring disparities share their NCC window, so one pixel per window,
+`FIT_CORRELATED_PX`, counts — and the region's spread) times this, with `REGION_BIAS_DEG` added
+in quadrature (`region_normal_sigma_rad`); the scale and the floor stand for what no fit
+statistic shows (the disparity refinement's bias, a region's rim on a neighbouring face).
+Measured on the regions of dev seeds 60000-60023 and 61100-61123 against their TRUE faces and
+cameras (347 regions, `benchmarks/camera_sd.py --keep`): the normal's error over the fit's
+tilt has a median of 1.16 and a 90th percentile of 3.4 (1.25 and 3.0 for fits under 0.1 deg);
+an honest 1-σ per axis gives 1.18 and 2.15 (a 2-D error). With the scale and the floor: 0.93
+and 2.8 over all, 0.90 and 2.2 for the fits of 0.02-0.3 deg; 10 % of the regions (small,
+unlabelled, straddling a crease) lie beyond 3 of their sigmas, which the robust loss
+(`JOINT_LOSS`) takes. Before: every region 2 deg
+(`aida_kb.register.RegistrationOptions.region_sigma_deg`), 5-100 times its fit's, and a large
+wall weighed as a sliver."""
+REGION_BIAS_DEG = 0.02
+"""... and a region's normal is not known better than this, degrees (see `REGION_FIT_SCALE`:
+the largest fits, 0.01-0.05 deg, were off by 1.25 of their sigma in the median)."""
+JOINT_REGION_LOOSENESS = 8.0
+"""In the adjustments a region's normal takes that sigma times this: the regions are weighed
+against the segments as their honest noise models weigh them, and the segments' is loose
+(`JOINT_EDGE_SIGMA_PX`, 4 px, eight times the 0.4-0.5 px they scatter by: their variance factor
+0.010-0.016 on dev seeds and in the synthetic calibration). The deviations
+(`aida_kb.interpret.uncertainty`) rescale each kind of measurement by its own variance factor,
+so the regions' deviations follow their scatter. Weighed at their honest sigma against the
+loose segments, the regions pulled the models off what the edges fix: dev 61108 normals 0.06
+-> 0.13 deg, cameras 0.04 / 0.05 -> 0.08 / 0.16 deg; the 135-degree L-shape's view 01 0.06 ->
+0.19 m (tests/interpret/test_multiview.py: at most 0.15); with this, 0.06 deg and 0.05 / 0.06
+deg, the L-shape within the test's 0.15 m again."""
 JOINT_ANGLE_SIGMA_DEG = 0.3
 """The first shape's angles between adjacent parts, kept to this standard deviation."""
 PRIOR_ANGLE_SIGMA_DEG = 2.0
@@ -328,7 +360,11 @@ def joint_problem(
             cons += _edge_factors(
                 model, all_cameras[right], right, pair.p1, pair.p2, f"{m.view} (right)"
             )
-        obs = match_regions(model, cam, m.regions, opts) if m.regions.size else None
+        obs = (
+            match_regions(model, cam, m.regions, opts, _joint_region_sigma_rad(m.regions))
+            if m.regions.size
+            else None
+        )
         if obs is None:
             continue
         for k in range(obs.size):
@@ -375,6 +411,33 @@ def joint_problem(
         free_cameras=free_cameras,
         derived=derived,
     )
+
+
+def region_normal_sigma_rad(regions: RegionMeasurements) -> FloatArray | None:
+    """(R,) each region's normal's honest 1-σ, radians: its plane fit's own tilt
+    (`REGION_FIT_SCALE`, `REGION_BIAS_DEG`); the registration's uniform sigma
+    (`aida_kb.register.RegistrationOptions.region_sigma_deg`) where a fit's inliers or area are
+    unknown (evidence without them); None when no region's are known. The adjustments weigh
+    them `JOINT_REGION_LOOSENESS` times looser."""
+    if regions.inliers is None or regions.area_m2 is None:
+        return None
+    inliers, area = regions.inliers, regions.area_m2
+    known = (inliers > 0.0) & (area > 0.0)
+    if not np.any(known):
+        return None
+    samples = np.maximum(inliers / FIT_CORRELATED_PX, 1.0)
+    fit = fit_sigma_rad(regions.rms_m, samples, np.where(known, area, 1.0))
+    own = REGION_FIT_SCALE * np.hypot(fit, math.radians(REGION_BIAS_DEG))
+    uniform = math.radians(RegistrationOptions().region_sigma_deg) / JOINT_REGION_LOOSENESS
+    out: FloatArray = np.where(known, own, uniform)
+    return out
+
+
+def _joint_region_sigma_rad(regions: RegionMeasurements) -> FloatArray | None:
+    """(R,) the sigmas the joint adjustments give the regions' normals, radians
+    (`region_normal_sigma_rad` times `JOINT_REGION_LOOSENESS`; None: the registration's)."""
+    honest = region_normal_sigma_rad(regions)
+    return None if honest is None else JOINT_REGION_LOOSENESS * honest
 
 
 def _edge_factors(

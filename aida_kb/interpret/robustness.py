@@ -36,7 +36,7 @@ from aida_kb.interpret.result import Interpretation, read_interpretation
 from aida_kb.interpret.scene import evaluate_scene, judge_objects, members
 from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.evidence import read_evidence
-from aida_kb.io.scene import read_scene
+from aida_kb.io.scene import left_images, read_scene
 from aida_kb.synth.randomised import random_scene
 from aida_kb.synth.scenes import render_scene
 from aida_kb.synth.street import random_street, random_street_labels, random_street_spec
@@ -202,7 +202,8 @@ def rejudge_scene(
         kb = knowledge(str(truth.parameters.get("knowledge", "buildings.kb")))
     interp = read_interpretation(out_dir / "interpretation.json")
     evidence = read_evidence(out_dir / "evidence.json")
-    interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
+    images = left_images(scene, [v.id for v in evidence.views])
+    interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True, images=images))
     judged = evaluate(interp, truth)
     return SceneOutcome.judged(seed, kind, labels, len(scene.views), judged, 0.0)
 

@@ -91,6 +91,7 @@ class Uncertainty:
         adjustment's edge sigma times the root of the edges' own variance factor).
     measurements, unknowns : rows of measurements (segments' and regions' residuals) and
         unknowns of the adjustment.
+    on_regions : the parts a region of some view lies on (their normals are measured).
     """
 
     parts: dict[str, tuple[float, float]] = field(default_factory=dict)
@@ -100,6 +101,7 @@ class Uncertainty:
     edge_scatter_px: float = math.nan
     measurements: int = 0
     unknowns: int = 0
+    on_regions: frozenset[str] = frozenset()
 
 
 def rotation_jacobian(rvec: FloatArray) -> FloatArray:
@@ -335,6 +337,11 @@ def problem_uncertainty(
         centre = math.sqrt(max(float(np.trace(cov[col + 3 : col + 6, col + 3 : col + 6])), 0.0))
         deviations[view] = (angle, centre if math.isfinite(angle) else math.inf)
     edge = factors.get("edge")
+    on_regions = frozenset(
+        names[c.parts[0]]
+        for c in problem.constraints
+        if c.kind == "camera_position" and c.measurement and c.parts
+    )
     return Uncertainty(
         parts,
         deviations,
@@ -343,4 +350,5 @@ def problem_uncertainty(
         JOINT_EDGE_SIGMA_PX * math.sqrt(edge) if edge is not None else math.nan,
         m,
         n,
+        on_regions,
     )

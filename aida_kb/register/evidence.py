@@ -86,7 +86,9 @@ def measurements_of(
     n = np.array([r.n_init for r in view.regions], dtype=np.float64).reshape(-1, 3)
     c = np.array([r.c_init for r in view.regions], dtype=np.float64).reshape(-1, 3)
     rms = np.array([r.rms_m for r in view.regions], dtype=np.float64)
-    regions = RegionMeasurements(n @ R.T, c @ R.T + t, rms)
+    inliers = np.array([r.inlier_count for r in view.regions], dtype=np.float64)
+    area = np.array([r.area_m2 for r in view.regions], dtype=np.float64)
+    regions = RegionMeasurements(n @ R.T, c @ R.T + t, rms, inliers, area)
     inside = np.array(
         [s.left_region is not None and s.left_region == s.right_region for s in view.lines],
         dtype=bool,

@@ -87,12 +87,16 @@ class RegionMeasurements:
     """Plane fits of a view's regions in its own camera frame (before matching to parts).
 
     normal_cam : (R, 3) unit normals (towards the camera); centre_cam : (R, 3) metres;
-    rms_m : (R,) the fits' RMS distances, metres.
+    rms_m : (R,) the fits' RMS distances, metres; inliers : (R,) the pixels each fit kept and
+    area_m2 : (R,) each region's area on its plane, m² (None: not known; 0 where unknown) — what
+    a fit's own uncertainty is figured from (`aida_kb.interpret.observe.fit_sigma_rad`).
     """
 
     normal_cam: FloatArray
     centre_cam: FloatArray
     rms_m: FloatArray
+    inliers: FloatArray | None = None
+    area_m2: FloatArray | None = None
 
     @property
     def size(self) -> int:
@@ -258,12 +262,18 @@ def _symmetric_gap(a_deg: float, b_deg: float, order: int) -> float:
 
 
 def match_regions(
-    model: RigidModel, camera: PinholeCamera, regions: RegionMeasurements, opts: RegistrationOptions
+    model: RigidModel,
+    camera: PinholeCamera,
+    regions: RegionMeasurements,
+    opts: RegistrationOptions,
+    normal_sigma_rad: FloatArray | None = None,
 ) -> RegionObservations | None:
     """Pair each region with the part whose plane it lies on at `camera`'s pose.
 
     A region goes to the part whose normal is within 20 degrees of its own and whose plane is
-    nearest its centre (within 15 % of the model's size). None when no region pairs.
+    nearest its centre (within 15 % of the model's size). None when no region pairs. Each
+    pair's normal sigma is ``opts.region_sigma_deg``, or the region's own from
+    `normal_sigma_rad` ((R,) radians, the caller's noise model of the regions' normals).
     """
     if regions.size == 0:
         return None
@@ -285,7 +295,9 @@ def match_regions(
         regions.normal_cam[keep],
         regions.centre_cam[keep],
         sigma_m,
-        np.full(int(keep.sum()), math.radians(opts.region_sigma_deg)),
+        np.full(int(keep.sum()), math.radians(opts.region_sigma_deg))
+        if normal_sigma_rad is None
+        else np.asarray(normal_sigma_rad, dtype=np.float64)[keep],
     )
 
 

@@ -36,3 +36,49 @@ def test_camera_deviations_match_the_scatter_of_their_errors() -> None:
     # deviation half or twice what the errors show would give 4 or 0.25
     mean = float(np.mean((errors / sds) ** 2))
     assert 0.6 < mean < 1.6, mean
+
+
+def test_a_region_normal_is_weighed_by_its_own_plane_fit() -> None:
+    """A region's normal's sigma is its fit's own tilt, scaled and floored
+    (multiview.REGION_FIT_SCALE, REGION_BIAS_DEG); where a fit's inliers or area are unknown
+    the adjustments keep the registration's uniform sigma (JOINT_REGION_LOOSENESS times
+    looser than the honest ones, as every region there)."""
+    import math
+
+    from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
+    from aida_kb.register import RegionMeasurements, RegistrationOptions
+
+    n = np.tile([0.0, 0.0, -1.0], (3, 1))
+    c = np.tile([0.0, 0.0, 20.0], (3, 1))
+    rms = np.array([0.05, 0.05, 0.05])
+    inliers = np.array([40_000.0, 400.0, 0.0])  # a large wall, a small one, a fit unknown
+    area = np.array([100.0, 4.0, 0.0])
+    sigma = mv.region_normal_sigma_rad(RegionMeasurements(n, c, rms, inliers, area))
+    assert sigma is not None
+    fit = fit_sigma_rad(rms[:2], inliers[:2] / FIT_CORRELATED_PX, area[:2])
+    want = mv.REGION_FIT_SCALE * np.hypot(fit, math.radians(mv.REGION_BIAS_DEG))
+    assert sigma[:2] == pytest.approx(want)
+    assert math.degrees(sigma[0]) < 0.1 < 1.0 < math.degrees(sigma[1])  # 40,000 px vs 400
+    uniform = math.radians(RegistrationOptions().region_sigma_deg)
+    assert mv.JOINT_REGION_LOOSENESS * sigma[2] == pytest.approx(uniform)
+    assert mv.region_normal_sigma_rad(RegionMeasurements(n, c, rms)) is None
+
+
+def test_loose_normals_name_the_parts_regions_measure() -> None:
+    """Check (i): a part a region lies on whose normal's two sd exceed 0.5 deg is named with
+    its figures; a part no region measures is left to check (e), however loose."""
+    from aida_kb.interpret.uncertainty import Uncertainty
+    from aida_kb.interpret.verdict.normals import NORMAL_SD_MAX_DEG, loose_normals
+
+    unc = Uncertainty(
+        parts={"a": (0.2, 0.01), "b": (0.3, 0.01), "c": (5.0, 0.5), "d": (float("inf"), 1.0)},
+        on_regions=frozenset({"a", "b", "d"}),
+    )
+    assert NORMAL_SD_MAX_DEG == 0.5
+    reasons = loose_normals(unc)
+    assert reasons == [
+        "b: its normal is fixed by the adjustment only to +-0.60 deg at 2 sd (at most 0.5 deg; "
+        "sd 0.300 deg)",
+        "d: the adjustment leaves its normal open (at most 0.5 deg at 2 sd)",
+    ]
+    assert loose_normals(None) == []

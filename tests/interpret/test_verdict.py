@@ -382,7 +382,12 @@ def test_a_part_the_model_lacks_standing_out_of_a_wall_is_named(
     interp = interpreted("oriel.json")
     evidence = _evidence("oriel.json")
     assert interp.model is not None
-    assert judge(buildings_kb, interp, evidence).verdict == VERIFIED
+    # with the oriels, the evidence checks all pass; one view fixes the small oriel faces'
+    # normals (and the front's, which they share edges with) only to 0.6-1.6 deg at two sd,
+    # which check (i) says (verdict.normals)
+    whole = judge(buildings_kb, interp, evidence)
+    assert whole.reasons
+    assert all("its normal is fixed by the adjustment only to" in r for r in whole.reasons)
     parts = [p for p in interp.model.parts if ".oriels[" not in p.role]
     bare = interp.model_copy(update={"model": interp.model.model_copy(update={"parts": parts})})
     verdict = judge(buildings_kb, bare, evidence)

@@ -60,7 +60,11 @@ is **verified** only when it also
     outside its projection or in front of it whose centres lie within NEAR_MARGIN of its
     size of its bounding box (and continue no face's plane), the model explains at least
     NEAR_EXPLAINED_MIN (an L-shaped house taken for its body leaves the wing's walls and
-    roof there; an occluder covers at most a third of an object).
+    roof there; an occluder covers at most a third of an object);
+(i) has every part a region measures fixed by the adjustment to the normal accuracy asked of
+    it: at NORMAL_SD_CONFIDENCE standard deviations (the adjustment's covariance, each region
+    weighed by its own plane fit) within NORMAL_SD_MAX_DEG (`verdict.normals`; the evidence
+    checks hold a model only to their few degrees: a street house 0.63 deg off passed them).
 
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
 where. An interpretation that found no object is **nothing**; so is one whose sizes (the
@@ -76,7 +80,8 @@ The package, one module per concern: `tolerances` (the named thresholds), `outco
 (`Verdict`, `ViewCheck`), `geometry` (faces, projection, region outlines), `views` ((b), (f),
 (g) in one view), `edges` (segments along model edges; (c), and (e)'s edge placement),
 `measured` ((e)), `attributes` ((d)), `cameras` ((c) for registered cameras; standard
-deviations in the model), `judge` (the verdict) and `summary` (the verdict in the result).
+deviations in the model), `normals` ((i)), `judge` (the verdict) and `summary` (the verdict
+in the result).
 """
 
 from __future__ import annotations
@@ -115,6 +120,11 @@ from aida_kb.interpret.verdict.measured import (
     contested,
     spread,
     unmeasured_parts,
+)
+from aida_kb.interpret.verdict.normals import (
+    NORMAL_SD_CONFIDENCE,
+    NORMAL_SD_MAX_DEG,
+    loose_normals,
 )
 from aida_kb.interpret.verdict.outcome import (
     DOUBTFUL,
@@ -205,6 +215,8 @@ __all__ = [
     "MIN_WEIGHT_SHARE",
     "NEAR_EXPLAINED_MIN",
     "NEAR_MARGIN",
+    "NORMAL_SD_CONFIDENCE",
+    "NORMAL_SD_MAX_DEG",
     "NORMAL_TOLERANCE_DEG",
     "NOTHING",
     "NOT_MEASURED",
@@ -237,6 +249,7 @@ __all__ = [
     "inside_polygon",
     "judge",
     "line_offset_sd",
+    "loose_normals",
     "measured_attributes",
     "model_faces",
     "model_size",

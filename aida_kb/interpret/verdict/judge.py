@@ -13,6 +13,7 @@ from aida_kb.interpret.verdict.attributes import check_attributes, check_orienta
 from aida_kb.interpret.verdict.cameras import camera_doubts
 from aida_kb.interpret.verdict.edges import edge_cover
 from aida_kb.interpret.verdict.measured import unmeasured_parts
+from aida_kb.interpret.verdict.normals import loose_normals
 from aida_kb.interpret.verdict.outcome import DOUBTFUL, NOTHING, VERIFIED, Verdict
 from aida_kb.interpret.verdict.tolerances import (
     CONTRADICTION_MAX,
@@ -202,6 +203,8 @@ def judge(
             )
     # (e) every part inserted from knowledge is measured by some evidence
     reasons += unmeasured_parts(interp, evidence, tuple(checks), kb, uncertainty)
+    # (i) every part a region measures has its normal fixed to the accuracy asked of it
+    reasons += loose_normals(uncertainty)
     # (d) the knowledge's measured attributes
     reasons += check_attributes(kb, interp, model, metric=metric)
     reasons += check_orientations(kb, interp, model)
