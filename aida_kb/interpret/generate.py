@@ -10,7 +10,8 @@ none is guessed:
   support it for the estimate (`VP_MIN_SUPPORT` of them, to `VP_MAX_SIGMA_DEG`; within
   `UP_PRIOR_WINDOW_DEG` of the camera's up); the normal of a significant region that may be
   level seen from above, and the cross product of two regions' normals (the vertical if both
-  are walls), within `PAIR_WINDOW_DEG` of the estimate or the vanishing direction; each
+  are walls), within `PAIR_WINDOW_DEG` of the estimate or the vanishing direction, or within
+  `PRIOR_PAIR_WINDOW_DEG` of the camera's up (an estimate far off: a roof taken for level); each
   refined over the regions vertical under it.
   The latter are ranked by the weight of regions they make vertical or level; the estimate,
   the vanishing direction and the best others, `MAX_VERTICALS` in all, are kept.
@@ -78,6 +79,13 @@ UP_PRIOR_WINDOW_DEG = 60.0
 # nothing says the regions are level or walls (a roof plane and a wall give a direction 30-60
 # degrees off, a wall seen from above a "level" one)
 PAIR_WINDOW_DEG = 15.0
+# ... or within this of the camera's up: a camera held roughly upright looks down or up by up
+# to about 20 degrees (issue 14's scenes), plus a wall fit's few degrees. An estimate taken
+# from a roof plane believed level (dev seeds 60005: 33 degrees off, 61113: 55) leaves the
+# walls' cross product out of both windows above: without this the right vertical was never
+# tried. A proposal is only a candidate: ranked by the regions it makes vertical or level
+# and judged by the knowledge like any other, at `OTHER_VERTICAL_PENALTY`
+PRIOR_PAIR_WINDOW_DEG = 25.0
 # two normals closer than this to parallel give no reliable cross product
 MIN_PAIR_ANGLE_DEG = 30.0
 # verticals closer than this are one (the refinement moves them by less)
@@ -223,11 +231,16 @@ def candidate_ups(ctx: Context) -> list[FloatArray]:
     anchors = [estimate] if vanishing is None else [estimate, vanishing]
     limit = math.cos(math.radians(UP_PRIOR_WINDOW_DEG))
     near = math.cos(math.radians(PAIR_WINDOW_DEG))
+    upright = math.cos(math.radians(PRIOR_PAIR_WINDOW_DEG))
+
+    def plausible(direction: FloatArray) -> bool:
+        return float(direction @ prior) >= upright or any(
+            float(direction @ a) >= near for a in anchors
+        )
+
     # a level region seen from above: its normal (towards the camera) is the vertical
     proposals: list[FloatArray] = [
-        _unit(n)
-        for n in heavy
-        if float(n @ prior) >= limit and any(float(_unit(n) @ a) >= near for a in anchors)
+        _unit(n) for n in heavy if float(n @ prior) >= limit and plausible(_unit(n))
     ]
     min_sin = math.sin(math.radians(MIN_PAIR_ANGLE_DEG))
     for i in range(len(heavy)):
@@ -237,7 +250,7 @@ def candidate_ups(ctx: Context) -> list[FloatArray]:
                 continue
             cross = _unit(cross)
             cross = cross if float(cross @ prior) >= 0 else -cross
-            if any(float(cross @ a) >= near for a in anchors):
+            if plausible(cross):
                 proposals.append(cross)
     scored: list[tuple[float, float, int, FloatArray]] = []
     for k, p in enumerate(proposals):

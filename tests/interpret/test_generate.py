@@ -13,6 +13,7 @@ from aida_kb.interpret.context import Context
 from aida_kb.interpret.generate import (
     MAX_BINDINGS,
     OTHER_VERTICAL_PENALTY,
+    PRIOR_PAIR_WINDOW_DEG,
     body_hypotheses,
     candidate_frames,
     candidate_ups,
@@ -203,3 +204,21 @@ def test_a_pending_body_expects_optional_parts_to_explain_the_free_walls(
         assert p.optional == pytest.approx(UNEXPLAINED_PENALTY * weight / it.context.total_weight)
     estimates = [p.estimate for p in pending]
     assert estimates == sorted(estimates)
+
+
+def test_a_vertical_estimate_far_off_leaves_the_walls_vertical_among_the_candidates(
+    occluded: Context,
+) -> None:
+    """An estimate 35 degrees off (a roof plane taken for level) lies beyond `PAIR_WINDOW_DEG`
+    of the walls' cross product; the camera's up (a camera held roughly upright) still admits
+    it, so the right vertical is tried (it was not: dev seeds 60005 and 61113 found nothing)."""
+    truth = occluded.up
+    prior = occluded.evidence.camera.R_cam_world.T @ np.array([0.0, -1.0, 0.0])
+    assert _deg(prior, truth) < PRIOR_PAIR_WINDOW_DEG
+    axis = np.cross(truth, occluded.evidence.camera.R_cam_world[2])
+    axis /= np.linalg.norm(axis)
+    a = math.radians(35.0)
+    wrong = truth * math.cos(a) + np.cross(axis, truth) * math.sin(a)
+    ups = candidate_ups(replace(occluded, up=wrong))
+    assert _deg(ups[0], wrong) < 1e-9
+    assert min(_deg(u, truth) for u in ups[1:]) < 0.5
