@@ -941,6 +941,178 @@ def reconstruct_views(
     choices: tuple[tuple[str, str], ...] = (),
     prefer: Sequence[Preference] = (),
 ) -> Interpretation:
+    """Interpret the first view, register the others, refine the model with all of them
+    (`reconstruct_from_first`); where that confirms nothing, start from another view.
+
+    The first view may show the object too poorly for the knowledge to tell its shape (a side
+    seen at a grazing angle, the roof hidden, a tree before it): its interpretation fails, or
+    its model registers none of the other views (their images show another shape). Then each
+    later view of unknown pose is interpreted first in turn (`first_view_swapped`); the first
+    whose model registers the first view — and so is confirmed by it — is taken, expressed in
+    the first view's frame (`in_frame_of_first`), and the message says so. Its cameras' own
+    deviations are dropped: the verdict measures every camera against the first view's.
+    Only for a first view at the world's origin and a goal of one object (a street's houses
+    are placed by every view already, `interpret.scene`); otherwise, and when no other start
+    registers the first view, the first view's result stands.
+    """
+    interp = reconstruct_from_first(
+        kb,
+        evidence,
+        goal=goal,
+        source=source,
+        scene=scene,
+        progress=progress,
+        choices=choices,
+        prefer=prefer,
+    )
+    if confirmed_by_others(interp, evidence) or not single_object(kb, goal):
+        return interp
+    for view in evidence.views[1:]:
+        swapped = first_view_swapped(evidence, view.id)
+        if swapped is None:
+            break
+        if progress is not None:
+            progress(f"interpreting view {view.id} first")
+        other = reconstruct_from_first(
+            kb,
+            swapped,
+            goal=goal,
+            source=source,
+            scene=scene,
+            progress=progress,
+            choices=choices,
+            prefer=prefer,
+        )
+        moved = in_frame_of_first(other, evidence.views[0].id)
+        if moved is None:
+            continue
+        return moved.model_copy(
+            update={
+                "message": f"{moved.message}; interpreted from view {view.id}: the result of "
+                f"view {evidence.views[0].id} first registered no other view "
+                f"({_first_words(interp.message)})"
+            }
+        )
+    return interp
+
+
+def single_object(kb: KnowledgeBase, goal: str | None) -> bool:
+    """True if the goal is one object (not a scene of several: `interpret.scene.members`)."""
+    from aida_kb.interpret.knowledge import Knowledge
+    from aida_kb.interpret.run import check_goal
+    from aida_kb.interpret.scene import members  # it builds on this module
+
+    return members(Knowledge.from_kb(kb), check_goal(kb, goal)) is None
+
+
+# how much of the first view's own message the note of a result from another view quotes
+NOTE_WORDS = 30
+
+
+def _first_words(text: str) -> str:
+    words = text.split()
+    return " ".join(words[:NOTE_WORDS]) + (" ..." if len(words) > NOTE_WORDS else "")
+
+
+def confirmed_by_others(interp: Interpretation, evidence: Evidence) -> bool:
+    """True if the first view's result stands on its own terms: the evidence has no other
+    view, or its model has a camera for one of them (a registered view confirms it)."""
+    others = {v.id for v in evidence.views[1:]}
+    if not others or interp.objects:
+        return True
+    if interp.model is None:
+        return False
+    return bool({c.view for c in interp.model.cameras} & others)
+
+
+# a view's pose is the world's origin when its rotation and translation are the identity and
+# zero to this (rounding of a written evidence file)
+ORIGIN_TOLERANCE = 1e-9
+
+
+def first_view_swapped(evidence: Evidence, view: str) -> Evidence | None:
+    """The evidence with `view` first (its own camera frame the world) and the first view
+    second (registered like any later view), or None where that is not the same evidence:
+    the first view not at the world's origin (its 3-D quantities are then not in its camera's
+    frame), `view` of known pose, or any later view of known pose (nothing to register)."""
+    first = evidence.views[0]
+    if first.frame != "world" or any(v.frame == "world" for v in evidence.views[1:]):
+        return None
+    R = np.asarray(first.left.R, dtype=np.float64)
+    t = np.asarray(first.left.t, dtype=np.float64)
+    if not (
+        np.allclose(R, np.eye(3), atol=ORIGIN_TOLERANCE)
+        and np.allclose(t, 0.0, atol=ORIGIN_TOLERANCE)
+    ):
+        return None
+    chosen = [v for v in evidence.views if v.id == view]
+    if len(chosen) != 1 or chosen[0] is first:
+        return None
+    rest = [v for v in evidence.views[1:] if v.id != view]
+    views = [
+        chosen[0].model_copy(update={"frame": "world"}),
+        first.model_copy(update={"frame": "camera"}),
+        *rest,
+    ]
+    return evidence.model_copy(update={"views": views})
+
+
+def in_frame_of_first(interp: Interpretation, first: str) -> Interpretation | None:
+    """A result of `first_view_swapped` evidence expressed in the frame of view `first` (the
+    world of the original evidence): every part's plane and polygon and every camera moved by
+    that view's registered pose; None when the model has no camera for it (it registered
+    nothing of the original first view) or holds several objects."""
+    model = interp.model
+    if model is None or model.objects or interp.objects:
+        return None
+    cam0 = next((c for c in model.cameras if c.view == first), None)
+    if cam0 is None:
+        return None
+    R0 = np.asarray(cam0.R, dtype=np.float64)  # x_first = R0 @ x + t0
+    t0 = np.asarray(cam0.t, dtype=np.float64)
+    parts = []
+    for p in model.parts:
+        n = R0 @ np.asarray(p.normal, dtype=np.float64)
+        polygon = np.asarray(p.polygon, dtype=np.float64) @ R0.T + t0
+        parts.append(
+            p.model_copy(
+                update={
+                    "normal": _v3(n / np.linalg.norm(n)),
+                    "offset_m": float(p.offset_m + n @ t0),
+                    "polygon": [_v3(v) for v in polygon],
+                }
+            )
+        )
+    cameras = []
+    for c in model.cameras:
+        R = np.asarray(c.R, dtype=np.float64) @ R0.T
+        t = np.asarray(c.t, dtype=np.float64) - R @ t0
+        if c.view == first:  # exactly the world's origin, not rounded near it
+            R, t = np.eye(3), np.zeros(3)
+        K = np.asarray(c.K, dtype=np.float64)
+        cameras.append(_model_camera(c.view, PinholeCamera(K, R, t, c.image_width, c.image_height)))
+    # the first view first, as in a reconstruction from it
+    cameras.sort(key=lambda c: c.view != first)
+    up = None if model.up is None else _v3(R0 @ np.asarray(model.up, dtype=np.float64))
+    moved = model.model_copy(update={"parts": parts, "cameras": cameras, "up": up})
+    return interp.model_copy(update={"model": moved})
+
+
+def _v3(a: FloatArray) -> tuple[float, float, float]:
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+def reconstruct_from_first(
+    kb: KnowledgeBase,
+    evidence: Evidence,
+    *,
+    goal: str | None = None,
+    source: str = "",
+    scene: Scene | None = None,
+    progress: Callable[[str], None] | None = None,
+    choices: tuple[tuple[str, str], ...] = (),
+    prefer: Sequence[Preference] = (),
+) -> Interpretation:
     """Interpret the first view, register the others, refine the model with all of them.
     ``choices``: is-a choices the first view's interpretation must make (`run.interpret`).
     prefer : for a goal holding several objects, the choices the other views decided for some
