@@ -955,16 +955,20 @@ def reconstruct_views(
     are placed by every view already, `interpret.scene`); otherwise, and when no other start
     registers the first view, the first view's result stands.
     """
-    interp = reconstruct_from_first(
-        kb,
-        evidence,
-        goal=goal,
-        source=source,
-        scene=scene,
-        progress=progress,
-        choices=choices,
-        prefer=prefer,
-    )
+
+    def from_first(ev: Evidence) -> Interpretation:
+        return reconstruct_from_first(
+            kb,
+            ev,
+            goal=goal,
+            source=source,
+            scene=scene,
+            progress=progress,
+            choices=choices,
+            prefer=prefer,
+        )
+
+    interp = from_first(evidence)
     if confirmed_by_others(interp, evidence) or not single_object(kb, goal):
         return interp
     for view in evidence.views[1:]:
@@ -973,17 +977,7 @@ def reconstruct_views(
             break
         if progress is not None:
             progress(f"interpreting view {view.id} first")
-        other = reconstruct_from_first(
-            kb,
-            swapped,
-            goal=goal,
-            source=source,
-            scene=scene,
-            progress=progress,
-            choices=choices,
-            prefer=prefer,
-        )
-        moved = in_frame_of_first(other, evidence.views[0].id)
+        moved = in_frame_of_first(from_first(swapped), evidence.views[0].id)
         if moved is None:
             continue
         return moved.model_copy(
