@@ -20,6 +20,7 @@ import numpy.typing as npt
 from aida_kb.diagnostics.core import Span
 from aida_kb.interpret.closure import ClosingFace, close, inside_face
 from aida_kb.interpret.context import Context
+from aida_kb.interpret.ground import elevation, ground_height
 from aida_kb.interpret.hypotheses import Frame
 from aida_kb.interpret.knowledge import Structure, join
 from aida_kb.interpret.observe import RegionView
@@ -146,7 +147,7 @@ def unseen(
 
 
 # the measures of length an attribute may stand for (docs/language.md §3.10), by the model
-LENGTH_MEASURES = ("height", "width", "depth", "distance")
+LENGTH_MEASURES = ("height", "width", "depth", "distance", "elevation")
 # a range is met within this relative slack: `unseen.least_extents` places an unseen part at
 # exactly the least extent the knowledge allows, and the closed model measures it a rounding
 # error short (development scene 2008: "depth measures 2 m, outside [2 m, 60 m]", every
@@ -163,6 +164,13 @@ class Violation:
     span: Span | None  # the attribute's declaration
 
 
+def _faces_under(polygons: dict[str, FloatArray], prefix: str) -> list[FloatArray]:
+    """The closed faces (K, 3) of the part at role path `prefix` and of its parts (all: '')."""
+    return [
+        p for r, p in polygons.items() if not prefix or r == prefix or r.startswith(prefix + ".")
+    ]
+
+
 def attribute_violation(
     ctx: Context,
     structure: Structure,
@@ -170,18 +178,21 @@ def attribute_violation(
     planes: Planes,
     polygons: dict[str, FloatArray],
 ) -> Violation | None:
-    """The first attribute of a length measure (height, width, depth, distance) of the
-    structure's instances whose measure in the closed model lies outside its range, or None
+    """The first attribute of a length measure (height, width, depth, distance, elevation) of
+    the structure's instances whose measure in the closed model lies outside its range, or None
     (always None when the evidence's lengths are in unknown units: a scene up to scale).
 
     `planes` : role path -> (unit normal (3,), offset m), world frame; `polygons` : role path ->
     closed face (K, 3), metres. ``height`` is the extent of the instance's faces along up,
     ``width`` along its frame's right, ``depth`` along its front; ``distance(a, b)`` is the
-    distance of a point of plane b from plane a.
+    distance of a point of plane b from plane a; ``elevation`` the height of the part's lowest
+    point above the ground the reference view shows (`aida_kb.interpret.ground`; not taken
+    where it shows none).
     """
     if not ctx.evidence.metric:  # lengths in unknown units: a range in metres does not apply
         return None
     axes = {"height": frame.up, "width": frame.right, "depth": frame.front}
+    ground = ground_height(ctx.regions, frame.up)
     for node in structure.nodes:
         for attribute in ctx.knowledge.concept(node.concept).attributes.values():
             if attribute.measure not in LENGTH_MEASURES or not attribute.measure_args:
@@ -189,19 +200,21 @@ def attribute_violation(
             if attribute.low is None and attribute.high is None:
                 continue
             paths = [join(node.role, a) for a in attribute.measure_args]
-            if attribute.measure == "distance":
+            if attribute.measure == "elevation":
+                if ground is None:
+                    continue  # the view shows no ground: the measure cannot be taken
+                faces = _faces_under(polygons, paths[0])
+                if not faces:
+                    continue
+                value = elevation(np.concatenate(faces), frame.up, ground)
+            elif attribute.measure == "distance":
                 a, b = paths[0], paths[-1]
                 if a not in planes or b not in planes:
                     continue
                 (n_a, d_a), (n_b, d_b) = planes[a], planes[b]
                 value = abs(float(n_a @ (np.asarray(n_b) * d_b)) - d_a)
             else:
-                prefix = paths[0]
-                faces = [
-                    p
-                    for r, p in polygons.items()
-                    if not prefix or r == prefix or r.startswith(prefix + ".")
-                ]
+                faces = _faces_under(polygons, paths[0])
                 if not faces:
                     continue
                 along = np.concatenate(faces) @ axes[attribute.measure]

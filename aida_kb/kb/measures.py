@@ -13,7 +13,8 @@ __all__ = ["MeasureKind"]
 
 class MeasureKind(StrEnum):
     """Geometric measures an attribute can stand for: slope of a plane against the ground, the
-    angle at which two planes meet, extents in the frame, distance between two planes."""
+    angle at which two planes meet, extents in the frame, distance between two planes, height
+    above the ground the evidence shows."""
 
     SLOPE = "slope"
     ANGLE = "angle"
@@ -21,3 +22,4 @@ class MeasureKind(StrEnum):
     WIDTH = "width"
     DEPTH = "depth"
     DISTANCE = "distance"
+    ELEVATION = "elevation"

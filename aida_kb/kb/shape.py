@@ -30,6 +30,7 @@ MEASURES: dict[str, tuple[int, Dimension]] = {
     "width": (1, Dimension.LENGTH),
     "depth": (1, Dimension.LENGTH),
     "distance": (2, Dimension.LENGTH),
+    "elevation": (1, Dimension.LENGTH),
 }
 #: the directions that face a side (a tilt applies to them only)
 HORIZONTAL = ("forward", "backward", "leftward", "rightward")

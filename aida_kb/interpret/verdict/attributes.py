@@ -81,6 +81,10 @@ def _measure(
     sets = [_parts_under(model, a) for a in args]
     if any(not s for s in sets):
         return None
+    if kind is MeasureKind.ELEVATION:
+        # the ground is read from the reference view's regions, which the search has (its
+        # attribute_violation rejects a hypothesis that floats); the model alone has none
+        return None
     if kind in (MeasureKind.HEIGHT, MeasureKind.WIDTH, MeasureKind.DEPTH):
         if kind is MeasureKind.HEIGHT:
             axis = up

@@ -1,0 +1,58 @@
+"""The ground a view shows: the height the `elevation(p)` measure is taken from.
+
+The knowledge may say that an object stands on the ground (docs/language.md 3.10:
+``attribute elevation: length in [-1 m, 1 m] is elevation(floor)``). The ground is not a part
+of the object: it is read from the evidence as the **lowest level surface** of the reference
+view — of the regions whose fitted normal lies within `GROUND_LEVEL_DEG` of the estimated
+vertical and which carry at least `GROUND_MIN_SHARE` of the view's region pixels, the one
+whose centre lies lowest along up. A scene's ground is the lowest level surface there is (a
+flat roof, a car's roof, a table top lie above it); a view that shows no such region has no
+ground, and the measure is then not taken.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from aida_kb.interpret.observe import RegionView
+
+__all__ = ["GROUND_LEVEL_DEG", "GROUND_MIN_SHARE", "elevation", "ground_height"]
+
+FloatArray = npt.NDArray[np.float64]
+
+# a region is level when its normal lies within this angle of up: the ground seen at a
+# grazing angle (the camera 2 m high, the ground 30 m away) fits its plane to a few degrees
+GROUND_LEVEL_DEG = 10.0
+# ... and it is ground only with at least this share of the view's region pixels: a level
+# patch of a few hundred pixels (a window sill, a car's roof far away) is no ground, while
+# the ground in front of a building fills a tenth of the image or more
+GROUND_MIN_SHARE = 0.05
+
+
+def ground_height(regions: Sequence[RegionView], up: FloatArray) -> float | None:
+    """The height along `up` of the lowest level region's centre, metres, or None.
+
+    regions : the regions of one view (world frame); up : (3,) unit vector, world frame.
+    """
+    total = sum(r.area_px for r in regions)
+    if total <= 0.0:
+        return None
+    cos_level = float(np.cos(np.radians(GROUND_LEVEL_DEG)))
+    heights = [
+        float(r.centroid_m @ up)
+        for r in regions
+        if abs(float(r.normal @ up)) >= cos_level and r.area_px >= GROUND_MIN_SHARE * total
+    ]
+    return min(heights) if heights else None
+
+
+def elevation(points: FloatArray, up: FloatArray, ground: float) -> float:
+    """How far the lowest of `points` lies above the ground, metres (negative: below it).
+
+    points : (N, 3) array, metres, world frame; up : (3,) unit vector; ground : the ground's
+    height along up (`ground_height`).
+    """
+    return float((points @ up).min()) - ground
