@@ -133,3 +133,114 @@ def outline_pitch(
     if pitch < ORIENTATION_TOLERANCE_DEG:
         return None  # level to the verdict: no evidence of a tilt (module docstring)
     return pitch
+
+
+# The far edge of a tilted part facing the camera that no region shows (a dark, low-texture
+# roof slope: stereo gives it no region, the image shows its outline against the sky). Its
+# plane starts on the support of the seen points, through the eave along the wall below it;
+# how far it reaches back — the ridge, where the slope behind it starts, and so where the
+# knowledge mirrors the unseen back wall (``unseen back: mirror front about edge(...)``) — is
+# where the reference image's lines, back-projected onto that plane, end. Without it both
+# slopes start on the eave, the ridge on the front wall's top, and the solid does not close
+# (dev seeds 61318, 61320: a gable under a black roof seen square to its front, rejected for
+# a self-intersecting side wall; a flat roof was taken instead).
+#
+# Its slope is not found so: a line's image fixes it to its ray plane, and on a plane through
+# the eave tilted less it lies farther back and spans a little more; in a view square to the
+# eaves a few pixels of the line's ends are tens of degrees (dev seed 61320, true 48 degrees:
+# the ridge spans the wall's width at 34.5; 61309: at 1.5). The slope stays where it starts
+# (the knowledge's, or a seen slope's); the views that see the gable's end measure it.
+#
+# a line runs along the part's edge with the wall below it (the eave; a ridge is parallel to
+# it) when its back-projection lies within this of the frame's direction across the part. A
+# line parallel to the eave projects back onto any plane through the eave as a line parallel
+# to it, whatever the plane's slope; but the frame's axes come from a region's fitted normal,
+# a few degrees off (dev seed 61320: the ridge 6.3 degrees off the frame of a front wall
+# fitted 4.8 degrees from vertical)
+FAR_EDGE_ANGLE_DEG = 10.0
+# a far edge spans at least this share of the seen points' width across the part: a ridge
+# runs the length of its roof (a roof tile's line or a chimney's top does not)
+FAR_EDGE_MIN_SHARE = 0.5
+# each line of a far edge spans at least this share of the seen width: a ridge is one line
+# or a few (broken where a chimney stands); the short lines of the texture behind the roof
+# (dev seed 61309, a gable seen from above against grass: a row of them, the same distance
+# behind, spanned half the width) are not
+FAR_EDGE_MIN_PIECE = 0.2
+# a line counts when its middle lies across the seen width, with this margin on either side
+# (a share of the width); its span counts within that width only. On a plane started at
+# another slope than the true one the ridge projects back longer or shorter than it is (dev
+# seed 61320: 11.0 m on the 30-degree start over a wall 10.5 m wide)
+FAR_EDGE_MARGIN = 0.1
+
+
+def far_edge(
+    ctx: Context,
+    leaf: PlanarPart,
+    frame: Frame,
+    plane: tuple[FloatArray, float],
+    points: FloatArray,
+) -> FloatArray | None:
+    """The far edge of tilted part `leaf`, inserted facing the camera on `plane` ((unit
+    normal (3,), offset m), world: its predicted orientation laid on the seen points, through
+    the eave), that the reference image's lines show: their ends (K, 3), world, metres, back-
+    projected onto the plane; None when no line behind the seen `points` ((N, 3), world,
+    metres) runs parallel to their edge and, with others as far behind, spans
+    `FAR_EDGE_MIN_SHARE` of their width. The far edge is the farthest such group along the
+    direction the part leans towards (see the comment above `FAR_EDGE_ANGLE_DEG`).
+    """
+    if not leaf.pitched or leaf.direction is None or not len(points):
+        return None
+    camera = ctx.evidence.camera
+    lines = ctx.evidence.lines_px.get(camera.view)
+    if lines is None or not len(lines):
+        return None
+    lean = frame.direction(leaf.direction)
+    across = np.cross(frame.up, lean)
+    across /= np.linalg.norm(across)
+    side = points @ across
+    lo, hi = float(side.min()), float(side.max())
+    width = hi - lo
+    if width <= 0:
+        return None
+    normal, offset = plane
+    centre = camera.centre_m
+    rays = camera.rays_world(np.asarray(lines, dtype=np.float64).reshape(-1, 2)).reshape(-1, 2, 3)
+    denom = rays @ normal
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = (offset - float(normal @ centre)) / denom
+    lam = np.where((np.abs(denom) > 1e-9) & (lam > 0), lam, np.nan)
+    ends = centre + lam[..., None] * rays  # (L, 2, 3); NaN where a ray misses the plane
+    hit = np.all(np.isfinite(ends), axis=(1, 2))
+    direction = ends[:, 1] - ends[:, 0]
+    length = np.linalg.norm(direction, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        along = np.abs(direction @ across) / length
+        behind = float((points @ lean).max()) - (ends @ lean).mean(axis=1)  # (L,)
+    dist = np.linalg.norm(ends.mean(axis=1) - centre, axis=1)
+    band = CONTACT_PX * dist / float(camera.K[0, 0])  # an edge's few pixels, in metres
+    spans = np.sort(ends @ across, axis=1)  # (L, 2)
+    middle = spans.mean(axis=1)
+    clipped = np.clip(spans, lo, hi)
+    margin = FAR_EDGE_MARGIN * width
+    # along the eave, behind the seen points by more than an edge's pixels (not the eave
+    # itself), across their width, each a piece of a long line
+    keep = hit & (length > 0) & (along >= math.cos(math.radians(FAR_EDGE_ANGLE_DEG)))
+    keep &= (behind > band) & (middle >= lo - margin) & (middle <= hi + margin)
+    keep &= clipped[:, 1] - clipped[:, 0] >= FAR_EDGE_MIN_PIECE * width
+    for i in np.flatnonzero(keep)[np.argsort(-behind[keep])]:
+        group = keep & (np.abs(behind - behind[i]) <= band[i])
+        if _covered(clipped[group]) >= FAR_EDGE_MIN_SHARE * width:
+            out: FloatArray = ends[group].reshape(-1, 3)
+            return out
+    return None
+
+
+def _covered(spans: FloatArray) -> float:
+    """The length (m) of the union of intervals `spans` ((K, 2), each low <= high)."""
+    total, end = 0.0, -math.inf
+    for a, b in spans[np.argsort(spans[:, 0])]:
+        if b <= end:
+            continue
+        total += float(b) - max(float(a), end)
+        end = float(b)
+    return total

@@ -4,7 +4,10 @@ A planar part without evidence is *inserted*: its normal is its predicted orient
 instance frame (tilted by the seen tilted planes' mean slope, else by the tilt the knowledge
 declares), its offset the support of the points seen on the same structure, moved out by the
 knowledge's ``unseen`` placements (`hypotheses.placed_offsets`). A smaller structure is closed
-in its whole by the faces `closure.closing_faces` derives from its attachment.
+in its whole by the faces `closure.closing_faces` derives from its attachment. A tilted part
+inserted facing the camera (a dark roof slope) reaches back to the far edge the reference
+image shows of it (`outline.far_edge`: its ridge); that edge is its evidence for the placements
+and the support of the parts behind it (the other slope, the back wall mirrored about it).
 
 The main body may not insert a part the reference camera should see (`UnseenError`); a smaller
 structure's such parts are returned as *visible*, for `plausibility.unseen` to judge by size.
@@ -33,7 +36,7 @@ from aida_kb.interpret.hypotheses import (
 )
 from aida_kb.interpret.knowledge import Attribute, Node, Structure
 from aida_kb.interpret.observe import RegionView, slope_deg
-from aida_kb.interpret.outline import outline_pitch
+from aida_kb.interpret.outline import far_edge, outline_pitch
 from aida_kb.interpret.verify import PlaneInit
 
 FloatArray = npt.NDArray[np.float64]
@@ -42,6 +45,19 @@ Planes = dict[str, tuple[FloatArray, float]]  # role path -> (unit normal (3,), 
 # an inserted part with no seen point to support it starts this far (metres) from the camera
 # along its normal: behind the camera's view of the scene, moved by the placements
 UNSUPPORTED_OFFSET_M = 10.0
+
+
+# a tilted part inserted facing the camera, placed by the far edge the reference image shows of
+# it: role path -> (unit normal (3,), offset m, the edge's line ends (K, 3)), world, metres
+Traced = dict[str, tuple[FloatArray, float, FloatArray]]
+
+
+def _on_plane(n: FloatArray, d: float, points: FloatArray, fallback: FloatArray) -> FloatArray:
+    """A point (3,) on plane n·x = d: the seen `points`' mean ((N, 3); `fallback` (3,) when
+    there are none) moved onto it along `n`."""
+    centre = points.mean(axis=0) if len(points) else fallback
+    out: FloatArray = centre + (d - float(n @ centre)) * n
+    return out
 
 
 class UnseenError(AidaError):
@@ -101,6 +117,7 @@ def initial_planes(
     # of the knowledge puts anywhere may be moved out to the least extent the knowledge allows
     start: dict[str, tuple[FloatArray, float]] = {}
     unplaced: set[str] = set()
+    normals: dict[str, FloatArray] = {}
     for leaf in structure.leaves:
         region = seen.get(leaf.role)
         if region is not None:
@@ -112,17 +129,44 @@ def initial_planes(
             outline_pitch(ctx, structure, leaf, frame, binding) if leaf.tilt_deg is None else None
         )
         start_pitch = traced if traced is not None else pitch if pitch is not None else tilt
-        n = predicted_normal(leaf, frame, start_pitch)
+        normals[leaf.role] = predicted_normal(leaf, frame, start_pitch)
+
+    def place(leaf: PlanarPart, points: FloatArray, edges: Traced) -> None:
+        n = normals[leaf.role]
         if len(points):
             d = support_offset(n, points)
         else:
             d = float(n @ evidence.camera.centre_m) - UNSUPPORTED_OFFSET_M
-        placements = placed_by_knowledge(ctx, structure, leaf, n, frame, seen, fixed, choices)
+        placements = placed_by_knowledge(
+            ctx, structure, leaf, n, frame, seen, fixed, choices, edges
+        )
         for placed in placements:
             d = max(d, placed)
+        unplaced.discard(leaf.role)
         if not placements:
             unplaced.add(leaf.role)
         start[leaf.role] = (n, d)
+
+    missing = [leaf for leaf in structure.leaves if leaf.role not in seen]
+    for leaf in missing:
+        place(leaf, points, {})
+    # a tilted part inserted facing the camera reaches back to the far edge the reference
+    # image shows of it (`outline.far_edge`, a dark roof's ridge): the other inserted parts
+    # are placed again with its plane and that edge as its evidence
+    edges: Traced = {}
+    for leaf in missing:
+        n, d = start[leaf.role]
+        if not faces_camera(n, _on_plane(n, d, points, evidence.camera.centre_m), evidence.camera):
+            continue
+        far = far_edge(ctx, leaf, frame, (n, d), points)
+        if far is not None:
+            edges[leaf.role] = (n, d, far)
+    for role, (_, _, far) in edges.items():
+        # the far edge bounds the parts behind it: those facing away from where it leans
+        lean = frame.direction(next(x.direction for x in missing if x.role == role) or "")
+        for leaf in missing:
+            if leaf.role not in edges and float(normals[leaf.role] @ lean) < 0:
+                place(leaf, np.concatenate([points, far]), edges)
     centre = points.mean(axis=0) if len(points) else evidence.camera.centre_m
     # in a scene up to scale a length in metres is a length in units only at some scale:
     # the largest the seen parts' extents allow gives the least extent in units
@@ -136,7 +180,7 @@ def initial_planes(
             continue
         inserted.append(leaf.role)
         n, d = start[leaf.role]
-        on_plane = centre + (d - float(n @ centre)) * n
+        on_plane = _on_plane(n, d, points, centre)
         # a face behind another object of the scene (`interpret.scene`) is not seen, rightly
         if faces_camera(n, on_plane, evidence.camera) and not ctx.hidden_by_others(on_plane):
             if fixed or seen_by_edges:
@@ -271,14 +315,27 @@ def placed_by_knowledge(
     seen: dict[str, RegionView],
     fixed: Planes,
     choices: dict[str, str],
+    traced: Traced | None = None,
 ) -> list[float]:
     """The offsets the knowledge's ``unseen`` placements give an inserted part
-    (`hypotheses.placed_offsets`), from its structure's seen regions and the fixed planes."""
+    (`hypotheses.placed_offsets`), from its structure's seen regions and the fixed planes;
+    ``traced``: inserted parts placed by the far edge the image shows of them (their planes,
+    the edge's ends their evidence: `initial_planes`)."""
     fillers = {**choices, **dict(structure.choices)}
     found = [(p, paths) for p, _, paths in ctx.knowledge.placements(leaf.role, fillers)]
     if not found:
         return []
+    edges = traced or {}
     planes = {**fixed, **{r: (g.normal, g.offset_m) for r, g in seen.items()}}
+    planes.update({r: (n, d) for r, (n, d, _) in edges.items()})
+    centroids = {r: g.centroid_m for r, g in seen.items()}
+    centroids.update({r: e[2].mean(axis=0) for r, e in edges.items()})
+
+    def points_of(role: str) -> FloatArray:
+        if role in edges:
+            return edges[role][2]
+        return ctx.evidence.points_on(seen[role].id)
+
     tilted = [
         ctx.evidence.points_on(seen[x.role].id)
         for x in structure.leaves
@@ -289,8 +346,8 @@ def placed_by_knowledge(
         normal,
         frame,
         planes,
-        {r: g.centroid_m for r, g in seen.items()},
-        lambda role: ctx.evidence.points_on(seen[role].id),
+        centroids,
+        points_of,
         ctx.knowledge.direction,
         np.concatenate(tilted) if tilted else np.zeros((0, 3)),
     )
