@@ -19,10 +19,12 @@ from aida_kb.interpret.uncertainty import (
 from aida_kb.interpret.verdict import (
     CAMERA_SD_CONFIDENCE,
     DOUBTFUL,
+    MIN_WEIGHT_SHARE,
     NORMAL_TOLERANCE_DEG,
     NOTHING,
     VERIFIED,
     ViewCheck,
+    adjoining,
     camera_doubts,
     contested,
     edge_cover,
@@ -324,15 +326,7 @@ def test_a_surface_joined_to_the_model_that_it_lacks_is_named(
     assert interp.model is not None
     cam = interp.model.cameras[0]
     K, R, t = (np.asarray(x, dtype=float) for x in (cam.K, cam.R, cam.t))
-    faces = {p.role: np.asarray(p.polygon) for p in interp.model.parts}
-    outlines: list[Contour] = []
-    for inst in interp.instances:
-        if inst.link == "con-of" and inst.bindings and inst.parent in faces:
-            x = (faces[inst.parent] @ R.T + t) @ K.T
-            px = x[:, :2] / x[:, 2:]
-            region = int(inst.bindings[0].split("/")[1])
-            points = [(float(u), float(v)) for u, v in px]
-            outlines.append(Contour(id=len(outlines) + 1, region=region, points=points))
+    outlines = _bound_outlines(interp, K, R, t, 0.0)
     view = evidence.views[0].model_copy(update={"contours": outlines})
     outlined = evidence.model_copy(update={"views": [view]})
     assert judge(buildings_kb, interp, outlined).verdict == VERIFIED
@@ -352,6 +346,22 @@ def test_a_surface_joined_to_the_model_that_it_lacks_is_named(
     assert joined[0].startswith(
         "view 00: region 00/3 (26% of its pixels) meets body.front along 16"
     )
+    # the same region with next to no depth (its weight under (b)'s noise floor, its plane
+    # no measurement: dev 61334's dark roof) has no 3-D outline to meet the model with
+    total = sum(r.w_c for r in view.regions)
+    dark = [
+        r.model_copy(update={"w_c": 0.5 * MIN_WEIGHT_SHARE * total}) if r.id == 3 else r
+        for r in view.regions
+    ]
+    unlit = view.model_copy(update={"regions": dark})
+    assert roofless.model is not None
+    check = check_view(unlit, roofless.model)
+    assert check is not None
+    assert 3 in check.free_ids
+    assert [r for r in adjoining(unlit, roofless.model, check) if "00/3" in r] == []
+    check = check_view(view, roofless.model)
+    assert check is not None
+    assert [r for r in adjoining(view, roofless.model, check) if "00/3" in r] == joined[:1]
 
 
 def test_a_doll_house_is_no_house(buildings_kb: KnowledgeBase, interpreted: Get) -> None:
