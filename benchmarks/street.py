@@ -14,7 +14,9 @@ every object judged on every view; an object's tie re-judged by the other views,
 nearest it (`evaluate_scene`). Reported per
 scene and in total: houses in the truth, found, correct (the verdict 'verified',
 specialisation right, normals within 0.5 deg, vertices within 2 % of the house's size),
-within_tolerance (specialisation and geometry right, whatever the verdict), wrong_verified
+within_tolerance (specialisation, geometry and cameras right, whatever the verdict),
+geometry_within_tolerance (specialisation and geometry right, whatever the verdict and the
+cameras: the target of issue 19), wrong_verified
 (verified but not correct: a wrong result reported as right), invented (no true house near)
 and twice (a true house taken by two objects), the largest normal and vertex errors of the
 houses found, and the time. Ends with one JSON line.
@@ -54,6 +56,10 @@ SCENES: tuple[tuple[str, dict[str, str]], ...] = (
 
 # a house's geometry and specialisations are right (`evaluate`'s cause): verified, or doubtful
 RIGHT = ("", "right but doubtful")
+# ... and the issue's target for a street (normals within 0.5 deg, vertices within 2 %): the
+# house right whatever the cameras (`evaluate` names a camera of view 01 beyond 0.1 deg as the
+# cause only after the house's own geometry passed)
+GEOMETRY_RIGHT = (*RIGHT, "camera")
 
 
 def _figure(row: dict[str, object], key: str) -> float:
@@ -100,6 +106,7 @@ def main() -> None:
         "found": 0,
         "correct": 0,
         "within_tolerance": 0,
+        "geometry_within_tolerance": 0,
         "wrong_verified": 0,
         "invented": 0,
         "twice": 0,
@@ -138,6 +145,9 @@ def main() -> None:
                     "found": len(found),
                     "correct": sum(1 for r in found if r.get("correct")),
                     "within_tolerance": sum(1 for r in found if r.get("cause") in RIGHT),
+                    "geometry_within_tolerance": sum(
+                        1 for r in found if r.get("cause") in GEOMETRY_RIGHT
+                    ),
                     "wrong_verified": sum(
                         1 for r in found if r.get("outcome") == "verified" and not r.get("correct")
                     ),

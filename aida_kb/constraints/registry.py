@@ -11,6 +11,7 @@ from __future__ import annotations
 from aida_kb.constraints.kinds.angle import ANGLE
 from aida_kb.constraints.kinds.base import Kind
 from aida_kb.constraints.kinds.camera_position import CAMERA_POSITION
+from aida_kb.constraints.kinds.coincident import COINCIDENT
 from aida_kb.constraints.kinds.edge import EDGE
 from aida_kb.constraints.kinds.parallel import PARALLEL
 from aida_kb.constraints.kinds.parallel_edge import PARALLEL_EDGE
@@ -28,6 +29,7 @@ KINDS: dict[str, Kind] = {
         POSITION,  # eq. 4: a plane against its region, world frame
         EDGE,  # eq. 5: an edge against an image segment
         CAMERA_POSITION,  # eq. 4 measured in a free camera's frame (registration)
+        COINCIDENT,  # one plane of two parts (touching objects' shared wall)
     )
 }
 

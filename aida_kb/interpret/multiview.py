@@ -52,6 +52,7 @@ from aida_kb.geometry.polyhedron import Polyhedron
 from aida_kb.geometry.rig import Rig
 from aida_kb.interpret.closure import check_concurrent
 from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
+from aida_kb.interpret.party import touching_ties
 from aida_kb.interpret.result import Interpretation
 from aida_kb.interpret.run import interpret
 from aida_kb.interpret.transfer import ImageTransfer
@@ -535,6 +536,8 @@ def kb_constraints(
     ``HouseBody``), `aida_kb.solve.constraints_from_kb` with the parts under it and the
     concepts the interpretation chose for its roles (e.g. ``roof``: ``GableRoof``). Part
     indices are positions in `names`. Objects whose constraints cannot be built are skipped.
+    Where a scene's objects touch, their shared faces are tied to one plane
+    (`party.touching_ties`).
     """
     out: list[Constraint] = []
     index = {path: i for i, n in enumerate(names) if (path := _role_path(n)) is not None}
@@ -559,6 +562,8 @@ def kb_constraints(
                 continue
             o = c.source
             out.append(replace(c, origin=replace(o, owner=top.join(o.owner))))
+    if interp.model is not None:  # touching objects' shared walls: one plane each
+        out += touching_ties(interp.model, [o.role for o in interp.objects], names)
     return out
 
 

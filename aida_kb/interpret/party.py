@@ -22,12 +22,15 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
+from aida_kb.constraints import Constraint, Origin
 from aida_kb.io.evidence import Contour, Evidence, LineSegment, Region, ViewEvidence
+from aida_kb.io.model import ModelPart, ReconstructedModel
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -504,3 +507,90 @@ def split_terraces(evidence: Evidence) -> Evidence:
             ]
         }
     )
+
+
+# ---- touching objects: a party wall is one plane of two houses ----
+# Two objects touch where a face of one lies in a face of the other, facing it: a terrace's
+# party wall, inserted by each house from its own evidence (no view sees it). Their normals
+# are opposite within this angle (the two copies of dev terraces 62202/62205 lay 0.02-1.1 deg
+# apart) ...
+TOUCH_ANGLE_DEG = 3.0
+# ... their planes this fraction of the smaller object's size apart (its bounding-box
+# diagonal: the copies lay 0.03-0.91 m apart on houses 15-20 m across; the street presets'
+# free-standing houses stand at least 3 m apart) ...
+TOUCH_GAP = 0.08
+# ... and their polygons' bounding boxes overlap, grown by that gap.
+
+# The two copies of a party wall are one plane: in an adjustment they are tied to it
+# (`touching_ties`) to an order of magnitude below what a house is judged by (normals to
+# 0.5 deg, vertices to 2 % of 10-20 m: 0.2-0.4 m), so the tie holds the copies together
+# without outweighing a wall a view measures (a region's normal to 0.1-0.5 deg)
+TIE_SIGMA_DEG = 0.05
+TIE_SIGMA_M = 0.02
+
+
+def object_parts(model: ReconstructedModel, role: str) -> list[ModelPart]:
+    """The parts of the object with role `role` (e.g. ``houses[1]``) in `model`."""
+    return [p for p in model.parts if p.role.startswith(role + ".")]
+
+
+def extent_m(parts: Sequence[ModelPart]) -> float:
+    """The diagonal of the parts' bounding box, metres."""
+    pts = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in parts])
+    return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+
+
+def touching_faces(model: ReconstructedModel, a: str, b: str) -> list[tuple[str, str]]:
+    """The faces where the objects with roles `a` and `b` in `model` touch: pairs (role of a's
+    face, role of b's face) lying in one plane, facing each other (see above); empty where
+    they do not touch."""
+    pa, pb = object_parts(model, a), object_parts(model, b)
+    if not pa or not pb:
+        return []
+    gap = TOUCH_GAP * min(extent_m(pa), extent_m(pb))
+    na = np.array([p.normal for p in pa], dtype=np.float64)  # (A, 3)
+    nb = np.array([p.normal for p in pb], dtype=np.float64)  # (B, 3)
+    da = np.array([p.offset_m for p in pa], dtype=np.float64)
+    db = np.array([p.offset_m for p in pb], dtype=np.float64)
+    facing = na @ nb.T < -math.cos(math.radians(TOUCH_ANGLE_DEG))
+    close = np.abs(da[:, None] + db[None, :]) <= gap  # opposite normals: d_a = -d_b
+    out = []
+    for i, j in zip(*np.nonzero(facing & close), strict=True):
+        a_pts = np.asarray(pa[int(i)].polygon, dtype=np.float64)
+        b_pts = np.asarray(pb[int(j)].polygon, dtype=np.float64)
+        if np.all(a_pts.min(axis=0) <= b_pts.max(axis=0) + gap) and np.all(
+            b_pts.min(axis=0) <= a_pts.max(axis=0) + gap
+        ):
+            out.append((pa[int(i)].role, pb[int(j)].role))
+    return out
+
+
+def touching_ties(
+    model: ReconstructedModel, roles: Sequence[str], names: Sequence[str]
+) -> list[Constraint]:
+    """The constraints making every touching pair of the objects' (`roles`) faces one plane
+    (`coincident`, opposite facing, `TIE_SIGMA_DEG` / `TIE_SIGMA_M`): a house whose party
+    walls no view sees is held by its neighbours' walls — their normals and places follow from
+    what the views measure of the neighbours (an end house's gable wall, its front). Part
+    indices are positions in `names` (an adjustment's parts); faces not among them are
+    skipped. No objects, or none touching: no constraint."""
+    index = {name: i for i, name in enumerate(names)}
+    info = np.diag([1.0 / math.radians(TIE_SIGMA_DEG)] * 3 + [1.0 / TIE_SIGMA_M])
+    sqrt_information = tuple(tuple(float(x) for x in row) for row in info)
+    out = []
+    for a, b in itertools.combinations(roles, 2):
+        for fa, fb in touching_faces(model, a, b):
+            if fa not in index or fb not in index:
+                continue
+            label = f"one plane({fa}, {fb})"
+            out.append(
+                Constraint(
+                    kind="coincident",
+                    parts=(index[fa], index[fb]),
+                    sign=-1,
+                    sqrt_information=sqrt_information,
+                    label=label,
+                    origin=Origin(label, "prior"),
+                )
+            )
+    return out

@@ -46,6 +46,7 @@ from aida_kb.interpret.hypotheses import CONE_WINDOW_DEG, front_region
 from aida_kb.interpret.interpreter import SAME_FRAME_COS, TIE_MARGIN, Interpreter, Level, State
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import EvidenceView, RegionView, view_of
+from aida_kb.interpret.party import extent_m, object_parts, touching_faces
 from aida_kb.interpret.result import (
     INSERTED,
     HypothesisTrace,
@@ -269,18 +270,12 @@ def _inside(point: FloatArray, polygon: FloatArray, normal: FloatArray, margin: 
 
 def on_faces(view: EvidenceView, model: ReconstructedModel, candidates: set[str]) -> set[str]:
     """The region ids of `candidates` lying on a face of `model` (see the module constants)."""
-    size = _size(model.parts)
+    size = extent_m(model.parts)
     return {
         rid
         for rid in sorted(candidates)
         if _on_face(view.regions[rid].normal, view.regions[rid].centroid_m, model.parts, size)
     }
-
-
-def _size(parts: Sequence[ModelPart]) -> float:
-    """The diagonal of the parts' bounding box, metres."""
-    pts = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in parts])
-    return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
 
 
 def _on_face(
@@ -578,10 +573,6 @@ def _decided(
     )
 
 
-def _object_parts(model: ReconstructedModel, role: str) -> list[ModelPart]:
-    return [p for p in model.parts if p.role.startswith(role + ".")]
-
-
 def explained_by_others(evidence: Evidence, interp: Interpretation, role: str) -> set[str]:
     """The region ids ('VIEW/REGION') of every view that the scene's objects other than
     `role` explain: in the interpreted view those they bound or lie on their faces (their
@@ -592,9 +583,9 @@ def explained_by_others(evidence: Evidence, interp: Interpretation, role: str) -
     if model is None:
         return out
     others = [
-        (_object_parts(model, o.role), _size(_object_parts(model, o.role)))
+        (object_parts(model, o.role), extent_m(object_parts(model, o.role)))
         for o in interp.objects
-        if o.role != role and _object_parts(model, o.role)
+        if o.role != role and object_parts(model, o.role)
     ]
     cameras = {c.view: c for c in model.cameras}
     interpreted = {r.split("/", 1)[0] for o in interp.objects for r in o.evidence}
@@ -710,7 +701,7 @@ def object_score(evidence: Evidence, interp: Interpretation, obj: SceneObject) -
         return {}
     sub = _sub_interpretation(interp, obj.role, obj).model
     assert sub is not None  # a copy of `model`
-    own = frozenset(p.role for p in _object_parts(model, obj.role))
+    own = frozenset(p.role for p in object_parts(model, obj.role))
     rest = without_regions(evidence, explained_by_others(evidence, interp, obj.role))
     out: dict[str, Score] = {}
     for view, whole_view in zip(rest.views, evidence.views, strict=True):
@@ -962,38 +953,13 @@ def _kept_choices(interp: Interpretation, chosen: dict[str, Preference]) -> dict
 
 
 # ---- what touching objects share (kb: 'touching ROLE share PATH', docs/language.md 3.14) ----
-# Two objects touch where a face of one lies in a face of the other, facing it: a terrace's
-# party wall, inserted by each house from its own evidence (no view sees it). Their normals
-# are opposite within this angle (the two copies of dev terraces 62202/62205 lay 0.02-1.1 deg
-# apart) ...
-TOUCH_ANGLE_DEG = 3.0
-# ... their planes this fraction of the smaller object's size apart (its bounding-box
-# diagonal: the copies lay 0.03-0.91 m apart on houses 15-20 m across; the street presets'
-# free-standing houses stand at least 3 m apart) ...
-TOUCH_GAP = 0.08
-# ... and their polygons' bounding boxes overlap, grown by that gap.
+# Two objects touch where a face of one lies in a face of the other, facing it
+# (`party.touching_faces`).
 
 
 def touching(model: ReconstructedModel, a: str, b: str) -> bool:
-    """True if the objects with roles `a` and `b` in `model` touch (see above)."""
-    pa, pb = _object_parts(model, a), _object_parts(model, b)
-    if not pa or not pb:
-        return False
-    gap = TOUCH_GAP * min(_size(pa), _size(pb))
-    na = np.array([p.normal for p in pa], dtype=np.float64)  # (A, 3)
-    nb = np.array([p.normal for p in pb], dtype=np.float64)  # (B, 3)
-    da = np.array([p.offset_m for p in pa], dtype=np.float64)
-    db = np.array([p.offset_m for p in pb], dtype=np.float64)
-    facing = na @ nb.T < -math.cos(math.radians(TOUCH_ANGLE_DEG))
-    close = np.abs(da[:, None] + db[None, :]) <= gap  # opposite normals: d_a = -d_b
-    for i, j in zip(*np.nonzero(facing & close), strict=True):
-        a_pts = np.asarray(pa[int(i)].polygon, dtype=np.float64)
-        b_pts = np.asarray(pb[int(j)].polygon, dtype=np.float64)
-        if np.all(a_pts.min(axis=0) <= b_pts.max(axis=0) + gap) and np.all(
-            b_pts.min(axis=0) <= a_pts.max(axis=0) + gap
-        ):
-            return True
-    return False
+    """True if the objects with roles `a` and `b` in `model` touch (`party.touching_faces`)."""
+    return bool(touching_faces(model, a, b))
 
 
 def _shared_paths(kb: KnowledgeBase, interp: Interpretation) -> dict[str, str]:

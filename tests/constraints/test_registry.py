@@ -48,6 +48,14 @@ def _scene() -> tuple[np.ndarray, np.ndarray, list[PinholeCamera]]:
 SAMPLES: dict[str, Callable[[PinholeCamera], Constraint]] = {
     "angle": lambda cam: Constraint(kind="angle", parts=(0, 1), value=1.4, sigma=0.01),
     "parallel": lambda cam: Constraint(kind="parallel", parts=(0, 3), sign=-1, sigma=0.01),
+    "coincident": lambda cam: Constraint(
+        kind="coincident",
+        parts=(0, 3),
+        sign=-1,
+        sqrt_information=tuple(
+            tuple(float(x) for x in row) for row in np.diag([100.0, 100.0, 100.0, 10.0])
+        ),
+    ),
     "parallel_edge": lambda cam: Constraint(kind="parallel_edge", parts=(0, 4, 3, 4), sigma=0.01),
     "symmetry": lambda cam: Constraint(kind="symmetry", parts=(0, 4, 3, 4), sigma=0.01),
     "position": lambda cam: Constraint(

@@ -3,10 +3,14 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from aida_kb.constraints import compile_blocks
+from aida_kb.interpret.party import touching_ties
 from aida_kb.interpret.result import Instance, Interpretation, SceneObject
 from aida_kb.interpret.scene import alike_doubts, confirmed_choices, shared_choices, touching
 from aida_kb.io.model import ModelPart, ReconstructedModel
@@ -190,3 +194,35 @@ def test_touching_objects_filled_otherwise_or_resting_on_a_doubt_are_doubtful(
         [(0, 10, "GableRoof", [], "verified", []), (15, 25, "ShedRoof", [], "verified", [])]
     )
     assert alike_doubts(kb, apart, list(apart.objects)) == list(apart.objects)
+
+
+def test_a_terrace_ties_each_party_wall_into_one_plane_and_measures_how_far_apart() -> None:
+    row = _scene(
+        [
+            (0, 10, "GableRoof", [], "verified", []),
+            (10.3, 20, "GableRoof", [], "verified", []),
+            (20, 30, "GableRoof", [], "verified", []),
+            (34, 44, "GableRoof", [], "verified", []),  # free-standing: 4 m on
+        ]
+    )
+    assert row.model is not None
+    names = [p.role for p in row.model.parts]
+    ties = touching_ties(row.model, [o.role for o in row.objects], names)
+    assert sorted((names[c.parts[0]], names[c.parts[1]]) for c in ties) == [
+        ("houses[0].body.right", "houses[1].body.left"),
+        ("houses[1].body.right", "houses[2].body.left"),
+    ]
+    normals = np.array([p.normal for p in row.model.parts], dtype=np.float64)
+    offsets = np.array([p.offset_m for p in row.model.parts], dtype=np.float64)
+    (block,) = compile_blocks(ties, len(names), 0)
+    r = block.evaluate(normals, offsets, [])[0]  # (2, 4): rad x3, m
+    np.testing.assert_allclose(r[:, :3], 0.0, atol=1e-12)  # parallel, facing each other
+    np.testing.assert_allclose(np.abs(r[:, 3]), [0.3, 0.0], atol=1e-12)  # 0.3 m apart, or one
+    # turned 1 deg about the vertical, the middle house's party wall is off by that much
+    i = names.index("houses[1].body.left")
+    turn = math.radians(1.0)
+    normals[i] = (-math.cos(turn), 0.0, math.sin(turn))
+    r = block.evaluate(normals, offsets, [])[0]
+    assert math.degrees(float(np.linalg.norm(r[0, :3]))) == pytest.approx(1.0, abs=1e-9)
+    # no names for the faces (an adjustment of other parts): no tie
+    assert touching_ties(row.model, [o.role for o in row.objects], names[:6]) == []
