@@ -39,10 +39,7 @@ is **verified** only when it also
     on it): a region of some view lies on it, the outlines of regions on the model reach
     its plane over an area inside its face (spanning OUTLINE_SPAN of it), or two of its
     edges are measured — seen (segments along half the edge) in two views, or in one view
-    along a neighbour a region measures (where no segment lies along an edge, the outline
-    of the neighbour's regions ending there shows it, but only with another view seeing
-    it: an occluder's edge cutting a region is no 3-D line of the model's); one such edge
-    suffices when the knowledge orients
+    along a neighbour a region measures; one such edge suffices when the knowledge orients
     the part parallel or square to parts regions measure — unless that orientation is the
     choice among alternatives the evidence has not told apart (a flat roof's level top
     through its front eave: a shed's sloping top has that eave too; and the regions on such
@@ -102,7 +99,6 @@ from aida_kb.interpret.verdict.edges import (
     edge_cover,
     edge_coverage,
     line_offset_sd,
-    outlined_edges,
     seen_edges,
 )
 from aida_kb.interpret.verdict.geometry import (
@@ -258,7 +254,6 @@ __all__ = [
     "model_faces",
     "model_size",
     "outline_points",
-    "outlined_edges",
     "project",
     "seen_edges",
     "spread",

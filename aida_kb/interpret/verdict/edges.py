@@ -4,7 +4,6 @@ well image lines of an edge fix a plane through it (check (e))."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -19,7 +18,6 @@ from aida_kb.interpret.verdict.tolerances import (
     EDGE_STEP_MIN,
     EDGE_STEP_Z,
     EDGE_TOLERANCE_PX,
-    OUTLINE_BORDER_PX,
     OUTLINE_PIECE_MIN_PX,
 )
 from aida_kb.io.evidence import Evidence, LineSegment, ViewEvidence
@@ -45,7 +43,8 @@ def edge_coverage(
     image: the view's left image (8-bit grey, as taken); an edge across which it steps
     steadily (`vision.lines.edge_steps`: at least EDGE_STEP_MIN grey levels at EDGE_STEP_Z
     standard errors) is seen along its whole length, segments or not."""
-    from aida_kb.register.evidence import camera_of
+    from aida_kb.register.evidence import camera_of, measurements_of
+    from aida_kb.register.match import match_segments
     from aida_kb.register.model import RigidModel
 
     camera = next((c for c in model.cameras if c.view == view.id), None)
@@ -55,20 +54,9 @@ def edge_coverage(
         return None
     rigid = RigidModel.from_model(model)
     edges = rigid.visible_edges(camera_of(camera), min_length_px=EDGE_MIN_LENGTH_PX)
-    if edges.index.size == 0:
-        return rigid, edges, np.zeros(0)
-    return rigid, edges, _stepped(view, edges, _covered(view, edges), image)
-
-
-def _covered(view: ViewEvidence, edges: VisibleEdges) -> FloatArray:
-    """The length, pixels (E,), of each of the visible `edges` that the view's segments lie
-    on (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG, undistorted first)."""
-    from aida_kb.register.evidence import measurements_of
-    from aida_kb.register.match import match_segments
-
     covered = np.zeros(edges.index.size)
-    if edges.index.size == 0 or not view.lines:
-        return covered
+    if edges.index.size == 0:
+        return rigid, edges, covered
     meas = measurements_of(view)
     matches = match_segments(
         edges.a,
@@ -79,7 +67,7 @@ def _covered(view: ViewEvidence, edges: VisibleEdges) -> FloatArray:
         max_angle_rad=math.radians(EDGE_ANGLE_DEG),
     )
     if matches.size == 0:
-        return covered
+        return rigid, edges, _stepped(view, edges, covered, image)
     a, b = edges.a[matches.edge], edges.b[matches.edge]
     length = edges.length_px[matches.edge]
     u = (b - a) / np.maximum(length, 1e-12)[:, None]
@@ -88,8 +76,7 @@ def _covered(view: ViewEvidence, edges: VisibleEdges) -> FloatArray:
     lo = np.clip(np.minimum(t1, t2), 0.0, length)
     hi = np.clip(np.maximum(t1, t2), 0.0, length)
     np.add.at(covered, matches.edge, hi - lo)  # pieces of one edge rarely overlap
-    out: FloatArray = np.minimum(covered, edges.length_px)
-    return out
+    return rigid, edges, _stepped(view, edges, np.minimum(covered, edges.length_px), image)
 
 
 def _stepped(
@@ -186,81 +173,16 @@ def seen_edges(
     return rigid.names, np.asarray(rigid.edge_faces, dtype=np.int64), views
 
 
-def outlined_edges(
-    evidence: Evidence, model: ReconstructedModel, parts_of: Mapping[str, Mapping[int, str]]
-) -> list[set[tuple[str, str]]]:
-    """Which view's region outlines lie along which model edge: per edge of the model's
-    `RigidModel` (E), the pairs (view id, part role) such that in that view the outer
-    contours of the regions lying on that part — one of the edge's two faces — lie along at
-    least EDGE_SEEN_SHARE of the edge's visible projected length (straight pieces of at
-    least OUTLINE_PIECE_MIN_PX, within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG, as segments).
-
-    parts_of : view id -> {region id: the part it lies on} (`ViewCheck.parts_of`).
-    A region's outline along the edge where its face ends is that edge's image line on the
-    face's plane. Pieces along the image's border (both ends within OUTLINE_BORDER_PX of one
-    side) are the image's end, not the region's, and are left out. An occluder's outline
-    cutting the region is not told apart here: `unmeasured_parts` counts such a line only
-    where another view sees the same 3-D line (an occluder's edge, off the face's plane,
-    moves across it from view to view)."""
-    from aida_kb.register.evidence import camera_of
-    from aida_kb.register.model import RigidModel
-
-    rigid = RigidModel.from_model(model)
-    names = list(rigid.names)
-    out: list[set[tuple[str, str]]] = [set() for _ in range(len(rigid.edge_faces))]
-    for view in evidence.views:
-        camera = next((c for c in model.cameras if c.view == view.id), None)
-        regions: dict[str, set[int]] = {}
-        for region, part in parts_of.get(view.id, {}).items():
-            regions.setdefault(part, set()).add(region)
-        if camera is None or not regions:
-            continue
-        edges = rigid.visible_edges(camera_of(camera), min_length_px=EDGE_MIN_LENGTH_PX)
-        if edges.index.size == 0:
-            continue
-        faces = np.asarray(rigid.edge_faces, dtype=np.int64)[edges.index]  # (E_v, 2)
-        for part, ids in regions.items():
-            if part not in names:
-                continue
-            pieces = [
-                s
-                for s in _outline_pieces(view, frozenset(ids))
-                if not _along_border(s, view.image_width, view.image_height)
-            ]
-            covered = _covered(view.model_copy(update={"lines": pieces}), edges)
-            along = (covered >= EDGE_SEEN_SHARE * edges.length_px) & (
-                faces == names.index(part)
-            ).any(axis=1)
-            for i in edges.index[along]:
-                out[int(i)].add((view.id, part))
-    return out
-
-
-def _along_border(piece: LineSegment, width: int, height: int) -> bool:
-    """True if both ends of `piece` lie within OUTLINE_BORDER_PX of one side of an image
-    `width` x `height` pixels."""
-    p = np.array([piece.p1, piece.p2], dtype=np.float64)  # (2, 2)
-    near = (
-        np.stack([p[:, 0], width - 1 - p[:, 0], p[:, 1], height - 1 - p[:, 1]], axis=1)
-        <= OUTLINE_BORDER_PX
-    )  # (2 ends, 4 sides)
-    return bool(near.all(axis=0).any())
-
-
 def line_offset_sd(
-    ends: FloatArray,
-    normal: FloatArray,
-    within: FloatArray | None,
-    cameras: list[ModelCamera] | list[tuple[ModelCamera, float]],
+    ends: FloatArray, normal: FloatArray, within: FloatArray | None, cameras: list[ModelCamera]
 ) -> float:
     """How well image lines of a 3-D edge fix a plane through it: the standard deviation,
     metres, of the plane's offset along its unit `normal` (3,), when the edge (ends (2, 3),
     world frame) is seen in `cameras` with its two ends good to EDGE_SIGMA_PX across the
-    line (or, given as (camera, sigma) pairs, to each one's sigma, pixels: a region's
-    outline, OUTLINE_SIGMA_PX). The edge may move square to itself: within the plane of
-    unit normal `within` (a neighbour a region measures) or, None, freely (triangulated
-    from the views). inf when the views leave a direction unmeasured (one view, no
-    neighbour; a line along the baseline)."""
+    line. The edge may move square to itself: within the plane of unit normal `within`
+    (a neighbour a region measures) or, None, freely (triangulated from the views). inf
+    when the views leave a direction unmeasured (one view, no neighbour; a line along the
+    baseline)."""
     u = ends[1] - ends[0]
     u = u / max(float(np.linalg.norm(u)), 1e-12)
     if within is not None:
@@ -274,8 +196,7 @@ def line_offset_sd(
         basis = np.stack([a, np.cross(u, a)])
     info = np.zeros((len(basis), len(basis)))
     h = 1e-3 * max(float(np.linalg.norm(ends[1] - ends[0])), 1e-3)  # metres
-    for seen in cameras:
-        camera, sigma = seen if isinstance(seen, tuple) else (seen, EDGE_SIGMA_PX)
+    for camera in cameras:
         px = project(camera, ends)  # (2, 2)
         along = px[1] - px[0]
         length = float(np.linalg.norm(along))
@@ -284,7 +205,7 @@ def line_offset_sd(
         across = np.array([-along[1], along[0]]) / length
         rows = [((project(camera, ends + h * b) - px) @ across) / h for b in basis]  # px / m
         J = np.stack(rows, axis=1)  # (2 ends, k)
-        info += J.T @ J / sigma**2
+        info += J.T @ J / EDGE_SIGMA_PX**2
     if abs(float(np.linalg.det(info))) < 1e-12:
         return math.inf
     cov = np.linalg.inv(info)

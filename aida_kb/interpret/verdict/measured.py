@@ -10,7 +10,7 @@ import numpy as np
 
 from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.uncertainty import Uncertainty
-from aida_kb.interpret.verdict.edges import line_offset_sd, outlined_edges, seen_edges
+from aida_kb.interpret.verdict.edges import line_offset_sd, seen_edges
 from aida_kb.interpret.verdict.geometry import (
     FloatArray,
     inside_polygon,
@@ -25,7 +25,6 @@ from aida_kb.interpret.verdict.tolerances import (
     MEASURED_LINES,
     MEASURING_SHARE,
     OUTLINE_AREA_RATIO,
-    OUTLINE_SIGMA_PX,
     OUTLINE_SPAN,
     POSITION_TOLERANCE,
     SIN_SQUARE,
@@ -134,11 +133,8 @@ def unmeasured_parts(
     do the outlines of regions on the model that reach the part's plane inside its face
     over an area. Otherwise the part needs two measured edges: seen in two views
     (triangulated), or in one view along a neighbour a region measures (the image line
-    fixes the edge on that plane). A view sees an edge in image segments along it or,
-    where none lie, in the outline of the neighbour's regions ending there
-    (`outlined_edges`; a hidden part's edges are often only silhouettes), which counts only
-    with another view seeing the same edge: an occluder's edge cutting the region in one
-    view makes the same outline there but is no 3-D line of the model's in the next.
+    fixes the edge on that plane). An outline reaching it along a line is the edge it
+    shares with the region's part, already counted when seen.
     The knowledge's orientations and placements (a back wall parallel to the front and
     mirrored about the ridge, a roof back as steep as the front, a floor square to the
     walls) fill in the rest, and that is a guess about this scene, not a measurement.
@@ -149,11 +145,10 @@ def unmeasured_parts(
     reason the regions that measure such a part lie within CONTESTED_NORMAL_DEG of it (their
     weighted mean angle; a shed's top 8 degrees off a level face would still pass (b)).
     A part its edges measure must be placed by them to POSITION_TOLERANCE of the model's
-    size: each edge, its ends good to EDGE_SIGMA_PX across it in each view whose segments
-    see it (OUTLINE_SIGMA_PX where an outline does), fixes the part's offset to
-    `line_offset_sd` (an edge seen at a grazing angle, or along the baseline of the two
-    views that see it, hardly does) — and, with the adjustment's `uncertainty`, its
-    offset's standard deviation there, the larger of the two."""
+    size: each edge, its ends good to EDGE_SIGMA_PX across it in each view that sees it,
+    fixes the part's offset to `line_offset_sd` (an edge seen at a grazing angle, or along
+    the baseline of the two views that see it, hardly does) — and, with the adjustment's
+    `uncertainty`, its offset's standard deviation there, the larger of the two."""
     model = interp.model
     if model is None:
         return []
@@ -176,7 +171,6 @@ def unmeasured_parts(
     from aida_kb.register.model import RigidModel
 
     names, edge_faces, seen_by = seen_edges(evidence, model)
-    outlined = outlined_edges(evidence, model, {c.view: c.parts_of for c in checks})
     ends = RigidModel.from_model(model).edge_ends  # (E, 2, 3), the edges of `edge_faces`
     normals = {p.role: np.asarray(p.normal, dtype=np.float64) for p in model.parts}
     cameras = {c.view: c for c in model.cameras}
@@ -221,17 +215,13 @@ def unmeasured_parts(
         lines = 0
         information = 0.0  # 1 / m², of the part's offset from its measured edges
         for k, ((f, g), views) in enumerate(zip(edge_faces, seen_by, strict=True)):
-            if me not in (f, g):
+            if me not in (f, g) or not views:
                 continue
             other = names[int(g if f == me else f)]
-            # views where the outline of the neighbour's regions runs along the edge instead
-            outline = sorted({v for v, part in outlined[k] if part == other} - views)
-            if len(views) + len(outline) >= 2 or (views and other in on_region):
+            if len(views) >= 2 or other in on_region:
                 lines += 1
                 within = normals[other] if other in on_region else None
-                seen = [(cameras[v], EDGE_SIGMA_PX) for v in sorted(views)]
-                seen += [(cameras[v], OUTLINE_SIGMA_PX) for v in outline]
-                sd = line_offset_sd(ends[k], n, within, seen)
+                sd = line_offset_sd(ends[k], n, within, [cameras[v] for v in sorted(views)])
                 information += 1.0 / sd**2 if 0.0 < sd < math.inf else 0.0
         placed = lines >= MEASURED_LINES
         if not placed and lines >= 1 and _oriented(n, measured):

@@ -32,8 +32,6 @@ class ViewCheck:
     standing_out_weight: float = 0.0  # regions parallel to a face, standing out of it
     turned_on: dict[str, float] = field(default_factory=dict)  # part role -> the weighted mean
     # angle, degrees, between its face's normal and the normals of the regions on it
-    parts_of: dict[int, str] = field(default_factory=dict)  # explained region id -> the part
-    # it lies on (of several coplanar faces, the last the model lists)
 
     @property
     def explained_share(self) -> float:

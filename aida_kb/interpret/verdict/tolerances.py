@@ -44,8 +44,6 @@ SEEN_EDGE_COVER_MIN = 0.4  # edges between two parts bound to the evidence: at l
 # the scenes fell below 0.4; with the outlines 100 % and 7 %)
 OUTLINE_PIECE_MIN_PX = 8.0  # a straight piece of a region's contour (simplified to 1 px) this
 # long gives its direction to within EDGE_ANGLE_DEG
-OUTLINE_BORDER_PX = 2.0  # a contour piece with both ends this close to one side of the image
-# runs along the image's border (a region cut off there), not along the region's own end
 OUTLINE_TOLERANCE_PX = 4.0  # a region's outline reaches a plane within 4 px of it
 OUTLINE_STEP_PX = 3.0  # region outlines are sampled every 3 px along their sides
 ADJOINING_MIN_SHARE = 0.02  # (f): a region of at least 2 % of a view's region pixels ...
@@ -77,11 +75,6 @@ CAMERA_CENTRE_SD_MAX = 0.01  # ... and its centre to 1 % of its distance from th
 CAMERA_SD_CONFIDENCE = 2.0  # ... at this many standard deviations: an sd just under the
 # target still leaves about one chance in three of an error above it (street2 dev seed 7:
 # view 01 verified at sd < 0.1 deg, 0.173 deg off); two sd make it about one in twenty
-OUTLINE_SIGMA_PX = 2.5  # a region's outline along a model edge lies within 2.5 px of it (one
-# sd): on right models (normals within 0.35 deg) the outline pieces' distance from the projected
-# edges is 0.5-1.1 px RMS where the regions come from labels (dev 61304, 61108, 61311, 61316,
-# 61321, 61323, 61326, 61331, 61334: 524 piece ends) and 2.3-2.6 px where they come from the
-# orientation segmentation (61101, 61110, 61324: 336) — the larger, rounded up, for both
 EDGE_SEEN_SHARE = 0.5  # an edge is seen in a view when segments lie along half its length
 EDGE_STEP_MIN = 4.0  # an edge the image steps across by at least 4 grey levels ...
 EDGE_STEP_Z = 5.0  # ... at 5 standard errors of the step along it is seen, segment or not

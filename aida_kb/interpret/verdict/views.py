@@ -63,7 +63,6 @@ def check_view(
     m = len(regions)
     explained = np.zeros(m, bool)
     on_face: dict[str, float] = {}
-    part_of = np.full(m, "", dtype=object)  # the face each region lies on
     turned_on: dict[str, float] = {}
     nearest = np.full(m, np.inf)  # ray parameter of the first model face the ray meets
     nearest_cos = np.zeros(m)  # |cos| between the region's normal and that face's
@@ -77,7 +76,6 @@ def check_view(
             on = np.zeros(m, bool)
             on[cand] = inside_polygon(centres[cand], poly, n)
             explained |= on
-            part_of[on] = role
             on_face[role] = float(weights[on & keep].sum())
             if on_face[role] > 0:
                 cos = np.clip(np.abs(normals[on & keep] @ n), 0.0, 1.0)
@@ -139,7 +137,6 @@ def check_view(
         tuple(int(regions[i].id) for i in np.nonzero(~counted)[0]),
         float(weights[standing_out & keep].sum()),
         turned_on,
-        {int(regions[i].id): str(part_of[i]) for i in np.nonzero(counted & explained)[0]},
     )
 
 
