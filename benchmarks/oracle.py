@@ -16,7 +16,9 @@ alone (what the interpretation chose plays no part):
   ``SEEN_EDGE_COVER_MIN`` of their length, as segments or outlines of those regions (the
   interpretation binds those faces to those regions);
 - `verdict.views.adjoining` (a large region meeting the model that it does not explain) and
-  `verdict.views.unexplained_near` (at least ``NEAR_EXPLAINED_MIN`` of the weight near it).
+  `verdict.views.unexplained_near` (at least ``NEAR_EXPLAINED_MIN`` of the weight near it);
+- `verdict.filled.unfilled` (check (j), "filled"): every face the view sees is there (not
+  the surface beyond it), and no region on a face goes on far outside the model.
 
     .venv/bin/python benchmarks/oracle.py /tmp/rb60/keep [more keep folders ...]
 
@@ -40,6 +42,7 @@ import numpy.typing as npt
 
 from aida_kb.errors import AidaError
 from aida_kb.interpret.verdict.edges import edge_cover
+from aida_kb.interpret.verdict.filled import unfilled
 from aida_kb.interpret.verdict.tolerances import (
     CONTRADICTION_MAX,
     EDGE_COVER_MIN,
@@ -62,6 +65,7 @@ CHECKS = (
     "adjoining",
     "near explained",
     "seen between bound",
+    "filled",
 )
 
 
@@ -118,6 +122,8 @@ def failed_checks(
         share, _ = unexplained_near(view, model, check)
         if share < NEAR_EXPLAINED_MIN:
             fails.append("near explained")
+        if unfilled(view, model, check.explained_ids):
+            fails.append("filled")
         if view.id == evidence.views[0].id:
             # (c) in the interpreted view: the edges between the parts its regions lie on
             bound = frozenset(role for role, w in check.explained_on.items() if w > 0)

@@ -64,7 +64,22 @@ is **verified** only when it also
 (i) has every part a region measures fixed by the adjustment to the normal accuracy asked of
     it: at NORMAL_SD_CONFIDENCE standard deviations (the adjustment's covariance, each region
     weighed by its own plane fit) within NORMAL_SD_MAX_DEG (`verdict.normals`; the evidence
-    checks hold a model only to their few degrees: a street house 0.63 deg off passed them).
+    checks hold a model only to their few degrees: a street house 0.63 deg off passed them);
+(j) is there where each view sees it, and ends where the surfaces end (`verdict.filled`): the
+    faces are rasterised at the view's model camera (a depth buffer: only what the view sees
+    of each face) and so are the regions, from their outlines; a region's plane along a
+    face's pixel lies at the face's depth, clearly beyond it (FILL_BEYOND_DEPTH of its depth
+    and FILL_BEYOND_SIZE of the model's size: seen *through* the model) or before it (an
+    occluder: neither way). A face judged on FILL_MIN_SHARE of the image (FILL_EDGE_PX inside
+    its outline, occluders taken off) of which more than FILL_CONTRADICTED_MAX shows the
+    surface beyond is not there; a region (b) explains that lies at a face's depth over
+    FILL_MIN_SHARE of the image, its plane on that face's, with more than SPILL_MAX of its
+    pixels outside the model's projection goes on where the model has no surface (a gable's
+    whole end wall beside the half a shed has: held-out 61325, 21 % off, passed (a)-(i));
+    its pixels without a depth are taken off those outside (a segmented region leaks into
+    the textureless sky through a gap in its outline; its surface has a depth).
+    Regions whose plane fit kept fewer than FILL_INLIER_SHARE of their pixels do not tell
+    their depth and judge nothing.
 
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
 where. An interpretation that found no object is **nothing**; so is one whose sizes (the
@@ -80,8 +95,8 @@ The package, one module per concern: `tolerances` (the named thresholds), `outco
 (`Verdict`, `ViewCheck`), `geometry` (faces, projection, region outlines), `views` ((b), (f),
 (g) in one view), `edges` (segments along model edges; (c), and (e)'s edge placement),
 `measured` ((e)), `attributes` ((d)), `cameras` ((c) for registered cameras; standard
-deviations in the model), `normals` ((i)), `judge` (the verdict) and `summary` (the verdict
-in the result).
+deviations in the model), `normals` ((i)), `filled` ((j)), `judge` (the verdict) and
+`summary` (the verdict in the result).
 """
 
 from __future__ import annotations
@@ -100,6 +115,14 @@ from aida_kb.interpret.verdict.edges import (
     edge_coverage,
     line_offset_sd,
     seen_edges,
+)
+from aida_kb.interpret.verdict.filled import (
+    FaceFill,
+    Spill,
+    face_fills,
+    fill_maps,
+    spills,
+    unfilled,
 )
 from aida_kb.interpret.verdict.geometry import (
     inside_polygon,
@@ -158,6 +181,13 @@ from aida_kb.interpret.verdict.tolerances import (
     EDGE_TOLERANCE_PX,
     EXACT_DEG,
     EXPLAINED_MIN,
+    FILL_BEYOND_DEPTH,
+    FILL_BEYOND_SIZE,
+    FILL_CONTRADICTED_MAX,
+    FILL_EDGE_PX,
+    FILL_INLIER_SHARE,
+    FILL_MIN_SHARE,
+    FILL_NEAR_Z,
     INSIDE_MARGIN,
     MEASURED_LINES,
     MEASURING_SHARE,
@@ -177,6 +207,7 @@ from aida_kb.interpret.verdict.tolerances import (
     SEEN_EDGE_COVER_MIN,
     SIN_SQUARE,
     SIZE_UNIT,
+    SPILL_MAX,
     STANDING_OUT_MAX,
     STANDING_OUT_SHARE_MAX,
 )
@@ -209,6 +240,13 @@ __all__ = [
     "EDGE_TOLERANCE_PX",
     "EXACT_DEG",
     "EXPLAINED_MIN",
+    "FILL_BEYOND_DEPTH",
+    "FILL_BEYOND_SIZE",
+    "FILL_CONTRADICTED_MAX",
+    "FILL_EDGE_PX",
+    "FILL_INLIER_SHARE",
+    "FILL_MIN_SHARE",
+    "FILL_NEAR_Z",
     "INSIDE_MARGIN",
     "MEASURED_LINES",
     "MEASURING_SHARE",
@@ -233,9 +271,12 @@ __all__ = [
     "SEEN_EDGE_COVER_MIN",
     "SIN_SQUARE",
     "SIZE_UNIT",
+    "SPILL_MAX",
     "STANDING_OUT_MAX",
     "STANDING_OUT_SHARE_MAX",
     "VERIFIED",
+    "FaceFill",
+    "Spill",
     "Verdict",
     "ViewCheck",
     "adjoining",
@@ -246,6 +287,8 @@ __all__ = [
     "contested",
     "edge_cover",
     "edge_coverage",
+    "face_fills",
+    "fill_maps",
     "inside_polygon",
     "judge",
     "line_offset_sd",
@@ -256,11 +299,13 @@ __all__ = [
     "outline_points",
     "project",
     "seen_edges",
+    "spills",
     "spread",
     "summary_reasons",
     "unconfirmed",
     "undecided",
     "unexplained_near",
+    "unfilled",
     "unmeasured_parts",
     "with_deviations",
     "with_verdict",

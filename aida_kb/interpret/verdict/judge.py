@@ -12,6 +12,7 @@ from aida_kb.interpret.uncertainty import Uncertainty, adjustment_uncertainty
 from aida_kb.interpret.verdict.attributes import check_attributes, check_orientations
 from aida_kb.interpret.verdict.cameras import camera_doubts
 from aida_kb.interpret.verdict.edges import edge_cover
+from aida_kb.interpret.verdict.filled import unfilled
 from aida_kb.interpret.verdict.measured import unmeasured_parts
 from aida_kb.interpret.verdict.normals import loose_normals
 from aida_kb.interpret.verdict.outcome import DOUBTFUL, NOTHING, VERIFIED, Verdict
@@ -201,6 +202,10 @@ def judge(
                 f"weight on it and near it (at least {100 * NEAR_EXPLAINED_MIN:.0f}%): "
                 f"regions {shown} near it are not its surfaces"
             )
+    # (j) every face a view sees is there (not the surface behind it), and no region on a
+    # face goes on far beyond it (a shed where the view shows a gable's whole end wall)
+    for check in checks:
+        reasons += unfilled(by_id[check.view], model, check.explained_ids)
     # (e) every part inserted from knowledge is measured by some evidence
     reasons += unmeasured_parts(interp, evidence, tuple(checks), kb, uncertainty)
     # (i) every part a region measures has its normal fixed to the accuracy asked of it

@@ -85,3 +85,17 @@ EDGE_COVER_MIN = 0.5  # at least this share of the visible edges' length is seen
 # (edges between faces of like brightness or under an occluder show no segment: a right
 # model's edges are seen along 52-96 % on development scenes, a wrong roof's or a missing
 # wing's along 30-47 % — their edges run where the building has none)
+FILL_EDGE_PX = 4.0  # (j): a face's visible area is judged this far inside its outline (cameras
+# 0.1-0.3 degree off and region outlines good to a few pixels move the borders that much)
+FILL_BEYOND_DEPTH = 0.05  # a region lies clearly beyond (or before) a face where its plane is
+FILL_BEYOND_SIZE = 0.1  # ... 5 % of the face's depth and 10 % of the model's size off it
+FILL_NEAR_Z = 0.01  # faces are clipped 1 % of the model's size in front of the camera
+FILL_MIN_SHARE = 0.005  # a face judged on at least 0.5 % of the image's pixels ...
+FILL_CONTRADICTED_MAX = 0.25  # ... of which more than a quarter show the surface beyond it
+# is not there
+SPILL_MAX = 0.25  # (j): a region on a face with more than a quarter of its pixels outside the
+# model's projection goes on where the model has no surface (half a gable's end wall beside
+# a shed's)
+FILL_INLIER_SHARE = 0.05  # (j): a region's plane tells its depth over the region when its fit
+# kept at least 5 % of its pixels (a dark roof: 56 of 8,538 pixels with a disparity, none
+# kept, its plane tilted 40 degrees off: "beyond" a true roof over 73 % of it)
