@@ -224,7 +224,12 @@ house 0's vertex error from 0.60 % to 0.63 %, and with the right images and segm
 dropped they give 0.17 deg but 0.68 %."""
 
 
-def _model_camera(view: str, cam: PinholeCamera, sd: CameraSd | None = None) -> ModelCamera:
+def _model_camera(
+    view: str,
+    cam: PinholeCamera,
+    sd: CameraSd | None = None,
+    undecided: tuple[float, ...] = (),
+) -> ModelCamera:
     c = cam.to_cahv()
 
     def v3(a: FloatArray) -> tuple[float, float, float]:
@@ -244,6 +249,7 @@ def _model_camera(view: str, cam: PinholeCamera, sd: CameraSd | None = None) -> 
         image_height=cam.height,
         cahv=Cahv(C=v3(c.C), A=v3(c.A), H=v3(c.H), V=v3(c.V)),
         sd=sd,
+        undecided_turns_deg=undecided,
     )
 
 
@@ -1089,7 +1095,8 @@ def in_frame_of_first(interp: Interpretation, first: str) -> Interpretation | No
         if c.view == first:  # exactly the world's origin, not rounded near it
             R, t = np.eye(3), np.zeros(3)
         K = np.asarray(c.K, dtype=np.float64)
-        cameras.append(_model_camera(c.view, PinholeCamera(K, R, t, c.image_width, c.image_height)))
+        cam = PinholeCamera(K, R, t, c.image_width, c.image_height)
+        cameras.append(_model_camera(c.view, cam, undecided=c.undecided_turns_deg))
     # the first view first, as in a reconstruction from it
     cameras.sort(key=lambda c: c.view != first)
     up = None if model.up is None else _v3(R0 @ np.asarray(model.up, dtype=np.float64))
@@ -1167,6 +1174,7 @@ def reconstruct_from_first(
     n_known = len(cams) - len(placed)
     turn: float | None = None
     notes: list[str] = []
+    undecided: dict[str, tuple[float, ...]] = {}  # views whose registration chose a twin
     report: ResidualReport | None = None  # the last adjustment's, for interpretation.json
     if placed:  # the model with the views of known pose, as after a registration
         free = list(range(n_known, len(cams)))
@@ -1195,6 +1203,8 @@ def reconstruct_from_first(
                 f"{reg.angle_deg:.1f} deg taken"
             )
         before, turn = turn, reg.angle_deg
+        if reg.undecided:
+            undecided[v.id] = reg.undecided
         cams.append(reg.camera)
         views.append(measurements_of(v))
         ids.append(v.id)
@@ -1214,6 +1224,7 @@ def reconstruct_from_first(
             )
             for kept in (cams, views, ids, pairs):
                 kept.pop()
+            undecided.pop(v.id, None)
             turn = before
             continue
         rigid, polygons, cams, report = step
@@ -1248,7 +1259,7 @@ def reconstruct_from_first(
     model = ReconstructedModel(
         parts=_parts(model0, rigid, polygons),
         cameras=[
-            _model_camera(i, c, own_sd.get(k))
+            _model_camera(i, c, own_sd.get(k), undecided.get(i, ()))
             for k, (i, c) in enumerate(zip(ids, cams, strict=True))
         ],
         up=model0.up,

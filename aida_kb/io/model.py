@@ -154,6 +154,14 @@ class ModelCamera(_Frozen):
         description="how well the adjustment fixes this camera; null for the first view "
         "(it sets the world frame) or a result not judged",
     )
+    undecided_turns_deg: tuple[float, ...] = Field(
+        default=(),
+        description="turns about the vertical (degrees from the camera the view was registered "
+        "against) that nothing in the view's evidence rules out as well as the pose taken: "
+        "poses whose edges fit about as well and which the images do not correlate clearly "
+        "worse (a symmetric model's twins); non-empty: the registration did not decide the "
+        "pose, and the verdict doubts the view",
+    )
 
     @model_validator(mode="after")
     def _check(self) -> ModelCamera:

@@ -58,6 +58,7 @@ from aida_kb.register.twins import (
     PoseSupport,
     photometric_choice,
     rivals_of,
+    undecided_rivals,
     unsupported_twin,
 )
 
@@ -157,7 +158,11 @@ class Registration:
     about its least determined axis, degrees. alternatives : (final angle, cost) of the refined
     poses more than ``span_deg`` from this one whose cost is as low within the tie tolerance:
     the images do not tell them apart (a symmetric model's twin, a look-alike); empty when the
-    pose is unambiguous.
+    pose is unambiguous. undecided : the turns (degrees, as ``angle_deg``) of the poses more
+    than ``span_deg`` from this one that nothing in the view rules out: rivals whose edges fit
+    about as well and which the images, carried through the model, do not correlate clearly
+    worse (`twins.undecided_rivals`); without images, a symmetric model's twins. Non-empty:
+    the pose taken is a choice the evidence has not made (the verdict doubts the view).
     """
 
     camera: PinholeCamera
@@ -171,6 +176,7 @@ class Registration:
     turn_sigma_deg: float
     rotation_sigma_deg: float
     alternatives: tuple[tuple[float, float], ...] = ()
+    undecided: tuple[float, ...] = ()
 
 
 def vertical_axis(model: RigidModel, reference: PinholeCamera) -> FloatArray:
@@ -736,9 +742,15 @@ def register_view(
             f"images fit a turn of {final:.1f} degrees best, its twin {twin:.1f} lies nearer "
             f"the expected {centre:.1f}: the evidence does not decide between them"
         )
+    undecided: tuple[float, ...] = ()
+    if photometric is None and order > 1:  # nothing but the expected turn chose among twins
+        undecided = tuple(_wrap(final + 360.0 * k / order) for k in range(1, order))
     if photometric is not None:
         taken = [s for a, s in rivals if abs(_wrap(a - final)) <= SAME_POSE_DEG]
         support = taken[0] if taken else photometric(cam)
+        undecided = undecided_rivals(
+            final, support, [a for a, _ in rivals], [s for _, s in rivals], opts.span_deg
+        )
         if not support.shares:
             # a view of a sequence shares faces with the views before it at its true pose;
             # a symmetric model's twin sees their backs: nothing confirms such a pose
@@ -760,7 +772,9 @@ def register_view(
             others[key] = min(others.get(key, math.inf), r[0])
     alternatives = tuple(sorted(others.items()))
     chosen = (cost, final, cam, rms, ne, nr, 0.0)
-    return _registration(model, reference, up, chosen, results, alternatives, given, image)
+    return _registration(
+        model, reference, up, chosen, results, alternatives, given, image, undecided
+    )
 
 
 def _twins(
@@ -817,10 +831,11 @@ def _registration(
     alternatives: tuple[tuple[float, float], ...],
     given: _Measured,
     image: npt.NDArray[np.uint8] | None,
+    undecided: tuple[float, ...] = (),
 ) -> Registration:
     """The `Registration` of the chosen refined candidate ``(cost, turn, camera, rms,
     n_edges, n_regions, start turn)``: polished against the image when it is given, with the
-    covariance of its final measurements."""
+    covariance of its final measurements; ``undecided`` as `Registration.undecided`."""
     q1, q2, regions, opts, stereo, sig = given
     cost, final, cam, rms, ne, nr, _ = chosen
     max_angle = math.radians(opts.max_angle_deg)
@@ -835,7 +850,9 @@ def _registration(
         cov, turn_sd, rot_sd = _uncertainty(
             model, reference, cam, up, q1, q2, regions, opts, stereo, sig
         )
-    return Registration(cam, final, rms, cost, ne, nr, cands, cov, turn_sd, rot_sd, alternatives)
+    return Registration(
+        cam, final, rms, cost, ne, nr, cands, cov, turn_sd, rot_sd, alternatives, undecided
+    )
 
 
 def _uncertainty(

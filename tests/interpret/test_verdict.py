@@ -693,3 +693,22 @@ def test_the_image_shows_edges_no_segment_was_found_along(interpreted: Get) -> N
     assert moved is not None
     assert moved.edge_cover is not None
     assert moved.edge_cover < 0.5
+
+
+def test_a_registered_pose_the_evidence_did_not_decide_is_doubted() -> None:
+    from aida_kb.interpret.verdict.cameras import undecided_doubts
+    from aida_kb.io.model import ModelCamera
+
+    K = ((800.0, 0.0, 319.5), (0.0, 800.0, 239.5), (0.0, 0.0, 1.0))
+    eye = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    camera = ModelCamera(
+        view="01", K=K, R=eye, t=(0.0, 0.0, 0.0), image_width=640, image_height=480
+    )
+    assert undecided_doubts(camera) == []
+    twin = camera.model_copy(update={"undecided_turns_deg": (-80.0, 99.9)})
+    (doubt,) = undecided_doubts(twin)
+    assert "not decided" in doubt
+    assert "-80.0, 99.9 deg" in doubt
+    # model.json keeps it: a rejudged result doubts the view as the reconstruction did
+    again = ModelCamera.model_validate_json(twin.model_dump_json())
+    assert again.undecided_turns_deg == (-80.0, 99.9)

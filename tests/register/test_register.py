@@ -186,6 +186,9 @@ def test_registration_without_a_guess_recovers_the_turn(turn_deg: float) -> None
     assert reg.n_edges >= 6
     # the box looks the same turned by a half turn: that twin, and nothing else, is as good
     assert all(abs((a - turn_deg) % 360.0 - 180.0) < 0.5 for a, _ in reg.alternatives)
+    # with no images to tell the twins apart, the expected turn chose: the twin is undecided
+    assert len(reg.undecided) == 1
+    assert abs((reg.undecided[0] - reg.angle_deg) % 360.0 - 180.0) < 1e-6
 
 
 def test_symmetric_gap_measures_turns_modulo_the_symmetry() -> None:
@@ -520,9 +523,13 @@ def test_a_joint_adjustment_takes_the_model_edges_fitted_to_the_images() -> None
     assert float(np.degrees(np.arccos(cos)).max()) < 0.1
 
 
-def _textured_image(model: RigidModel, camera: PinholeCamera, seed: int) -> np.ndarray:
+def _textured_image(
+    model: RigidModel, camera: PinholeCamera, seed: int, alike: bool = False
+) -> np.ndarray:
     """An 8-bit image of the box with every face its own texture (a few sinusoids of random
-    direction and 3-8 cm wavelength in the face's plane) on a blank background."""
+    direction and 3-8 cm wavelength in the face's plane; ``alike``: rings about each face's
+    centre instead, which look the same on faces of one size however they are turned) on a
+    blank background."""
     from aida_kb.geometry.polygon import plane_bases
     from aida_kb.texture.raycast import Faces, first_hits
 
@@ -536,6 +543,10 @@ def _textured_image(model: RigidModel, camera: PinholeCamera, seed: int) -> np.n
     for f in range(len(model.polygons)):
         on = face == f
         X = camera.centre + depth[on, None] * rays[on]
+        if alike:
+            r = np.linalg.norm(X - model.polygons[f].mean(axis=0), axis=1)
+            grey[on] = 128.0 + 50.0 * np.sin(2 * np.pi * r / 0.04) + 30 * np.sin(r / 0.011)
+            continue
         a, b = X @ u[f], X @ v[f]
         value = np.full(a.shape, 128.0)
         for _ in range(3):
@@ -571,6 +582,16 @@ def test_the_images_choose_between_a_symmetric_models_twins() -> None:
     assert abs(wrong.ncc) < 0.1
     reg = register_view(model, ref, p1, p2, expected_turn_deg=0.0, photometric=judge, options=fast)
     assert abs(reg.angle_deg - 100.0) < 0.1
+    assert reg.undecided == ()  # the images decided
+    # faces that look alike (one texture on every face) correlate at both twins: the
+    # segments' choice, the twin nearer the expected turn, stands but is said undecided
+    alike = [_textured_image(model, cam, seed=5, alike=True) for cam in (ref, truth)]
+    same = ImageTransfer(model, [ref], [alike[0]], alike[1])
+    assert same(truth).confirmed
+    assert same(twin.camera).confirmed
+    open_ = register_view(model, ref, p1, p2, expected_turn_deg=0.0, photometric=same, options=fast)
+    assert abs(open_.angle_deg + 80.0) < 0.5
+    assert [round(a) for a in open_.undecided] == [100]
     # where the registered views show no texture, nothing confirms either twin: not registered
     blank = ImageTransfer(model, [ref], [np.full_like(images[0], 90)], images[1])
     with pytest.raises(SolveError, match="shares no textured face"):

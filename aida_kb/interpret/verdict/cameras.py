@@ -13,7 +13,7 @@ from aida_kb.interpret.verdict.tolerances import (
     CAMERA_CENTRE_SD_MAX,
     CAMERA_SD_CONFIDENCE,
 )
-from aida_kb.io.model import CameraSd, PartSd, ReconstructedModel
+from aida_kb.io.model import CameraSd, ModelCamera, PartSd, ReconstructedModel
 
 
 def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None) -> list[str]:
@@ -24,8 +24,9 @@ def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None)
     camera = next((c for c in model.cameras if c.view == view), None)
     if camera is None:
         return []
+    undecided = undecided_doubts(camera)
     if unc is None or view not in unc.cameras:
-        return ["camera: the adjustment's covariance could not be computed"]
+        return [*undecided, "camera: the adjustment's covariance could not be computed"]
     angle, centre_m = unc.cameras[view]
     corners = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
     R = np.asarray(camera.R, dtype=np.float64)
@@ -34,7 +35,7 @@ def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None)
     centre = centre_m / max(distance, 1e-9)
     k = CAMERA_SD_CONFIDENCE
     if k * angle <= CAMERA_ANGLE_SD_MAX_DEG and k * centre <= CAMERA_CENTRE_SD_MAX:
-        return []
+        return undecided
     by = (
         "the model's edges fitted along the images"
         if camera.sd is not None and camera.sd.measurements == "image edges"
@@ -43,10 +44,26 @@ def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None)
     )
     # the figures said are those held against the limits: k sd (the sd itself in brackets)
     return [
+        *undecided,
         f"camera is fixed by the adjustment only to +-{k * angle:.2f} deg and "
         f"+-{100 * k * centre:.1f}% of its distance at {k:g} sd (at most "
         f"{CAMERA_ANGLE_SD_MAX_DEG:g} deg and {100 * CAMERA_CENTRE_SD_MAX:g}%; sd {angle:.3f} deg; "
-        f"{by})"
+        f"{by})",
+    ]
+
+
+def undecided_doubts(camera: ModelCamera) -> list[str]:
+    """Check (c) for a registered view's pose choice (problems): a pose the registration took
+    among rivals that nothing in the view rules out (`ModelCamera.undecided_turns_deg`: a
+    symmetric model's twins whose faces look alike) is a choice, not a measurement: the view
+    may be the model's twin, turned by as much, and the covariance, which is that of the
+    pose taken, cannot show it."""
+    if not camera.undecided_turns_deg:
+        return []
+    turns = ", ".join(f"{a:.1f}" for a in camera.undecided_turns_deg)
+    return [
+        f"camera pose is not decided: poses turned to {turns} deg fit its edges about as well "
+        "and its images do not rule them out (a symmetric model's twins look alike)"
     ]
 
 
