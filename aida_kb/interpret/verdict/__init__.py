@@ -13,7 +13,9 @@ is **verified** only when it also
     face (the region's plane within `DEPTH_TOLERANCE` of the face and its normal within
     `NORMAL_TOLERANCE_DEG` — or `REGION_NORMAL_SIGMAS` of its own plane fit's sigma where that
     is wider: a region with little depth does not tell its orientation —, its centre inside
-    the face's polygon). A region the model covers
+    the face's polygon, or OUTLINE_ON_MIN of its outline inside the faces of its plane: a
+    region joining two oriels' fronts has its centre on the wall between them). A region
+    the model covers
     but does not explain contradicts it: seen *through* the model (beyond the face the ray
     meets) or on a face at another orientation. A region in front of the model may be
     something standing before it (a tree) and counts neither way — unless it stands close
@@ -198,6 +200,7 @@ from aida_kb.interpret.verdict.tolerances import (
     ORIENTATION_TOLERANCE_DEG,
     OUTLINE_AREA_RATIO,
     OUTLINE_INSIDE_MIN,
+    OUTLINE_ON_MIN,
     OUTLINE_SPAN,
     OUTLINE_STEP_PX,
     OUTLINE_TOLERANCE_PX,
@@ -261,6 +264,7 @@ __all__ = [
     "ORIENTATION_TOLERANCE_DEG",
     "OUTLINE_AREA_RATIO",
     "OUTLINE_INSIDE_MIN",
+    "OUTLINE_ON_MIN",
     "OUTLINE_SPAN",
     "OUTLINE_STEP_PX",
     "OUTLINE_TOLERANCE_PX",

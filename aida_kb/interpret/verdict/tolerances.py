@@ -17,6 +17,11 @@ OUTLINE_INSIDE_MIN = 0.5  # a region continuing a face's plane beyond the face, 
 # (a street's ground region, its centre behind a house, lies mostly beside the houses: it was
 # "seen 9 m beyond" the true street 62104; a missing wing's wall continues no face and still
 # contradicts)
+OUTLINE_ON_MIN = 0.5  # a region on a face's plane and turned with it, its centre outside the
+# face, lies on the faces of that plane that hold at least half of its outline: its pixels
+# are there, its centre is not (one region joining two coplanar oriel fronts has its centre
+# on the wall between them; on the true models of dev 61413 and 61314 it "stood 1.35-1.75 m
+# out of the model's surface")
 INSIDE_MARGIN = 0.05  # a region's centre may lie this fraction of the face's size outside it
 EXPLAINED_MIN = 0.75  # the explained share of the weight inside the projection, at least
 CONTRADICTION_MAX = 0.08  # one region that contradicts the model may carry at most this

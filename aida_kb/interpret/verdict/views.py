@@ -28,6 +28,7 @@ from aida_kb.interpret.verdict.tolerances import (
     NEAR_MARGIN,
     NORMAL_TOLERANCE_DEG,
     OUTLINE_INSIDE_MIN,
+    OUTLINE_ON_MIN,
     REGION_NORMAL_SIGMAS,
     STANDING_OUT_MAX,
 )
@@ -61,27 +62,19 @@ def check_view(
     cos_tol = math.cos(math.radians(NORMAL_TOLERANCE_DEG))
     cos_on = normal_tolerance_cos(regions)  # (M,): lies on a face within its own fit
     m = len(regions)
-    explained = np.zeros(m, bool)
-    on_face: dict[str, float] = {}
-    turned_on: dict[str, float] = {}
     nearest = np.full(m, np.inf)  # ray parameter of the first model face the ray meets
     nearest_cos = np.zeros(m)  # |cos| between the region's normal and that face's
     faces = model_faces(model)
+    rays_px = _OutlineRays(view, regions, camera)
+    on_by_role: dict[str, npt.NDArray[np.bool_]] = {}
     for role, n, d, poly in faces:
-        # (1) the region lies on this face
-        on_plane = np.abs(centres @ n - d) <= tol
-        aligned = np.abs(normals @ n) >= cos_on
-        cand = on_plane & aligned
+        # (1) the region lies on this face: its centre, or (below) most of its outline
+        cand = (np.abs(centres @ n - d) <= tol) & (np.abs(normals @ n) >= cos_on)
         if cand.any():
             on = np.zeros(m, bool)
             on[cand] = inside_polygon(centres[cand], poly, n)
-            explained |= on
-            on_face[role] = float(weights[on & keep].sum())
-            if on_face[role] > 0:
-                cos = np.clip(np.abs(normals[on & keep] @ n), 0.0, 1.0)
-                turned_on[role] = float(
-                    np.degrees(np.arccos(cos)) @ weights[on & keep] / on_face[role]
-                )
+            on_by_role[role] = on
+            rays_px.meet(cand, role, n, d, poly)
         # (2) where the ray through the region's centre meets this face
         denom = rays @ n
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -95,11 +88,24 @@ def check_view(
             closer = hit & (s < nearest)
             nearest[closer] = s[closer]
             nearest_cos[closer] = np.abs(normals[closer] @ n)
+    explained = np.zeros(m, bool)
+    for on in on_by_role.values():
+        explained |= on
+    for k, role in rays_px.lying_on(~explained).items():
+        on_by_role[role][k] = explained[k] = True
+    on_face: dict[str, float] = {}
+    turned_on: dict[str, float] = {}
+    for role, on in on_by_role.items():
+        on_face[role] = float(weights[on & keep].sum())
+        if on_face[role] > 0:
+            n = next(f[1] for f in faces if f[0] == role)
+            cos = np.clip(np.abs(normals[on & keep] @ n), 0.0, 1.0)
+            turned_on[role] = float(np.degrees(np.arccos(cos)) @ weights[on & keep] / on_face[role])
     # a region lies inside the projection when the ray through its centre meets the model —
     # except one continuing a face's plane beyond the face (the ground beyond the floors)
     # whose outline lies mostly outside the projection: a street's ground region, its centre
     # seen behind one house, lies mostly beside the houses
-    share = _outline_inside_share(view, regions, faces, camera)
+    share = rays_px.share_in(faces)
     beside = ~explained & (share < OUTLINE_INSIDE_MIN)
     for i in np.nonzero(beside)[0]:
         beside[i] = _continues_face(normals[i], centres[i], float(tol[i]), faces, float(cos_on[i]))
@@ -140,47 +146,81 @@ def check_view(
     )
 
 
-def _outline_inside_share(
-    view: ViewEvidence,
-    regions: list[Region],
-    faces: list[tuple[str, FloatArray, float, FloatArray]],
-    camera: ModelCamera,
-) -> FloatArray:
-    """Per region (M,): the share of its outer outline's points (every OUTLINE_STEP_PX) whose
-    rays through the view's model camera meet one of the model's `faces` (`model_faces`);
-    NaN where it has no outline."""
-    index = {r.id: i for i, r in enumerate(regions)}
-    pixels, owner = [], []
-    for c in view.contours:
-        if c.hole or c.region not in index:
-            continue
-        px = densified(np.asarray(c.points, dtype=np.float64))
-        pixels.append(px)
-        owner.append(np.full(len(px), index[c.region]))
-    out = np.full(len(regions), np.nan)
-    if not pixels:
-        return out
-    px, who = np.vstack(pixels), np.concatenate(owner)
-    K = np.asarray(camera.K, dtype=np.float64)
-    R = np.asarray(camera.R, dtype=np.float64)
-    t = np.asarray(camera.t, dtype=np.float64)
-    C = -R.T @ t
-    rays = np.linalg.solve(K, np.vstack([px.T, np.ones(len(px))])).T @ R  # (P, 3) world
-    hit = np.zeros(len(px), bool)
-    for _, n, d, poly in faces:
-        denom = rays @ n
+class _OutlineRays:
+    """The rays through the view's model camera of its regions' outer outlines, a point every
+    OUTLINE_STEP_PX (world frame), and where they meet the model's faces."""
+
+    def __init__(self, view: ViewEvidence, regions: list[Region], camera: ModelCamera) -> None:
+        index = {r.id: i for i, r in enumerate(regions)}
+        pixels = [np.zeros((0, 2))]
+        owner = [np.zeros(0, np.int64)]
+        for c in view.contours:
+            if c.hole or c.region not in index:
+                continue
+            px = densified(np.asarray(c.points, dtype=np.float64))
+            pixels.append(px)
+            owner.append(np.full(len(px), index[c.region], np.int64))
+        px = np.vstack(pixels)
+        self.owner = np.concatenate(owner)  # (P,): the index of the region each point bounds
+        self.regions = len(regions)
+        K = np.asarray(camera.K, dtype=np.float64)
+        R = np.asarray(camera.R, dtype=np.float64)
+        t = np.asarray(camera.t, dtype=np.float64)
+        self.centre = -R.T @ t  # (3,)
+        self.rays = np.linalg.solve(K, np.vstack([px.T, np.ones(len(px))])).T @ R  # (P, 3)
+        self.on: dict[str, npt.NDArray[np.bool_]] = {}  # role -> (P,) the point lies in it
+
+    def hits(
+        self, n: FloatArray, d: float, poly: FloatArray, wanted: npt.NDArray[np.bool_]
+    ) -> npt.NDArray[np.bool_]:
+        """(P,): the `wanted` points (P,) whose rays meet the face (unit normal n (3,),
+        offset d, polygon (N, 3)) in front of the camera, inside it."""
+        denom = self.rays @ n
         with np.errstate(divide="ignore", invalid="ignore"):
-            s = (d - C @ n) / denom
-        ok = np.isfinite(s) & (s > 0) & ~hit
+            s = (d - self.centre @ n) / denom
+        ok = np.isfinite(s) & (s > 0) & wanted
+        out = np.zeros(len(self.rays), bool)
         if ok.any():
             idx = np.nonzero(ok)[0]
-            hit[idx] = inside_polygon(C + s[idx, None] * rays[idx], poly, n)
-    counts = np.bincount(who, minlength=len(regions)).astype(np.float64)
-    hits = np.bincount(who, hit.astype(np.float64), minlength=len(regions))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        share = hits / counts
-    out[counts > 0] = share[counts > 0]
-    return out
+            out[idx] = inside_polygon(self.centre + s[idx, None] * self.rays[idx], poly, n)
+        return out
+
+    def meet(
+        self, regions: npt.NDArray[np.bool_], role: str, n: FloatArray, d: float, poly: FloatArray
+    ) -> None:
+        """Note which outline points of the `regions` (M,) lying in a face's plane meet it."""
+        self.on[role] = self.hits(n, d, poly, regions[self.owner])
+
+    def lying_on(self, regions: npt.NDArray[np.bool_]) -> dict[int, str]:
+        """Of the `regions` (M,), those (index -> the face's role holding most of it) with at
+        least OUTLINE_ON_MIN of their outline's points in faces whose planes they lie in
+        (`meet`): a region joining the fronts of two oriels, its centre between them on the
+        wall behind, lies on them (dev 61413 view 01, 61314 view 00: "standing 1.35 m out
+        of the model's surface" of the true models)."""
+        out: dict[int, str] = {}
+        if not self.on or not regions.any():
+            return out
+        roles = list(self.on)
+        on = np.vstack([self.on[r] for r in roles])  # (F, P)
+        counts = np.bincount(self.owner, minlength=self.regions).astype(np.float64)
+        held = np.vstack([np.bincount(self.owner, o, minlength=self.regions) for o in on])
+        inside = np.bincount(self.owner, on.any(axis=0), minlength=self.regions)
+        for i in np.nonzero(regions & (inside >= OUTLINE_ON_MIN * np.maximum(counts, 1)))[0]:
+            if counts[i] > 0:
+                out[int(i)] = roles[int(np.argmax(held[:, i]))]
+        return out
+
+    def share_in(self, faces: list[tuple[str, FloatArray, float, FloatArray]]) -> FloatArray:
+        """Per region (M,): the share of its outline's points whose rays meet one of the
+        `faces` (`model_faces`); NaN where it has no outline."""
+        hit = np.zeros(len(self.rays), bool)
+        for _, n, d, poly in faces:
+            hit |= self.hits(n, d, poly, ~hit)
+        counts = np.bincount(self.owner, minlength=self.regions).astype(np.float64)
+        hits = np.bincount(self.owner, hit.astype(np.float64), minlength=self.regions)
+        out = np.full(self.regions, np.nan)
+        out[counts > 0] = hits[counts > 0] / counts[counts > 0]
+        return out
 
 
 def adjoining(view: ViewEvidence, model: ReconstructedModel, check: ViewCheck) -> list[str]:
