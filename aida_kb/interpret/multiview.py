@@ -1191,7 +1191,13 @@ def reconstruct_from_first(
         # views of a sequence turn alike: the last turn is the expected one
         try:
             reg = register_evidence_view(
-                rigid, cams[-1], v, expected_turn_deg=turn, stereo=stereo, photometric=judge
+                rigid,
+                cams[-1],
+                v,
+                expected_turn_deg=turn,
+                stereo=stereo,
+                photometric=judge,
+                region_sigma=region_normal_sigma_rad,
             )
         except SolveError as exc:
             notes.append(f"not registered: {exc}")  # the message names the view

@@ -6,6 +6,7 @@ image); region plane fits are carried into the view's own left camera frame.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -210,6 +211,7 @@ def register_evidence_view(
     options: RegistrationOptions | None = None,
     image: npt.NDArray[np.uint8] | None = None,
     photometric: PhotometricJudge | None = None,
+    region_sigma: Callable[[RegionMeasurements], FloatArray | None] | None = None,
 ) -> Registration:
     """Register an evidence view (its segments and, if asked, its regions) against `model`.
 
@@ -217,18 +219,22 @@ def register_evidence_view(
     `image`: the view's left image (8-bit grey): its segments are moved onto their edges
     first (`measurements_of`). `photometric`: the images' support of a candidate pose
     (`aida_kb.register.twins`), which decides between poses the segments cannot.
+    `region_sigma`: the caller's noise model of the regions' normals (their (R,) 1-σ tilts,
+    radians, or None), with which `register_view` also starts from the rotation they give.
 
     Raises SolveError naming the view when it cannot be registered.
     """
     m = measurements_of(view, image)
     D = np.array(view.left.D, dtype=np.float64).ravel()
+    regions = m.regions if use_regions and m.regions.size else None
+    sigma = None if regions is None or region_sigma is None else region_sigma(regions)
     try:
         return register_view(
             model,
             reference,
             m.p1,
             m.p2,
-            regions=m.regions if use_regions and m.regions.size else None,
+            regions=regions,
             intrinsics=(m.K, m.width, m.height),
             init_angle_deg=init_angle_deg,
             expected_turn_deg=expected_turn_deg,
@@ -237,6 +243,7 @@ def register_evidence_view(
             sigma_px=m.sigma_px,
             image=None if image is None else undistorted_image(image, m.K, D),
             photometric=photometric,
+            region_sigma_rad=sigma,
         )
     except SolveError as exc:
         raise SolveError(f"view {view.id}: {exc}") from exc

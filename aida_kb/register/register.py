@@ -13,7 +13,12 @@ with depth) of a known model, without an initial guess:
    another distance or height is found too.
 2. **Refinement** from the best few distinct candidates: project the model edges, match them
    to the segments by distance and direction, solve for the six pose parameters (edge and
-   position constraints), match again with a tighter tolerance, and so on.
+   position constraints), match again with a tighter tolerance, and so on. The wide first
+   rounds match clutter too and can end in a wrong basin that fits the segments about as
+   well (dev seeds 61402, 61410, 61427: 3-6 degrees off, their regions' normals 3.4-5.9
+   degrees off their parts'). Where the caller gives the regions' own normal sigmas, every
+   distinct refined pose is refined once more from the rotation its matched regions give
+   and the position their planes give (`realigned`), with tight rounds only.
 3. **Choice by residual**, among the poses the depth evidence does not contradict (their
    regions' normals agree with their parts', and they put about as many regions on the
    model's parts as the best pose does). The refined candidate with the smallest chamfer
@@ -75,6 +80,7 @@ __all__ = [
     "match_regions",
     "orbit_pivot",
     "polish",
+    "realigned",
     "refine",
     "register_view",
     "symmetry_order",
@@ -558,6 +564,7 @@ def register_view(
     sigma_px: npt.ArrayLike | None = None,
     image: npt.NDArray[np.uint8] | None = None,
     photometric: PhotometricJudge | None = None,
+    region_sigma_rad: FloatArray | None = None,
 ) -> Registration:
     """The pose of a new view of a fixed model, found with no initial guess.
 
@@ -591,6 +598,10 @@ def register_view(
         decided by the faces' content), and where they confirm none, a pose that shares no
         face with the registered views while a rival does is not taken
         (`twins.unsupported_twin`: SolveError).
+    region_sigma_rad : (R,) the caller's noise model of the `regions`' normals (each one's 1-σ
+        tilt, radians), or None. With it, every refined pose is also refined again from the
+        rotation its matched regions' normals give (`realigned`): a pose whose segments fit
+        in a wrong basin is put back where the view's own planes say it looks.
 
     Raises
     ------
@@ -660,6 +671,8 @@ def register_view(
             results.append((cost, final, cam, rms, ne, nr, start_angle))
     if not results:
         raise SolveError("registration: no start converged to a pose that matches the image")
+    if regions is not None and region_sigma_rad is not None:
+        results += _realigned_results(model, reference, up, results, given, region_sigma_rad)
     # a pose whose regions' normals disagree with the model by several sigma is not the view's
     limit = opts.region_disagree_sigmas * opts.region_sigma_deg
     agreeing = []
@@ -775,6 +788,109 @@ def register_view(
     return _registration(
         model, reference, up, chosen, results, alternatives, given, image, undecided
     )
+
+
+REALIGN_SCHEDULE_PX = (6.0, 3.0, 2.0, 2.0)
+"""The matching distances (pixels) of `refine` from a realigned start (`realigned`): its
+rotation is the regions' (a tenth of a degree where they are well measured) and its position
+follows their planes, so it starts within a few pixels; the wide rounds of the coarse starts'
+schedules (12-24 px) match clutter (occluders, windows) and pull such a start off again. Dev
+61427 view 02: from a start 0.06 deg off, the 24 px schedule ends 6.3 deg off (cost 0.724),
+this one's 6 px rounds 0.1 deg off (cost 0.675)."""
+REALIGN_MIN_ANGLE_DEG = 20.0
+"""`realigned` needs two matched regions' normals at least this far apart (degrees): the
+normals of parallel planes leave the rotation about them open."""
+REALIGN_PRIOR_REL = 1.0
+"""In `realigned`, the position the pose had (its model's centroid kept where the camera saw
+it) is kept in the directions the regions' planes leave open, to this standard deviation as a
+fraction of the model's size (loose: the planes' own, at least
+`RegistrationOptions.region_sigma_rel` of the size, decide wherever they can)."""
+
+
+def realigned(
+    model: RigidModel,
+    camera: PinholeCamera,
+    regions: RegionMeasurements,
+    sigma_rad: FloatArray,
+    opts: RegistrationOptions,
+) -> PinholeCamera | None:
+    """The pose whose rotation puts the regions matched at `camera` (`match_regions`) onto
+    their parts' normals, and whose position puts their centres on their parts' planes.
+
+    The rotation is the weighted least-squares one (Wahba's problem, by SVD) taking each
+    matched part's normal (world frame) to its region's (camera frame), each weighed by
+    ``1 / sigma_rad²`` (its fit's own tilt): a large wall measured to hundredths of a degree
+    decides, a sliver hardly counts. Given the rotation, each region's plane says how far its
+    centre lies along its normal, ``(R n)·t = (R n)·x - d`` for a part of normal n and offset
+    d and a region centre x (camera frame), weighed by its ``sigma_m``; directions no plane
+    fixes keep the pose's position (`REALIGN_PRIOR_REL`).
+
+    sigma_rad : (R,) the regions' normals' 1-σ, radians (R: all the view's regions).
+    Returns None when fewer than two regions match with normals `REALIGN_MIN_ANGLE_DEG`
+    apart, or the pose is degenerate.
+    """
+    obs = match_regions(model, camera, regions, opts, sigma_rad)
+    if obs is None or obs.size < 2:
+        return None
+    world = model.normals[obs.part]  # (M, 3)
+    cos = np.abs(world @ world.T)
+    if float(cos.min()) > math.cos(math.radians(REALIGN_MIN_ANGLE_DEG)):
+        return None
+    w = 1.0 / np.maximum(obs.sigma_rad, 1e-9) ** 2
+    H = np.einsum("m,mi,mj->ij", w, obs.normal_cam, world)  # sum w a b^T: R b = a
+    U, _, Vt = np.linalg.svd(H)
+    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(U @ Vt)))])
+    R = U @ D @ Vt
+    centroid = model.centroid
+    t0 = camera.R_cam_world @ centroid + camera.t_cam_world - R @ centroid
+    N = world @ R.T  # the parts' normals in the camera frame (M, 3)
+    rhs = np.einsum("mi,mi->m", N, obs.centre_cam) - model.offsets[obs.part]
+    ws = 1.0 / obs.sigma_m
+    prior = 1.0 / (REALIGN_PRIOR_REL * model.size)
+    A = np.vstack([N * ws[:, None], prior * np.eye(3)])
+    y = np.concatenate([rhs * ws, prior * t0])
+    t = np.linalg.lstsq(A, y, rcond=None)[0]
+    try:
+        return PinholeCamera(camera.K, R, t, camera.width, camera.height)
+    except GeometryError:
+        return None
+
+
+def _realigned_results(
+    model: RigidModel,
+    reference: PinholeCamera,
+    up: FloatArray,
+    results: Sequence[Refined],
+    given: _Measured,
+    sigma_rad: FloatArray,
+) -> list[Refined]:
+    """Every distinct refined pose (one per `SAME_POSE_DEG` of turn, cheapest first) refined
+    again from its `realigned` start with `REALIGN_SCHEDULE_PX`: the candidates its regions
+    lead to. They join the others, and the choice by cost takes them or not."""
+    q1, q2, regions, opts, stereo, sig = given
+    if regions is None or regions.size == 0:
+        return []
+    max_angle = math.radians(opts.max_angle_deg)
+    order = sorted(range(len(results)), key=lambda i: results[i][0])
+    seen: list[float] = []
+    out: list[Refined] = []
+    for i in order:
+        if any(abs(_wrap(results[i][1] - a)) <= SAME_POSE_DEG for a in seen):
+            continue
+        seen.append(results[i][1])
+        start = realigned(model, results[i][2], regions, sigma_rad, opts)
+        if start is None:
+            continue
+        try:
+            cam, rms, ne, nr = refine(
+                model, start, q1, q2, regions, opts, REALIGN_SCHEDULE_PX, stereo, sig
+            )
+            cost = _score(model, cam, q1, q2, 2.0, max_angle, stereo)
+        except (SolveError, GeometryError):
+            continue
+        start_angle = angle_about(reference, start, up)
+        out.append((cost, angle_about(reference, cam, up), cam, rms, ne, nr, start_angle))
+    return out
 
 
 def _twins(

@@ -596,3 +596,68 @@ def test_the_images_choose_between_a_symmetric_models_twins() -> None:
     blank = ImageTransfer(model, [ref], [np.full_like(images[0], 90)], images[1])
     with pytest.raises(SolveError, match="shares no textured face"):
         register_view(model, ref, p1, p2, expected_turn_deg=0.0, photometric=blank, options=fast)
+
+
+def _regions_seen(model: RigidModel, camera: PinholeCamera) -> tuple[np.ndarray, object]:
+    """The parts `camera` sees and their regions (true normals and centres, its frame)."""
+    from aida_kb.register.register import RegionMeasurements
+
+    parts = np.flatnonzero(model.front_facing(camera.centre))
+    centres = np.array([np.mean(model.polygons[i], axis=0) for i in parts])
+    R = camera.R_cam_world
+    regions = RegionMeasurements(
+        model.normals[parts] @ R.T, centres @ R.T + camera.t_cam_world, np.full(parts.size, 1e-3)
+    )
+    return parts, regions
+
+
+def test_realigned_takes_the_rotation_and_position_the_regions_give() -> None:
+    from aida_kb.register.register import RegionMeasurements, realigned
+
+    model = _box()
+    up = np.array([0.0, -1.0, 0.0])
+    truth = turned(_reference(), up, model.centroid, math.radians(30.0))
+    parts, regions = _regions_seen(model, truth)
+    assert isinstance(regions, RegionMeasurements)
+    assert parts.size == 3  # two walls and the top: the rotation and the position are fixed
+    # a pose whose segments fit in a wrong basin: 4 degrees off about a tilted axis, 5 cm away
+    wrong = truth.with_pose(truth.pose + np.array([0.05, 0.04, 0.02, 0.03, -0.02, 0.04]))
+    assert _angle_deg(wrong, truth) > 3.5
+    sigma = np.full(parts.size, math.radians(0.05))
+    back = realigned(model, wrong, regions, sigma, RegistrationOptions())
+    assert back is not None
+    assert _angle_deg(back, truth) < 1e-6
+    # the position: the planes' (sigma 1 % of the size), the loose prior hardly pulls
+    assert np.linalg.norm(back.centre - truth.centre) < 1e-4  # metres, at 1.4 m
+    # a region measured badly (its normal 3 degrees off) hardly counts beside well measured
+    # ones when its own sigma says so; weighed like them it tilts the rotation by a degree
+    tilted = regions.normal_cam.copy()
+    tilted[0] = rotation_from_rvec(np.array([0.0, math.radians(3.0), 0.0])) @ tilted[0]
+    bad = RegionMeasurements(tilted, regions.centre_cam, regions.rms_m)
+    sigmas = np.array([math.radians(3.0), math.radians(0.05), math.radians(0.05)])
+    weighed = realigned(model, wrong, bad, sigmas, RegistrationOptions())
+    alike = realigned(model, wrong, bad, np.full(3, math.radians(0.05)), RegistrationOptions())
+    assert weighed is not None
+    assert alike is not None
+    assert _angle_deg(weighed, truth) < 0.01
+    assert _angle_deg(alike, truth) > 0.5
+
+
+def test_realigned_needs_two_regions_of_different_directions() -> None:
+    from aida_kb.register.register import RegionMeasurements, realigned
+
+    model = _box()
+    truth = _reference()  # straight in front: the front wall and the top
+    parts, regions = _regions_seen(model, truth)
+    assert isinstance(regions, RegionMeasurements)
+    front = [i for i, p in enumerate(parts) if model.names[p] == "front"]
+    one = RegionMeasurements(
+        regions.normal_cam[front], regions.centre_cam[front], regions.rms_m[front]
+    )
+    sigma = np.full(1, math.radians(0.05))
+    assert realigned(model, truth, one, sigma, RegistrationOptions()) is None
+
+
+def _angle_deg(a: PinholeCamera, b: PinholeCamera) -> float:
+    cos = (float(np.trace(a.R_cam_world @ b.R_cam_world.T)) - 1.0) / 2.0
+    return math.degrees(math.acos(float(np.clip(cos, -1.0, 1.0))))
