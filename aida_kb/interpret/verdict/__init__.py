@@ -14,10 +14,11 @@ is **verified** only when it also
     `NORMAL_TOLERANCE_DEG` — or `REGION_NORMAL_SIGMAS` of its own plane fit's sigma where that
     is wider: a region with little depth does not tell its orientation —, its centre inside
     the face's polygon, or OUTLINE_ON_MIN of its outline inside the faces of its plane: a
-    region joining two oriels' fronts has its centre on the wall between them). A region
-    the model covers
-    but does not explain contradicts it: seen *through* the model (beyond the face the ray
-    meets) or on a face at another orientation. A region in front of the model may be
+    region joining two oriels' fronts has its centre on the wall between them). A region the
+    model covers but does not explain contradicts it: seen *through* the model (beyond the
+    face the ray meets) or on a face at another orientation (a region whose plane fit kept
+    at least PLANE_INLIER_SHARE of its pixels: a fit that kept fewer does not tell its
+    orientation). A region in front of the model may be
     something standing before it (a tree) and counts neither way — unless it stands close
     before a face and parallel to it: such regions may carry STANDING_OUT_SHARE_MAX of the
     weight together (an oriel the model lacks);
@@ -80,7 +81,7 @@ is **verified** only when it also
     whole end wall beside the half a shed has: held-out 61325, 21 % off, passed (a)-(i));
     its pixels without a depth are taken off those outside (a segmented region leaks into
     the textureless sky through a gap in its outline; its surface has a depth).
-    Regions whose plane fit kept fewer than FILL_INLIER_SHARE of their pixels do not tell
+    Regions whose plane fit kept fewer than PLANE_INLIER_SHARE of their pixels do not tell
     their depth and judge nothing.
 
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
@@ -187,7 +188,6 @@ from aida_kb.interpret.verdict.tolerances import (
     FILL_BEYOND_SIZE,
     FILL_CONTRADICTED_MAX,
     FILL_EDGE_PX,
-    FILL_INLIER_SHARE,
     FILL_MIN_SHARE,
     FILL_NEAR_Z,
     INSIDE_MARGIN,
@@ -204,6 +204,7 @@ from aida_kb.interpret.verdict.tolerances import (
     OUTLINE_SPAN,
     OUTLINE_STEP_PX,
     OUTLINE_TOLERANCE_PX,
+    PLANE_INLIER_SHARE,
     POSITION_TOLERANCE,
     RANGE_SLACK_REL,
     REGION_NORMAL_SIGMAS,
@@ -247,7 +248,6 @@ __all__ = [
     "FILL_BEYOND_SIZE",
     "FILL_CONTRADICTED_MAX",
     "FILL_EDGE_PX",
-    "FILL_INLIER_SHARE",
     "FILL_MIN_SHARE",
     "FILL_NEAR_Z",
     "INSIDE_MARGIN",
@@ -269,6 +269,7 @@ __all__ = [
     "OUTLINE_STEP_PX",
     "OUTLINE_TOLERANCE_PX",
     "PLACED_BY_KNOWLEDGE",
+    "PLANE_INLIER_SHARE",
     "POSITION_TOLERANCE",
     "RANGE_SLACK_REL",
     "REGION_NORMAL_SIGMAS",

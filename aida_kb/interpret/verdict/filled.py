@@ -26,10 +26,10 @@ from aida_kb.interpret.verdict.tolerances import (
     FILL_BEYOND_SIZE,
     FILL_CONTRADICTED_MAX,
     FILL_EDGE_PX,
-    FILL_INLIER_SHARE,
     FILL_MIN_SHARE,
     FILL_NEAR_Z,
     NORMAL_TOLERANCE_DEG,
+    PLANE_INLIER_SHARE,
     SPILL_MAX,
 )
 from aida_kb.interpret.verdict.views import normal_tolerance_cos
@@ -167,7 +167,7 @@ def fill_maps(view: ViewEvidence, model: ReconstructedModel) -> FillMaps | None:
         offsets = offsets + normals @ t
     told = normal_tolerance_cos(regions) >= math.cos(math.radians(NORMAL_TOLERANCE_DEG)) - 1e-12
     has_plane = told & np.array(
-        [r.w_c > 0 and r.inlier_count >= FILL_INLIER_SHARE * r.pixel_count for r in regions], bool
+        [r.w_c > 0 and r.inlier_count >= PLANE_INLIER_SHARE * r.pixel_count for r in regions], bool
     )
     lookup = np.full(max(int(ids.max(initial=0)), max((r.id for r in regions), default=0)) + 1, -1)
     lookup[[r.id for r in regions]] = np.arange(len(regions))

@@ -101,6 +101,10 @@ FILL_CONTRADICTED_MAX = 0.25  # ... of which more than a quarter show the surfac
 SPILL_MAX = 0.25  # (j): a region on a face with more than a quarter of its pixels outside the
 # model's projection goes on where the model has no surface (half a gable's end wall beside
 # a shed's)
-FILL_INLIER_SHARE = 0.05  # (j): a region's plane tells its depth over the region when its fit
-# kept at least 5 % of its pixels (a dark roof: 56 of 8,538 pixels with a disparity, none
-# kept, its plane tilted 40 degrees off: "beyond" a true roof over 73 % of it)
+PLANE_INLIER_SHARE = 0.05  # a region's plane tells its depth and orientation over the region
+# only when its fit kept at least 5 % of its pixels. (j): a dark roof, 56 of 8,538 pixels with
+# a disparity, none kept, its plane tilted 40 degrees off, was "beyond" a true roof over 73 %
+# of it. (b): no region kept under 5 % is seen turned against a face (on the true models of
+# dev 61400 view 01, 61431 view 01, 61428 view 00, fits keeping 0.3-1.1 % of their pixels lay
+# 12-21 degrees off the true walls, 4-9 of their own sigmas, and carried 15-99 % of the
+# weight; the fits' sigmas count only what they kept)

@@ -29,6 +29,7 @@ from aida_kb.interpret.verdict.tolerances import (
     NORMAL_TOLERANCE_DEG,
     OUTLINE_INSIDE_MIN,
     OUTLINE_ON_MIN,
+    PLANE_INLIER_SHARE,
     REGION_NORMAL_SIGMAS,
     STANDING_OUT_MAX,
 )
@@ -119,7 +120,9 @@ def check_view(
     in_front = before & ~standing_out
     counted = inside & ~in_front
     through = counted & ~explained & (gap < -tol)
-    turned = counted & ~explained & ~through & ~standing_out
+    # turned on the surface: only a region whose plane fit tells its orientation
+    fitted = np.array([r.inlier_count >= PLANE_INLIER_SHARE * r.pixel_count for r in regions])
+    turned = counted & ~explained & ~through & ~standing_out & fitted
     total = float(weights[counted].sum())
     contradicting = []
     for i in np.nonzero(through | turned | standing_out)[0]:
