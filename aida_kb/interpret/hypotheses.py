@@ -62,6 +62,20 @@ class Frame:
         right = np.cross(-front, up)
         return cls(front, right / np.linalg.norm(right), up)
 
+    @classmethod
+    def facing(cls, normal: FloatArray, up: FloatArray, name: str) -> Frame:
+        """The frame in which the horizontal direction `name` of the language (one of
+        `HORIZONTAL`) is the horizontal part of `normal` ((3,), world): a side wall's normal
+        gives the frame of the structure it belongs to as a front wall's gives its own."""
+        h = normal - float(normal @ up) * up
+        front = {
+            "forward": h,
+            "backward": -h,
+            "rightward": np.cross(h, up),
+            "leftward": np.cross(up, h),
+        }[name]
+        return cls.from_front(front, up)
+
     def direction(self, name: str) -> FloatArray:
         """The unit vector (world, (3,)) of a direction of the language in this frame."""
         table = {

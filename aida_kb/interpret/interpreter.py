@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 
 from aida_kb.errors import AidaError
 from aida_kb.interpret.alternative import Level, verify_alternative
-from aida_kb.interpret.assign import forced_by, ranked_fronts, vertical
+from aida_kb.interpret.assign import forced_by, framings, ranked_fronts, vertical
 from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, Context
 from aida_kb.interpret.generate import BodyHypothesis, body_hypotheses
 from aida_kb.interpret.hypotheses import Frame
@@ -317,20 +317,23 @@ class Interpreter:
                 for front in ranked_fronts(walls, self.evidence):
                     if before and float(front.centroid_m @ rightward) <= max(before):
                         continue
-                    frame = Frame.from_front(front.normal, ctx.up)
-                    level = verify_alternative(
-                        ctx,
-                        self.trace,
-                        structure,
-                        frame,
-                        parent,
-                        fixed_planes,
-                        choices,
-                        forced=forced_by(structure, front),
-                        exclude=used,
-                        guessed=guessed,
-                    )
-                    if level is not None:
+                    # the region as the anchor, or as another wall where the anchor faces
+                    # away from the camera (`assign.framings`)
+                    for part, frame in framings(structure, front, ctx.up, self.evidence.camera):
+                        level = verify_alternative(
+                            ctx,
+                            self.trace,
+                            structure,
+                            frame,
+                            parent,
+                            fixed_planes,
+                            choices,
+                            forced=forced_by(structure, front, part),
+                            exclude=used,
+                            guessed=guessed,
+                        )
+                        if level is None:
+                            continue
                         # a verified smaller part costs its misfit in proportion to the
                         # evidence it explains (the body's misfit counts whole): whether to
                         # add it is decided by that evidence, not by its few constraints
@@ -513,9 +516,12 @@ def _same_frame(a: Frame, b: Frame) -> bool:
 
 
 def _anchor_region(ctx: Context, level: Level) -> RegionView:
-    """The region a verified level's frame anchor is bound to."""
-    anchor = next(r for r, role in level.binding.items() if role == level.structure.anchor_path)
-    return ctx.evidence.regions[anchor]
+    """The region a verified level's frame anchor is bound to; where no region shows the
+    anchor (`assign.framings`), its heaviest region."""
+    bound = [r for r, role in level.binding.items() if role == level.structure.anchor_path]
+    if not bound:
+        bound = sorted(level.binding, key=lambda r: (-ctx.evidence.regions[r].weight, r))
+    return ctx.evidence.regions[bound[0]]
 
 
 def _unexplained(ctx: Context, levels: list[Level]) -> float:

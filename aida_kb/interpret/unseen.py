@@ -336,11 +336,15 @@ def placed_by_knowledge(
             return edges[role][2]
         return ctx.evidence.points_on(seen[role].id)
 
+    # a ``reach`` takes the far boundary of the seen front roof plane's points; where no
+    # region shows that plane, of the structure's seen parts' points: a wing whose roof gives
+    # stereo no region still shows its gable end (held-out 61423: without it the hidden end
+    # lay on the gable end, a wing of no length, and its roof did not close)
     tilted = [
         ctx.evidence.points_on(seen[x.role].id)
         for x in structure.leaves
         if x.pitched and x.direction == "forward" and x.role in seen
-    ]
+    ] or [ctx.evidence.points_on(g.id) for g in seen.values()]
     return placed_offsets(
         found,
         normal,

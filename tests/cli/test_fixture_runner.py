@@ -63,7 +63,7 @@ def test_a_wrong_expectation_gives_a_readable_diff_and_exit_1(
     assert f"{path}:{wing}: expected body.wings[0] of RightWing, got SkewWing" in out
     assert (
         f"{path}:{at['by slopes']}: expected 'slopes' to reject body.wings[0] of RightWing, "
-        "got it rejected by 'wings_meet'"
+        "got it rejected by 'Region#1', 'wings_meet'"
     ) in out
     assert (
         f"{path}:{at['pitch = 41 deg']}: expected body.roof.front.pitch = 41 deg +- 0.5 deg, "

@@ -129,12 +129,16 @@ def test_wing_at_135_degrees_is_a_skew_wing(interpreted: Get, generate: ModuleTy
     assert wing.concept == "SkewWing"
     assert wing.instance_of == "SkewWing"
     assert wing.parent == "body"
-    right = [h for h in interp.rejected() if h.concept == "RightWing"]
-    assert len(right) == 1
-    assert right[0].role == "body.wings[0]"
-    assert right[0].constraint == "wings_meet"  # 90 degrees predicted, 135 seen
-    assert right[0].cost is not None
-    assert right[0].cost > 20.0
+    # the wing's front tried as a right wing's front, and as its other walls where that
+    # front would face away from the camera (assign.framings): every one rejected
+    right = [h for h in interp.trace if h.concept == "RightWing"]
+    assert right
+    assert all(h.status == "rejected" and h.role == "body.wings[0]" for h in right)
+    anchored = [h for h in right if "; front=" in h.reason]
+    assert len(anchored) == 1
+    assert anchored[0].constraint == "wings_meet"  # 90 degrees predicted, 135 seen
+    assert anchored[0].cost is not None
+    assert anchored[0].cost > 20.0
     verified = [h for h in interp.trace if h.concept == "SkewWing" and h.status == "verified"]
     assert len(verified) == 1
     deg, metres = _errors(interp, generate.world_model("wing_135.json"))
