@@ -21,7 +21,7 @@ from aida_kb.interpret.rejudge import (
     decide,
     rejudged_views,
 )
-from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.result import Instance, Interpretation
 from aida_kb.io.evidence import read_evidence
 from aida_kb.io.model import ReconstructedModel
 
@@ -248,3 +248,67 @@ def test_a_rival_binding_more_regions_in_another_frame_is_a_tie(buildings_kb: An
     gable = next(lv for lv, _ in it.bodies if ("body.roof", "GableRoof") in lv.structure.choices)
     assert set(gable.binding) > set(body.binding)
     assert gable.binding["00/3"] == "body.roof.front"
+
+
+def test_a_weaker_choice_of_a_tied_one_is_judged_by_the_views_too(
+    monkeypatch: pytest.MonkeyPatch, buildings_kb: Any
+) -> None:
+    """Held-out 61403: the first view (its back slope unseen) takes a shed, ties a gable, and
+    leaves out the asymmetric gable, which asserts less than the gable and fits it as well
+    there. The views judge it too; it wins only by leading the gable by the margin."""
+    calls: list[tuple[tuple[str, str], ...]] = []
+    first = _interp("House verified (body.roof=ShedRoof)", ["body.roof=GableRoof"])
+    first = first.model_copy(
+        update={
+            "instances": [
+                Instance(
+                    role="body",
+                    concept="HouseBody",
+                    instance_of="HouseBody",
+                    parent="",
+                    link="con-of",
+                ),
+                Instance(
+                    role="body.roof",
+                    concept="ShedRoof",
+                    instance_of="Roof",
+                    parent="body",
+                    link="part-of",
+                ),
+            ]
+        }
+    )
+
+    def fake_views(*args: Any, choices: tuple[tuple[str, str], ...] = (), **kw: Any) -> Any:
+        calls.append(choices)
+        if not choices:
+            return first
+        return _interp(f"House verified ({choices[0][0]}={choices[0][1]})", [])
+
+    ev = SimpleNamespace(views=[SimpleNamespace(id="00"), SimpleNamespace(id="01")], units="m")
+    monkeypatch.setattr(rejudge, "reconstruct_views", fake_views)
+
+    def scored(asym: float) -> Any:
+        def judged(interp: Interpretation, evidence: Any) -> Any:
+            seen = 0.5
+            if "AsymmetricGableRoof" in interp.message:
+                seen = asym
+            elif "GableRoof" in interp.message:
+                seen = 0.7
+            return _scores({"00": (1.0, 0.6), "01": (1.0, seen)}), frozenset()
+
+        return judged
+
+    # view 01 shows the asymmetry: the asymmetric gable leads the gable by the margin
+    monkeypatch.setattr(rejudge, "judged", scored(0.7 + 2 * REJUDGE_MARGIN + 0.01))
+    out = rejudged_views(buildings_kb, ev)  # type: ignore[arg-type]
+    assert calls == [
+        (),
+        (("body.roof", "GableRoof"),),
+        (("body.roof", "AsymmetricGableRoof"),),
+    ]
+    assert out.message.startswith("House verified (body.roof=AsymmetricGableRoof)")
+    # as good as the gable, no better: the gable, which says more, is taken
+    monkeypatch.setattr(rejudge, "judged", scored(0.7))
+    out = rejudged_views(buildings_kb, ev)  # type: ignore[arg-type]
+    assert out.message.startswith("House verified (body.roof=GableRoof)")
