@@ -138,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
         "rotation_sigma_deg": _finite(reg.rotation_sigma_deg, 4),
         "centre_sigma_m": [_finite(math.sqrt(v), 6) for v in np.diag(reg.covariance)[3:]],
         "alternative_turns_deg": [round(a, 1) for a, _ in reg.alternatives],
+        "undecided_turns_deg": [round(a, 1) for a in reg.undecided],
     }
     if args.json:
         print(json.dumps(out))
@@ -161,6 +162,12 @@ def run(args: argparse.Namespace) -> int:
     if reg.alternatives:
         turns = ", ".join(f"{a:.1f} deg (chamfer cost {c:.3f})" for a, c in reg.alternatives)
         print(f"  ambiguous: the image fits turns of {turns} about as well")
+    if reg.undecided:
+        turns = ", ".join(f"{a:.1f}" for a in reg.undecided)
+        print(
+            f"  undecided: nothing in the view rules out the turns {turns} deg (the model "
+            "looks the same turned so); the turn taken is the one nearest the expected turn"
+        )
     return 0
 
 

@@ -52,6 +52,8 @@ def test_register_finds_the_second_views_pose(
     # the adjustment's uncertainty: the turn is determined to hundredths of a degree
     assert 0.0 < out["turn_sigma_deg"] <= out["rotation_sigma_deg"] < 0.1
     assert len(out["centre_sigma_m"]) == 3
+    # a gable house looks the same half turned; with no images to tell, the twin is undecided
+    assert [round((a - out["turn_deg"]) % 360.0) for a in out["undecided_turns_deg"]] == [180]
 
 
 def test_register_prints_the_pose_and_residual(
@@ -65,6 +67,7 @@ def test_register_prints_the_pose_and_residual(
     assert "residual:" in text
     assert "px RMS over" in text
     assert "uncertainty (1 sigma, from the adjustment): turn" in text
+    assert "undecided: nothing in the view rules out the turns 13" in text
 
 
 def test_register_bad_input_is_one_line_and_non_zero(
