@@ -491,6 +491,27 @@ class _Measured(NamedTuple):
     sig: FloatArray | None
 
 
+def _refined(
+    model: RigidModel,
+    reference: PinholeCamera,
+    up: FloatArray,
+    start: PinholeCamera,
+    start_angle: float,
+    schedule: tuple[float, ...],
+    given: _Measured,
+) -> Refined | None:
+    """`start` refined with `schedule` (`refine`) and scored at 2 px (`_score`), as a
+    `Refined` candidate whose turn is measured from `reference` about `up`; None when the
+    refinement fails or the pose degenerates."""
+    q1, q2, regions, opts, stereo, sig = given
+    try:
+        cam, rms, ne, nr = refine(model, start, q1, q2, regions, opts, schedule, stereo, sig)
+        cost = _score(model, cam, q1, q2, 2.0, math.radians(opts.max_angle_deg), stereo)
+    except (SolveError, GeometryError):
+        return None
+    return (cost, angle_about(reference, cam, up), cam, rms, ne, nr, start_angle)
+
+
 SAME_POSE_DEG = 2.0
 """Refined candidates whose turns lie within this (degrees) are one pose reached from several
 starts (they converge to within a few hundredths of a degree, or to another pose)."""
@@ -660,15 +681,9 @@ def register_view(
     results: list[Refined] = []
     for start, start_angle, schedules in starts:
         for schedule in schedules:
-            try:
-                cam, rms, ne, nr = refine(
-                    model, start, q1, q2, regions, opts, schedule, stereo, sig
-                )
-                cost = _score(model, cam, q1, q2, 2.0, max_angle, stereo)
-            except (SolveError, GeometryError):
-                continue
-            final = angle_about(reference, cam, up)
-            results.append((cost, final, cam, rms, ne, nr, start_angle))
+            found = _refined(model, reference, up, start, start_angle, schedule, given)
+            if found is not None:
+                results.append(found)
     if not results:
         raise SolveError("registration: no start converged to a pose that matches the image")
     if regions is not None and region_sigma_rad is not None:
@@ -867,10 +882,9 @@ def _realigned_results(
     """Every distinct refined pose (one per `SAME_POSE_DEG` of turn, cheapest first) refined
     again from its `realigned` start with `REALIGN_SCHEDULE_PX`: the candidates its regions
     lead to. They join the others, and the choice by cost takes them or not."""
-    q1, q2, regions, opts, stereo, sig = given
+    regions, opts = given.regions, given.opts
     if regions is None or regions.size == 0:
         return []
-    max_angle = math.radians(opts.max_angle_deg)
     order = sorted(range(len(results)), key=lambda i: results[i][0])
     seen: list[float] = []
     out: list[Refined] = []
@@ -881,15 +895,10 @@ def _realigned_results(
         start = realigned(model, results[i][2], regions, sigma_rad, opts)
         if start is None:
             continue
-        try:
-            cam, rms, ne, nr = refine(
-                model, start, q1, q2, regions, opts, REALIGN_SCHEDULE_PX, stereo, sig
-            )
-            cost = _score(model, cam, q1, q2, 2.0, max_angle, stereo)
-        except (SolveError, GeometryError):
-            continue
         start_angle = angle_about(reference, start, up)
-        out.append((cost, angle_about(reference, cam, up), cam, rms, ne, nr, start_angle))
+        found = _refined(model, reference, up, start, start_angle, REALIGN_SCHEDULE_PX, given)
+        if found is not None:
+            out.append(found)
     return out
 
 
@@ -906,8 +915,7 @@ def _twins(
     refined with the last schedule (the model is symmetric only to `symmetry_order`'s
     tolerance), unless a refined pose is there already; those whose regions disagree with the
     model (`region_disagreement_deg`) are left out."""
-    q1, q2, regions, opts, stereo, sig = given
-    max_angle = math.radians(opts.max_angle_deg)
+    regions, opts = given.regions, given.opts
     limit = opts.region_disagree_sigmas * opts.region_sigma_deg
     picked = rivals_of([r[0] for r in results], [r[1] for r in results], SAME_POSE_DEG)
     known = [r[1] for r in results]
@@ -922,19 +930,14 @@ def _twins(
             start_angle = angle_about(reference, start, up)
             if any(abs(_wrap(start_angle - a)) <= SAME_POSE_DEG for a in known):
                 continue
-            try:
-                cam, rms, ne, nr = refine(
-                    model, start, q1, q2, regions, opts, opts.schedules_px[-1], stereo, sig
-                )
-                cost = _score(model, cam, q1, q2, 2.0, max_angle, stereo)
-            except (SolveError, GeometryError):
+            found = _refined(model, reference, up, start, start_angle, opts.schedules_px[-1], given)
+            if found is None:
                 continue
-            off = region_disagreement_deg(model, cam, regions, opts)
+            off = region_disagreement_deg(model, found[2], regions, opts)
             if off is not None and off > limit:
                 continue
-            final = angle_about(reference, cam, up)
-            known.append(final)
-            out.append((cost, final, cam, rms, ne, nr, start_angle))
+            known.append(found[1])
+            out.append(found)
     return out
 
 
