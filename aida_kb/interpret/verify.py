@@ -70,8 +70,8 @@ TOLERANCE = 1e-8  # the solver's ftol, xtol and gtol: far below what the verdict
 class PlaneInit:
     """A part's plane before adjustment: unit outward normal (3,), offset d (n·x = d), metres.
 
-    Its frame (`aida_kb.solve`) is centred at the foot of the perpendicular from the world
-    origin (the reference camera): a direction the constraints leave free keeps that point.
+    Its frame (`aida_kb.solve`) is centred at the foot of the perpendicular from the object's
+    centre (`object_centre`): a direction the constraints leave free keeps that point.
     """
 
     role: str
@@ -570,10 +570,12 @@ def verify(
     """
     normals = np.array([p.normal for p in v.planes], dtype=np.float64).reshape(-1, 3)
     offsets = np.array([p.offset_m for p in v.planes], dtype=np.float64)
+    centre = object_centre(v.constraints)
     problem = build_problem(
         normals,
         offsets,
         v.constraints,
+        centres=None if centre is None else np.tile(centre, (len(v.planes), 1)),
         fixed_parts=[i for i, p in enumerate(v.planes) if p.fixed],
         names=v.roles,
         cameras=v.cameras,
@@ -616,6 +618,27 @@ def verify(
     }
     pooled = tuple(tuple(m) for m in pools.values())
     return Outcome(planes, tuple(residuals), result.report.reduced_cost, pooled)
+
+
+def object_centre(constraints: Sequence[Constraint]) -> FloatArray | None:
+    """(3,) metres, world frame: the certainty-weighted mean of the region centres that the
+    position constraints measure (the seen part of the object), or None without any.
+
+    Every plane of a verification turns about the foot of the perpendicular from this point
+    (`aida_kb.solve.build_problem`'s ``centres``). About the foot from the world origin (the
+    reference camera, tens of metres away) a plane that nothing measures but the knowledge's
+    angles swings with them: a floor turned 1.5 degrees by its walls rose 1.2 m at the house
+    (dev seed 61309; the ground rule then rejected the house). About the object it stays
+    where it was put, and rotation and offset are no longer correlated through the distance.
+    """
+    data = [c.position for c in constraints if c.position is not None]
+    if not data:
+        return None
+    w = np.array([max(d.w_c, 0.0) for d in data], dtype=np.float64)
+    c = np.array([d.c_init for d in data], dtype=np.float64).reshape(-1, 3)
+    if not np.all(np.isfinite(c)) or w.sum() <= 0.0:
+        return None
+    return np.asarray((w[:, None] * c).sum(axis=0) / w.sum(), dtype=np.float64)
 
 
 def verify_levels(levels: Sequence[Verification]) -> Outcome:

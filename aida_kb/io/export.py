@@ -425,8 +425,11 @@ def ply_bytes(
 
 
 # ---- CityJSON ---------------------------------------------------------------------------------
-def _solids(model: ReconstructedModel) -> list[list[int]]:
-    """The parts grouped into solids: faces connected by shared edges (welded vertices)."""
+def solids(model: ReconstructedModel) -> list[list[int]]:
+    """The parts grouped into solids: faces connected by shared edges (welded vertices).
+
+    Returns part indices into ``model.parts``, one list per solid (a house body, each wing).
+    """
     keys = [
         [(round(v[0] * 1e6), round(v[1] * 1e6), round(v[2] * 1e6)) for v in p.polygon]
         for p in model.parts
@@ -483,20 +486,20 @@ def _common_role(roles: Sequence[str]) -> str:
 def _buildings(
     model: ReconstructedModel, identifier: str
 ) -> list[tuple[str, list[list[int]], dict[str, str]]]:
-    """The model's buildings: (id, solids (part indices each, `_solids`), attributes).
+    """The model's buildings: (id, solids (part indices each, `solids`), attributes).
 
     One object: one building `identifier` of all solids. A scene of several objects
     (`ReconstructedModel.objects`): one building per object, ``IDENTIFIER-K``, of the solids
     under its role, with its role and verdict as attributes.
     """
     if not model.objects:
-        return [(identifier, _solids(model), {})]
+        return [(identifier, solids(model), {})]
     out = []
     for k, obj in enumerate(model.objects):
         # touching objects share edges (a party wall): each object's solids on their own
         index = [i for i, p in enumerate(model.parts) if p.role.startswith(obj.role + ".")]
         own = model.model_copy(update={"parts": [model.parts[i] for i in index]})
-        mine = [[index[i] for i in g] for g in _solids(own)]
+        mine = [[index[i] for i in g] for g in solids(own)]
         if mine:
             extra = {"aida-kb:object": obj.role, "aida-kb:verdict": obj.verdict}
             out.append((f"{identifier}-{k}", mine, extra))

@@ -31,5 +31,6 @@ def test_wing_walls_keep_to_their_own_evidence(
     for name in ("front", "back", "right", "roof.front", "roof.back"):
         assert off[f"body.wings[0].{name}"] < 0.5, name
     # the wing's inner end is hidden inside the body: by default it reaches the body's ridge
-    # (where the wing's ridge crosses it, seen from above; 1.1 m short without that default)
-    assert off["body.wings[0].left"] < 0.3
+    # (where the wing's ridge crosses it, seen from above; 1.1 m short without that default;
+    # 0.39 m off since the adjustment turns unmeasured planes about the object, not the camera)
+    assert off["body.wings[0].left"] < 0.5

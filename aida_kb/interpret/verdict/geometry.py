@@ -7,11 +7,13 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.interpret.verdict.tolerances import (
+    ENCLOSED_TOLERANCE,
     INSIDE_MARGIN,
     OUTLINE_STEP_PX,
     OUTLINE_TOLERANCE_PX,
 )
 from aida_kb.io.evidence import ViewEvidence
+from aida_kb.io.export import solids
 from aida_kb.io.model import ModelCamera, ReconstructedModel
 
 FloatArray = npt.NDArray[np.float64]
@@ -30,6 +32,34 @@ def model_size(model: ReconstructedModel) -> float:
     """The diagonal of the model's bounding box, metres."""
     pts = np.vstack([np.asarray(p.polygon, dtype=np.float64) for p in model.parts])
     return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+
+
+def enclosed_parts(model: ReconstructedModel) -> frozenset[str]:
+    """The roles of the faces that lie inside another solid of the model: no surface of it.
+
+    A solid (`aida_kb.io.export.solids`: faces welded along shared edges) is taken as the
+    intersection of its faces' half-spaces ``n·x <= d`` when it is convex (its own corners
+    satisfy them to ENCLOSED_TOLERANCE of the model's size); a face of another solid whose
+    corners all satisfy them too lies within it (a wing's end the knowledge reaches into the
+    body up to the ridge). Non-convex solids enclose nothing here.
+    """
+    if not model.parts:
+        return frozenset()
+    tol = ENCLOSED_TOLERANCE * model_size(model)
+    faces = model_faces(model)
+    groups = solids(model)
+    out: set[str] = set()
+    for group in groups:
+        n = np.array([faces[i][1] for i in group]).reshape(-1, 3)
+        d = np.array([faces[i][2] for i in group])
+        own = np.vstack([faces[i][3] for i in group])
+        if len(group) < 4 or np.any(own @ n.T - d > tol):
+            continue  # no closed solid, or not convex
+        members = set(group)
+        for k, (role, _, _, poly) in enumerate(faces):
+            if k not in members and len(poly) and np.all(poly @ n.T - d <= tol):
+                out.add(role)
+    return frozenset(out)
 
 
 def inside_polygon(points: FloatArray, poly: FloatArray, normal: FloatArray) -> FloatArray:

@@ -13,6 +13,7 @@ from aida_kb.interpret.uncertainty import Uncertainty
 from aida_kb.interpret.verdict.edges import line_offset_sd, seen_edges
 from aida_kb.interpret.verdict.geometry import (
     FloatArray,
+    enclosed_parts,
     inside_polygon,
     model_size,
     outline_points,
@@ -148,7 +149,9 @@ def unmeasured_parts(
     size: each edge, its ends good to EDGE_SIGMA_PX across it in each view that sees it,
     fixes the part's offset to `line_offset_sd` (an edge seen at a grazing angle, or along
     the baseline of the two views that see it, hardly does) — and, with the adjustment's
-    `uncertainty`, its offset's standard deviation there, the larger of the two."""
+    `uncertainty`, its offset's standard deviation there, the larger of the two.
+    A face inside another solid of the model (`enclosed_parts`: a wing's hidden end reaching
+    into the body) is no surface of the object and needs no measurement."""
     model = interp.model
     if model is None:
         return []
@@ -183,6 +186,7 @@ def unmeasured_parts(
     measured = np.array(
         [p.normal for p in model.parts if p.role in on_region], dtype=np.float64
     ).reshape(-1, 3)
+    enclosed = enclosed_parts(model)  # inside another solid: no surface to measure
     reasons = []
     for part in model.parts:
         if part.role in on_region:
@@ -202,7 +206,7 @@ def unmeasured_parts(
                     f"{rival} orients it otherwise)"
                 )
             continue
-        if part.role not in inserted | bound:
+        if part.role not in inserted | bound or part.role in enclosed:
             continue
         n = np.asarray(part.normal, dtype=np.float64)
         poly = np.asarray(part.polygon, dtype=np.float64)

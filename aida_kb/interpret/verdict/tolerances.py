@@ -63,6 +63,11 @@ POSITION_TOLERANCE = 0.02  # (e): a part placed by its edges alone is placed to 
 # model's size (one standard deviation; the accuracy asked of its vertices)
 OUTLINE_AREA_RATIO = 0.2  # outlines reaching a plane spread over an area, not along a line
 OUTLINE_SPAN = 0.25  # ... along at least a quarter of the face's size (its polygon's diagonal)
+# (e): a face whose corners all lie within this share of the model's size inside another
+# convex solid of the model (a wing's hidden end reaching into the body) is no surface of the
+# object: nothing can see it, and where it lies inside changes nothing of the shape
+# (welded vertices are rounded to a micrometre; a wing's end flush with a wall is inside too)
+ENCLOSED_TOLERANCE = 0.001
 CONTESTED_NORMAL_DEG = 3.0  # the regions measuring a part whose orientation is the choice
 # among alternatives lie within 3 degrees of it on average (fits of regions that large agree
 # with their faces to 1-2 degrees; a shed's top pitched 8 degrees is no flat roof's)
