@@ -643,6 +643,7 @@ def judge_objects(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
             without_regions(evidence, explained_by_others(evidence, interp, obj.role)),
             all_views=True,
             uncertainty=None if whole is None else _object_uncertainty(whole, obj.role),
+            occluders=[p for p in interp.model.parts if not p.role.startswith(obj.role + ".")],
         )
         reasons = list(verdict.reasons)
         if verdict.verdict == NOTHING:

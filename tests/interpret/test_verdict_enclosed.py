@@ -46,3 +46,33 @@ def test_object_centre_is_the_weighted_mean_of_the_measured_region_centres() -> 
     cons = [_position((0.0, 0.0, 50.0), 1.0), _position((4.0, 2.0, 50.0), 3.0)]
     np.testing.assert_allclose(object_centre(cons), [3.0, 1.5, 50.0])
     assert object_centre([]) is None
+
+
+def _flush(z0: float) -> set[tuple[str, str]]:
+    """The edges of house a (x 0..10) that house b (x 10..20, `z0` deeper set) makes flush."""
+    from aida_kb.interpret.verdict.edges import flush_edges
+    from aida_kb.register.model import RigidModel
+
+    own = _box("a", 0.0, 10.0)
+    rigid = RigidModel.from_model(
+        ReconstructedModel(parts=[*own, *_box("b", 10.0, 20.0, z0, 8.0 + z0)])
+    )
+    index = np.flatnonzero((rigid.edge_faces < len(own)).all(axis=1))
+    flush = flush_edges(rigid, len(own), index)
+    return {
+        tuple(sorted(rigid.names[int(f)].rsplit(".", 1)[1] for f in rigid.edge_faces[k]))
+        for k in index[flush]
+    }
+
+
+def test_a_party_wall_makes_the_edges_across_it_flush_where_the_fronts_go_on() -> None:
+    # terrace in one line: the front, back, floor and top go on across a's right wall
+    assert _flush(0.0) == {
+        ("front", "right"),
+        ("back", "right"),
+        ("floor", "right"),
+        ("right", "top"),
+    }
+    # b set 3 m back: a's front ends at a corner the image shows; back, floor, top go on
+    # no further than b's overlapping part, which still holds the edges' midpoints
+    assert ("front", "right") not in _flush(3.0)

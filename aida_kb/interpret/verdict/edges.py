@@ -4,13 +4,15 @@ well image lines of an edge fix a plane through it (check (e))."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.interpret.verdict.geometry import FloatArray, IntArray, project
+from aida_kb.interpret.verdict.geometry import FloatArray, IntArray, inside_polygon, project
 from aida_kb.interpret.verdict.tolerances import (
+    COS_FLUSH,
     EDGE_ANGLE_DEG,
     EDGE_MIN_LENGTH_PX,
     EDGE_SEEN_SHARE,
@@ -18,10 +20,11 @@ from aida_kb.interpret.verdict.tolerances import (
     EDGE_STEP_MIN,
     EDGE_STEP_Z,
     EDGE_TOLERANCE_PX,
+    FLUSH_OFFSET,
     OUTLINE_PIECE_MIN_PX,
 )
 from aida_kb.io.evidence import Evidence, LineSegment, ViewEvidence
-from aida_kb.io.model import ModelCamera, ReconstructedModel
+from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 
 if TYPE_CHECKING:
     from aida_kb.register.model import RigidModel, VisibleEdges
@@ -34,6 +37,7 @@ def edge_coverage(
     model: ReconstructedModel,
     outlines_of: frozenset[int] = frozenset(),
     image: U8 | None = None,
+    occluders: Sequence[ModelPart] = (),
 ) -> tuple[RigidModel, VisibleEdges, FloatArray] | None:
     """The model edges the view's camera sees (at least EDGE_MIN_LENGTH_PX long) and the
     length of each, pixels, that image segments lie on (within EDGE_TOLERANCE_PX and
@@ -42,7 +46,11 @@ def edge_coverage(
     straight piece of their simplified contours at least OUTLINE_PIECE_MIN_PX long).
     image: the view's left image (8-bit grey, as taken); an edge across which it steps
     steadily (`vision.lines.edge_steps`: at least EDGE_STEP_MIN grey levels at EDGE_STEP_Z
-    standard errors) is seen along its whole length, segments or not."""
+    standard errors) is seen along its whole length, segments or not.
+    occluders: the faces of the scene's other objects (roles unlike the model's): they hide
+    the model's edges behind them, and an edge where the surface goes on flat into theirs (a
+    terrace's front across a party wall, `flush_edges`) is no edge in the image. The model
+    returned is then the model with them; only the model's own edges are returned."""
     from aida_kb.register.evidence import camera_of, measurements_of
     from aida_kb.register.match import match_segments
     from aida_kb.register.model import RigidModel
@@ -52,8 +60,15 @@ def edge_coverage(
         view = view.model_copy(update={"lines": [*view.lines, *_outline_pieces(view, outlines_of)]})
     if camera is None or not view.lines:
         return None
+    own = len(model.parts)
+    if occluders:
+        model = model.model_copy(update={"parts": [*model.parts, *occluders]})
     rigid = RigidModel.from_model(model)
     edges = rigid.visible_edges(camera_of(camera), min_length_px=EDGE_MIN_LENGTH_PX)
+    if occluders:
+        faces = rigid.edge_faces[edges.index]  # (E, 2), indices into the parts
+        keep = (faces < own).all(axis=1) & ~flush_edges(rigid, own, edges.index)
+        edges = type(edges)(edges.index[keep], edges.a[keep], edges.b[keep], edges.length_px[keep])
     covered = np.zeros(edges.index.size)
     if edges.index.size == 0:
         return rigid, edges, covered
@@ -77,6 +92,38 @@ def edge_coverage(
     hi = np.clip(np.maximum(t1, t2), 0.0, length)
     np.add.at(covered, matches.edge, hi - lo)  # pieces of one edge rarely overlap
     return rigid, edges, _stepped(view, edges, np.minimum(covered, edges.length_px), image)
+
+
+def flush_edges(rigid: RigidModel, own: int, index: IntArray) -> npt.NDArray[np.bool_]:
+    """(E,) which of the edges `index` (into `rigid`, the model's `RigidModel`) between two of
+    its first `own` parts the other parts make flush: one face lies against another object's
+    face (a party wall: coplanar, facing the other way) and the other goes on in another
+    object's face (coplanar, facing the same way: the terrace's front continues), both of
+    those holding the edge's midpoint. Coplanar: normals within COS_FLUSH, offsets within
+    FLUSH_OFFSET of the model's size."""
+    out = np.zeros(len(index), dtype=bool)
+    if len(rigid.names) <= own or not len(index):
+        return out
+    n, d = rigid.normals, rigid.offsets
+    tol = FLUSH_OFFSET * rigid.size
+    others = np.arange(own, len(rigid.names))
+
+    def onto(face: int, sign: float, mid: FloatArray) -> bool:
+        """Another object's face lies on `face` (sign -1: facing the other way) at `mid`."""
+        near = (sign * (n[others] @ n[face]) >= COS_FLUSH) & (
+            np.abs(sign * d[others] - d[face]) <= tol
+        )
+        return any(
+            bool(inside_polygon(mid[None, :], rigid.polygons[o], n[o])[0]) for o in others[near]
+        )
+
+    for e, k in enumerate(index.tolist()):
+        f, g = (int(x) for x in rigid.edge_faces[k])
+        mid = rigid.edge_ends[k].mean(axis=0)
+        out[e] = (onto(f, -1.0, mid) and onto(g, 1.0, mid)) or (
+            onto(g, -1.0, mid) and onto(f, 1.0, mid)
+        )
+    return out
 
 
 def _stepped(
@@ -132,14 +179,16 @@ def edge_cover(
     between: frozenset[str] | None = None,
     outlines_of: frozenset[int] = frozenset(),
     image: U8 | None = None,
+    occluders: Sequence[ModelPart] = (),
 ) -> float | None:
     """The share of the projected length of the model edges the view's camera sees that
     image segments lie on (within EDGE_TOLERANCE_PX and EDGE_ANGLE_DEG); None: no edge to
     check or no camera. Segments are undistorted with the view's distortion first.
     between : only the edges both of whose parts are in this set of roles.
     outlines_of : regions whose outlines count as segments too; image : the view's left image,
-    whose steps across an edge show it too (`edge_coverage`)."""
-    found = edge_coverage(view, model, outlines_of, image)
+    whose steps across an edge show it too; occluders: the scene's other objects' faces
+    (`edge_coverage`)."""
+    found = edge_coverage(view, model, outlines_of, image, occluders)
     if found is None:
         return None
     rigid, edges, covered = found

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -29,7 +29,7 @@ from aida_kb.interpret.verdict.tolerances import (
 )
 from aida_kb.interpret.verdict.views import adjoining, check_view, unexplained_near
 from aida_kb.io.evidence import Evidence
-from aida_kb.io.model import ReconstructedModel
+from aida_kb.io.model import ModelPart, ReconstructedModel
 from aida_kb.kb.model import KnowledgeBase
 
 
@@ -81,6 +81,7 @@ def judge(
     all_views: bool = False,
     uncertainty: Uncertainty | None = None,
     images: Mapping[str, npt.NDArray[np.uint8]] | None = None,
+    occluders: Sequence[ModelPart] = (),
 ) -> Verdict:
     """The verdict on `interp` (see the module docstring). all_views: the result stands for
     every view of the evidence (a reconstruction registers them all), so a view it left
@@ -89,7 +90,9 @@ def judge(
     (`interpret.scene.judge_objects`: the cameras are fixed by every object); None: that of
     `interp` alone. images: view id -> its left image (8-bit grey, as taken), where the scene's
     images are at hand: an edge the image steps across is seen, segment or not (check (c),
-    `verdict.edges.edge_coverage`)."""
+    `verdict.edges.edge_coverage`). occluders: where `interp` is one object of a scene, the
+    other objects' faces (scene roles): they hide its edges behind them, and a party wall's
+    flush edges are no edges in the image (check (c))."""
     images = images or {}
     model = interp.model
     if not interp.accepted or model is None:
@@ -114,7 +117,7 @@ def judge(
     not_explained = []
     cameras = {c.view for c in model.cameras}
     for view in evidence.views:
-        check = check_view(view, model, images.get(view.id))
+        check = check_view(view, model, images.get(view.id), occluders)
         if check is None:
             if view.id in cameras or all_views:
                 not_explained.append(view.id)
@@ -166,7 +169,9 @@ def judge(
     bound = _bound_parts(interp)
     outlines = _bound_regions(interp, reference.id)
     seen = (
-        edge_cover(reference, model, frozenset(bound), outlines, images.get(reference.id))
+        edge_cover(
+            reference, model, frozenset(bound), outlines, images.get(reference.id), occluders
+        )
         if len(bound) > 1
         else None
     )

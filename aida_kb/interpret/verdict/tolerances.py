@@ -68,6 +68,12 @@ OUTLINE_SPAN = 0.25  # ... along at least a quarter of the face's size (its poly
 # object: nothing can see it, and where it lies inside changes nothing of the shape
 # (welded vertices are rounded to a micrometre; a wing's end flush with a wall is inside too)
 ENCLOSED_TOLERANCE = 0.001
+# (c): a model edge is flush with another object's faces (a terrace's front going on across a
+# party wall: no edge in the image) where both its faces lie on theirs: normals within 1
+# degree, offsets within 1 % of the model's size (touching objects share their party wall's
+# plane, `interpret.party`; fronts built in one line differ by their fits' scatter)
+COS_FLUSH = math.cos(math.radians(1.0))
+FLUSH_OFFSET = 0.01
 CONTESTED_NORMAL_DEG = 3.0  # the regions measuring a part whose orientation is the choice
 # among alternatives lie within 3 degrees of it on average (fits of regions that large agree
 # with their faces to 1-2 degrees; a shed's top pitched 8 degrees is no flat roof's)

@@ -4,6 +4,7 @@ no large surface joined to the model is left out, and the surfaces near it are m
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -35,14 +36,18 @@ from aida_kb.interpret.verdict.tolerances import (
 )
 from aida_kb.interpret.verify import TILT_FIT_SIGMA_FACTOR
 from aida_kb.io.evidence import Region, ViewEvidence
-from aida_kb.io.model import ModelCamera, ReconstructedModel
+from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
 
 
 def check_view(
-    view: ViewEvidence, model: ReconstructedModel, image: npt.NDArray[np.uint8] | None = None
+    view: ViewEvidence,
+    model: ReconstructedModel,
+    image: npt.NDArray[np.uint8] | None = None,
+    occluders: Sequence[ModelPart] = (),
 ) -> ViewCheck | None:
     """Check (b) for one view at the model's camera of that view (None: no such camera);
-    image: its left image, for the edges' steps (`edges.edge_coverage`)."""
+    image: its left image, for the edges' steps; occluders: the faces of the scene's other
+    objects, which hide the model's edges or make them flush (`edges.edge_coverage`)."""
     camera = next((c for c in model.cameras if c.view == view.id), None)
     regions = [r for r in view.regions if r.w_c > 0 and r.depth_pixel_count > 0]
     if camera is None or not regions:
@@ -140,7 +145,7 @@ def check_view(
         total,
         float(weights[counted & explained].sum()),
         contradicting,
-        edge_cover(view, model, image=image),
+        edge_cover(view, model, image=image, occluders=occluders),
         on_face,
         tuple(int(regions[i].id) for i in np.nonzero(counted & explained)[0]),
         tuple(int(regions[i].id) for i in np.nonzero(~counted)[0]),
