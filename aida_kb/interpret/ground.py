@@ -19,7 +19,13 @@ import numpy.typing as npt
 
 from aida_kb.interpret.observe import RegionView
 
-__all__ = ["GROUND_LEVEL_DEG", "GROUND_MIN_SHARE", "elevation", "ground_height"]
+__all__ = [
+    "GROUND_LEVEL_DEG",
+    "GROUND_MIN_SHARE",
+    "elevation",
+    "ground_height",
+    "ground_region",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -32,8 +38,10 @@ GROUND_LEVEL_DEG = 10.0
 GROUND_MIN_SHARE = 0.05
 
 
-def ground_height(regions: Sequence[RegionView], up: FloatArray) -> float | None:
-    """The height along `up` of the lowest level region's centre, metres, or None.
+def ground_region(regions: Sequence[RegionView], up: FloatArray) -> RegionView | None:
+    """The view's ground: of its level regions (normal within `GROUND_LEVEL_DEG` of `up`,
+    either way) carrying at least `GROUND_MIN_SHARE` of its region pixels, the one whose
+    centre lies lowest along `up`; None if there is none.
 
     regions : the regions of one view (world frame); up : (3,) unit vector, world frame.
     """
@@ -41,12 +49,22 @@ def ground_height(regions: Sequence[RegionView], up: FloatArray) -> float | None
     if total <= 0.0:
         return None
     cos_level = float(np.cos(np.radians(GROUND_LEVEL_DEG)))
-    heights = [
-        float(r.centroid_m @ up)
+    level = [
+        r
         for r in regions
         if abs(float(r.normal @ up)) >= cos_level and r.area_px >= GROUND_MIN_SHARE * total
     ]
-    return min(heights) if heights else None
+    return min(level, key=lambda r: float(r.centroid_m @ up)) if level else None
+
+
+def ground_height(regions: Sequence[RegionView], up: FloatArray) -> float | None:
+    """The height along `up` of the lowest level region's centre (`ground_region`), metres,
+    or None.
+
+    regions : the regions of one view (world frame); up : (3,) unit vector, world frame.
+    """
+    ground = ground_region(regions, up)
+    return None if ground is None else float(ground.centroid_m @ up)
 
 
 def elevation(points: FloatArray, up: FloatArray, ground: float) -> float:

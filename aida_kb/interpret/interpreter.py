@@ -140,6 +140,35 @@ class Interpreter:
         self.verified_bodies = 0
         # every verified body with its cost (`ties`)
         self.bodies: list[tuple[Level, float]] = []
+        # the body's concept has optional parts (an oriel, a wing): the lighter walls they
+        # may bind are evidence a complete state leaves unexplained (`left_unexplained`)
+        self.optional = any(
+            slot.link == "part-of" and not slot.obligatory
+            for slot in self.knowledge.concept(self.context.body.concept).slots
+        )
+
+    def left_unexplained(self, levels: list[Level]) -> float:
+        """The penalty a complete state of `levels` is charged for the evidence it leaves:
+        the significant regions no level binds (`plausibility.unexplained`) and, where the
+        body's concept has optional parts, the lighter walls one of them could have bound
+        (`MIN_PART_WEIGHT_FRACTION`, vertical under the body's up, as `optional_alternatives`
+        offers them). Without the latter a verified oriel whose front is lighter than a
+        wall's share only added its misfit: the body without it was the cheaper complete
+        state, by 0.0003 (dev seed 61509: an oriel verified at cost 0.015, dropped)."""
+        ctx = self.context
+        out = _unexplained(ctx, levels)
+        if not self.optional or not levels:
+            return out
+        used = {r for lv in levels for r in lv.binding}
+        lighter = [
+            r
+            for r in ctx.regions
+            if r.id not in used
+            and ctx.significant(r, MIN_PART_WEIGHT_FRACTION)
+            and not ctx.significant(r)
+        ]
+        walls = vertical(lighter, levels[0].frame.up)
+        return out + UNEXPLAINED_PENALTY * sum(r.weight for r in walls) / ctx.total_weight
 
     # ---- level 0: the main body --------------------------------------------------------------
     def body_candidates(self, parent: int) -> list[Pending]:
@@ -186,14 +215,10 @@ class Interpreter:
                 "verticals no significant region fits it",
             )
             return []
-        optional = any(
-            slot.link == "part-of" and not slot.obligatory
-            for slot in self.knowledge.concept(concept).slots
-        )
         out: list[Pending] = []
         for h in hypotheses:
             facing = self._facing(h)
-            if not optional:
+            if not self.optional:
                 out.append(Pending(h, facing=facing))
                 continue
             free = [r for r in ctx.regions if r.id not in h.binding and ctx.significant(r)]
@@ -364,7 +389,7 @@ class Interpreter:
             # evidence no level explains is charged when it is taken as complete, so that
             # every verified body gets its optional parts before a completed rival is taken
             # (a body and its wing, or the wing taken for the body and the body for its wing)
-            done = state.cost + _unexplained(self.context, list(state.levels))
+            done = state.cost + self.left_unexplained(list(state.levels))
             successors = [(State(state.levels, True, done), done)]
             for level, cost in self.optional_alternatives(state, state.levels[0].hid):
                 successors.append((State((*state.levels, level), False, cost), cost))
@@ -412,7 +437,7 @@ class Interpreter:
         bound = set(body.binding)
         # each body as if taken alone: its cost and the penalty for the regions it leaves
         # unexplained (a rival binding more regions is not charged for those it explains)
-        own += _unexplained(self.context, [body])
+        own += self.left_unexplained([body])
         out: set[str] = set()
         for level, cost in self.bodies:
             if level is body:
@@ -420,7 +445,7 @@ class Interpreter:
             same = set(level.binding) == bound and _same_frame(level.frame, body.frame)
             if not (same or set(level.binding) > bound):
                 continue
-            if cost + _unexplained(self.context, [level]) > own + TIE_MARGIN:
+            if cost + self.left_unexplained([level]) > own + TIE_MARGIN:
                 continue
             if self.knowledge.weaker(level.structure, body.structure):
                 # it fits no worse only by what it leaves out: the accepted one says more

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
+from types import SimpleNamespace
+from typing import Any, cast
 
 import numpy as np
 import pytest
 
-from aida_kb.interpret.context import Context
+from aida_kb.interpret.alternative import Level
+from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, Context
 from aida_kb.interpret.generate import (
     MAX_BINDINGS,
     OTHER_VERTICAL_PENALTY,
@@ -21,7 +23,7 @@ from aida_kb.interpret.generate import (
 from aida_kb.interpret.interpreter import INSERTED_PART_PENALTY, Interpreter, guessed
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
-from aida_kb.interpret.plausibility import UNEXPLAINED_PENALTY
+from aida_kb.interpret.plausibility import UNEXPLAINED_PENALTY, unexplained
 from aida_kb.io.evidence import read_evidence
 
 from .conftest import FIXTURES  # type: ignore[import-not-found]
@@ -222,3 +224,34 @@ def test_a_vertical_estimate_far_off_leaves_the_walls_vertical_among_the_candida
     ups = candidate_ups(replace(occluded, up=wrong))
     assert _deg(ups[0], wrong) < 1e-9
     assert min(_deg(u, truth) for u in ups[1:]) < 0.5
+
+
+def test_a_complete_state_is_charged_for_the_light_walls_an_optional_part_could_bind(
+    buildings_kb: Any,
+) -> None:
+    """An oriel's walls may be lighter than a wall's share (MIN_PART_WEIGHT_FRACTION to
+    significant): a state taken as complete without the oriel is charged for them, so that
+    a verified oriel is not dropped for its misfit alone (dev seed 61509: the body without
+    its oriel was the cheaper complete state by 0.0003)."""
+    evidence = read_evidence(FIXTURES / "oriel.json")
+    it = Interpreter(Knowledge.from_kb(buildings_kb), view_of(evidence, "oriel"), "House")
+    ctx = it.context
+    assert it.optional
+    light = {"00/5", "00/7"}  # the oriels' left walls
+    for rid in light:
+        region = ctx.evidence.regions[rid]
+        assert ctx.significant(region, MIN_PART_WEIGHT_FRACTION)
+        assert not ctx.significant(region)
+    frame = SimpleNamespace(up=ctx.up)
+    body = SimpleNamespace(binding={"00/1": "body.front", "00/2": "body.left"}, frame=frame)
+    oriel = SimpleNamespace(binding={"00/4": "body.oriels[0].front", "00/5": "x"}, frame=frame)
+    alone = it.left_unexplained(cast(list[Level], [body]))
+    both = it.left_unexplained(cast(list[Level], [body, oriel]))
+    plain = unexplained(ctx, {"00/1", "00/2"})
+    weight = sum(ctx.evidence.regions[r].weight for r in light)
+    assert alone == pytest.approx(plain + UNEXPLAINED_PENALTY * weight / ctx.total_weight)
+    # the oriel binds its front (significant) and one light wall: the other stays charged
+    bound = unexplained(ctx, {"00/1", "00/2", "00/4"})
+    rest = ctx.evidence.regions["00/7"].weight
+    assert both == pytest.approx(bound + UNEXPLAINED_PENALTY * rest / ctx.total_weight)
+    assert alone - both > 0.05

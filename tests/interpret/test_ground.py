@@ -12,8 +12,10 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
+import pytest
 
-from aida_kb.interpret.ground import GROUND_MIN_SHARE, elevation, ground_height
+from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, object_reference_weight
+from aida_kb.interpret.ground import GROUND_MIN_SHARE, elevation, ground_height, ground_region
 from aida_kb.interpret.observe import RegionView
 from aida_kb.interpret.run import interpret
 from aida_kb.kb import compile_text
@@ -43,6 +45,37 @@ def test_the_ground_is_the_lowest_large_level_region() -> None:
     assert ground_height(regions[1:2] + regions[3:], UP) == 3.0  # no ground: the roof is lowest
     assert ground_height([regions[3]], UP) is None  # no level region: no ground
     assert ground_height([], UP) is None
+
+
+def test_a_regions_significance_is_judged_without_the_ground() -> None:
+    """The ground carries most of a view's weight but no part explains it: a region's share
+    is taken of the rest (dev seed 61526: the ground 84 % of the weight, each of three
+    oriels' fronts 0.6-0.8 % of the total, under MIN_PART_WEIGHT_FRACTION, 4-5 % of the
+    rest)."""
+
+    def weighted(rid: str, normal: list[float], centre: list[float], weight: float) -> RegionView:
+        n = np.asarray(normal, dtype=np.float64)
+        return RegionView(
+            rid, "00", n / np.linalg.norm(n), np.asarray(centre, float), weight, weight, 0.01
+        )
+
+    regions = (
+        weighted("00/1000", [0, -1, 0.3], [0, 1.5, 20], 0.8366),  # the ground
+        weighted("00/2", [0.48, 0.27, -0.83], [0, 0, 22], 0.1022),  # the front wall
+        weighted("00/4", [-0.88, 0.15, -0.46], [-4, 0, 22], 0.0246),  # its side wall
+        weighted("00/8", [0.46, 0.27, -0.84], [0, 0, 21], 0.0078),  # an oriel's front
+    )
+    up = np.array([0.0, -1.0, 0.3]) / math.hypot(1.0, 0.3)
+    total = sum(r.weight for r in regions)
+    assert ground_region(regions, up) is regions[0]
+    rest = object_reference_weight(regions, up, total)
+    assert rest == pytest.approx(total - 0.8366)
+    oriel = regions[3]
+    assert oriel.weight < MIN_PART_WEIGHT_FRACTION * total
+    assert oriel.weight / rest == pytest.approx(0.0577, abs=1e-3)
+    # no ground (no large level region): the total
+    assert object_reference_weight(regions[1:], up, total) == 0.0
+    assert ground_region(regions[1:], up) is None
 
 
 def test_elevation_is_the_lowest_point_above_the_ground() -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -95,10 +96,19 @@ def test_a_region_tilt_counts_pixels_of_what_its_fit_resolves() -> None:
     assert math.radians(10.8) * edge_on == pytest.approx(0.66, abs=0.01)
     # a region without its fit's statistics (old evidence): a degree, a pixel, as before
     assert float(tilt_px_per_rad(0.01, 0, 0.0)) == pytest.approx(math.degrees(1.0))
+    # a fit that kept none of the image's pixels is one point, not unknown: dev seed 61510's
+    # dark roof (43.8 m², rms 0.246 m, 121 depth pixels, no inlier) has sigma_fit
+    # 0.246 / sqrt(43.8 / 12) = 7.38 deg, 14.8 deg a pixel: its fit 6.2 deg off the true
+    # slope costs 0.42 px, where a degree a pixel (6.2 px) rejected the right roof
+    dark = float(tilt_px_per_rad(0.246, 0, 43.8))
+    assert math.radians(6.2) * dark == pytest.approx(0.42, abs=0.01)
+    # unknown inliers (NaN): a degree, a pixel
+    assert float(tilt_px_per_rad(0.246, math.nan, 43.8)) == pytest.approx(math.degrees(1.0))
     # vectorised: one scale per region, the same as one at a time
-    many = tilt_px_per_rad(np.array([0.138, 0.138, 0.01]), np.array([24144, 165, 0]), 96.3)
+    many = tilt_px_per_rad(np.array([0.138, 0.138, 0.246]), np.array([24144, 165, 0]), 43.8)
     assert many.shape == (3,)
-    assert many[0] == pytest.approx(big)
+    assert many[2] == pytest.approx(dark)
+    assert many[0] == pytest.approx(float(tilt_px_per_rad(0.138, 24144, 43.8)))
     # the constraint carries it: a region with its statistics, at 20 m
     region = RegionView(
         "00/1",
@@ -112,6 +122,12 @@ def test_a_region_tilt_counts_pixels_of_what_its_fit_resolves() -> None:
         5.5,
     )
     assert position_data(region, CAMERA).tilt_px_per_rad == pytest.approx(edge_on)
+    # a region made without its fit's statistics (inliers None) keeps a degree a pixel; one
+    # whose fit kept no pixel is one point
+    unknown = replace(region, inliers=None)
+    assert position_data(unknown, CAMERA).tilt_px_per_rad == pytest.approx(math.degrees(1.0))
+    none_kept = replace(region, inliers=0, rms_m=0.246, area_m2=43.8)
+    assert position_data(none_kept, CAMERA).tilt_px_per_rad == pytest.approx(dark)
 
 
 def test_a_contradiction_over_the_threshold_is_flagged_and_fixed_parts_stay() -> None:
