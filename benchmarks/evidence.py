@@ -8,11 +8,22 @@ once with the default pipeline (disparity fit refined by direct image alignment)
 with the disparity fits alone (`photometric_window = 0`), so that the effect of the refinement
 stays visible. Ends with ONE line of JSON.
 
-Run: .venv/bin/python benchmarks/evidence.py
+With ``--random-start S --random-count N`` it measures instead the randomised scenes of
+`aida_kb.synth.randomised` (as benchmarks/robustness.py draws them, ``--max-views`` views,
+labels.png or not): every evidence region that lies on a true plane, by the kind of that
+plane -- wall (normal within `WALL_TILT_DEG` of horizontal), roof (facing up), ground (the
+truth's ground) -- gives its normal's angle to the truth and its signed vertical tilt (the
+angle of its normal above the horizontal less the truth's: a bias would show as a mean far
+from zero), and the error in units of the fit's own 1-sigma as the interpreter reads it
+(`aida_kb.interpret.observe.fit_sigma_rad`). ``--kept DIR`` reads the scene directories
+``DIR/scene-SEED`` a robustness run kept instead of rendering them.
+
+Run: .venv/bin/python benchmarks/evidence.py [--random-start S --random-count N | --kept DIR]
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import tempfile
@@ -22,11 +33,13 @@ from typing import Any
 
 import numpy as np
 
+from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.scene import Scene, read_labels, read_scene
+from aida_kb.synth.randomised import random_scene
 from aida_kb.synth.scenes import preset, render_scene
 from aida_kb.vision.evaluate import angle_deg, truth_planes_camera
-from aida_kb.vision.evidence import VisionParams, scene_evidence
+from aida_kb.vision.evidence import ViewProducts, VisionParams, original_rays, scene_evidence
 
 PRESETS: dict[str, tuple[str, dict[str, str]]] = {
     "house": ("house", {}),
@@ -66,7 +79,201 @@ def face_errors(scene: Scene, evidence: Evidence) -> list[tuple[float, str, str]
     return out
 
 
+# A truth plane whose normal lies within this many degrees of horizontal is a wall.
+WALL_TILT_DEG = 10.0
+# A region without labels is taken to lie on the truth plane nearest its centroid when its
+# normal is within MATCH_DEG of that plane's and its centroid within MATCH_M of it; a region
+# further off lies on no face (clutter, an occluder, a merged corner) and is not measured.
+MATCH_DEG = 8.0
+MATCH_M = 1.0
+# A fit further off than this is a failed fit (a dark roof or blank wall whose disparities are
+# noise: no plane inliers), counted apart so that the medians describe the fits that worked.
+GROSS_DEG = 10.0
+KINDS = ("wall", "roof", "ground")
+
+
+def _up(scene: Scene) -> np.ndarray:
+    """The world's up direction (unit, world = view 00's left camera): the truth ground's
+    normal, else the camera's -y axis (its views are level on average)."""
+    assert scene.truth is not None
+    if scene.truth.ground is not None:
+        return np.asarray(scene.truth.ground.normal, float)
+    return np.array([0.0, -1.0, 0.0])
+
+
+def gyration_m(rays: np.ndarray, n: np.ndarray, d: float, up: np.ndarray) -> tuple[float, float]:
+    """The radii of gyration (m) of a region's pixels on its plane n·x = d along the plane's
+    vertical (up projected onto it) and its horizontal. rays : (N, 3) the pixels' viewing
+    rays (z = 1), camera frame; n, up : unit (3,), camera frame."""
+    depth = d / (rays @ n)
+    points = rays[depth > 0] * depth[depth > 0, None]
+    vertical = up - (up @ n) * n
+    vertical /= np.linalg.norm(vertical)
+    horizontal = np.cross(n, vertical)
+    return float(np.std(points @ vertical)), float(np.std(points @ horizontal))
+
+
+def region_errors(
+    scene: Scene, evidence: Evidence, products: list[ViewProducts]
+) -> list[dict[str, Any]]:
+    """One row per evidence region on a true plane: view, kind, labelled, angle_deg (to the
+    true normal), tilt_deg (signed: its elevation above the horizontal less the truth's),
+    z (angle over the fit's 1-sigma, `fit_sigma_rad`, which spreads the region over a square
+    of its area), z_tilt (|tilt| over that sigma) and z_tilt_own (|tilt| over the sigma the
+    same fit has about the plane's horizontal axis: its spread along the plane's vertical,
+    `gyration_m`, instead of the square's), inliers. Every view's evidence is in its own
+    camera frame (no poses given) or, for view 00, the world frame: the same."""
+    truth = scene.truth
+    assert truth is not None
+    ground = truth.ground.label if truth.ground is not None else None
+    up_world = _up(scene)
+    rows: list[dict[str, Any]] = []
+    for view, made in zip(evidence.views, products, strict=True):
+        rays = original_rays(scene.view(view.id).rig)
+        planes = truth_planes_camera(truth, view.id)
+        up = np.asarray(truth.pose(view.id).R, float) @ up_world
+        labels = np.array(list(planes))
+        normals = np.array([planes[k][0] for k in planes])
+        offsets = np.array([planes[k][1] for k in planes])
+        for region in view.regions:
+            n, c = np.array(region.n_init), np.array(region.c_init)
+            if region.label is not None:
+                if region.label not in planes:
+                    continue
+                label = region.label
+            else:
+                angles = np.degrees(np.arccos(np.clip(normals @ n, -1.0, 1.0)))
+                dist = np.where(angles < MATCH_DEG, np.abs(normals @ c - offsets), np.inf)
+                best = int(np.argmin(dist))
+                if not dist[best] <= MATCH_M:
+                    continue
+                label = int(labels[best])
+            n_true = planes[label][0]
+            elevation = float(np.degrees(np.arcsin(np.clip(n_true @ up, -1.0, 1.0))))
+            if label == ground:
+                kind = "ground"
+            elif abs(elevation) <= WALL_TILT_DEG:
+                kind = "wall"
+            elif elevation > 0.0:
+                kind = "roof"
+            else:
+                continue  # an underside (eaves, an oriel's bottom)
+            sigma = float(
+                fit_sigma_rad(region.rms_m, region.inlier_count / FIT_CORRELATED_PX, region.area_m2)
+            )
+            angle = angle_deg(n, n_true)
+            tilt = z_tilt = z_own = aspect = None
+            if kind != "ground":  # a level plane has no vertical tilt: its angle is all of it
+                tilt = float(np.degrees(np.arcsin(np.clip(n @ up, -1.0, 1.0)))) - elevation
+                g_vertical, _ = gyration_m(rays[made.regions == region.id], n, region.d_init, up)
+                square = float(np.sqrt(region.area_m2 / 12.0))
+                if np.isfinite(sigma) and g_vertical > 0.0:
+                    z_tilt = float(np.radians(abs(tilt)) / sigma)
+                    z_own = z_tilt * g_vertical / square
+                    aspect = square / g_vertical
+            rows.append(
+                {
+                    "view": view.id,
+                    "kind": kind,
+                    "labelled": region.label is not None,
+                    "angle_deg": angle,
+                    "tilt_deg": tilt,
+                    "z": float(np.radians(angle) / sigma) if np.isfinite(sigma) else None,
+                    "z_tilt": z_tilt,
+                    "z_tilt_own": z_own,
+                    "aspect": aspect,
+                    "inliers": region.inlier_count,
+                }
+            )
+    return rows
+
+
+def _median(values: list[float | None]) -> float | None:
+    """The median of the known values, 2 decimals; None when none is known."""
+    known = [v for v in values if v is not None]
+    return round(float(np.median(known)), 2) if known else None
+
+
+def kind_figures(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per kind: regions, failed fits (over GROSS_DEG), and over the others the median and
+    90th percentile angle and the median angle in units of the fit's own 1-sigma (z); for walls
+    and roofs also the mean and median signed tilt, the median |tilt|, the median |tilt| in
+    units of that sigma (z_tilt) and of the sigma of the same fit about the plane's horizontal
+    axis (z_tilt_own), and the median ratio of the square's spread to the region's vertical
+    one (above 1: the square understates how little the region spreads vertically)."""
+    out: dict[str, Any] = {}
+    for kind in KINDS:
+        sel = [r for r in rows if r["kind"] == kind]
+        fits = [r for r in sel if r["angle_deg"] <= GROSS_DEG]
+        fig: dict[str, Any] = {"regions": len(sel), "failed": len(sel) - len(fits)}
+        if fits:
+            angle = np.array([r["angle_deg"] for r in fits])
+            fig.update(
+                median_deg=round(float(np.median(angle)), 3),
+                p90_deg=round(float(np.percentile(angle, 90)), 3),
+                median_z=_median([r["z"] for r in fits]),
+            )
+            tilt = np.array([r["tilt_deg"] for r in fits if r["tilt_deg"] is not None])
+            if len(tilt):
+                fig.update(
+                    tilt_mean_deg=round(float(tilt.mean()), 3),
+                    tilt_median_deg=round(float(np.median(tilt)), 3),
+                    abs_tilt_median_deg=round(float(np.median(np.abs(tilt))), 3),
+                    median_z_tilt=_median([r["z_tilt"] for r in fits]),
+                    median_z_tilt_own=_median([r["z_tilt_own"] for r in fits]),
+                    median_square_over_vertical=_median([r["aspect"] for r in fits]),
+                )
+        out[kind] = fig
+    return out
+
+
+def random_scenes(seeds: range, kept: Path | None, max_views: int) -> None:
+    """Per-kind figures of the region normals of randomised scenes, default pipeline and
+    disparity fits alone; a line per scene on stderr, ONE line of JSON on stdout."""
+    rows: dict[str, list[dict[str, Any]]] = {"default": [], "disparity_fit_only": []}
+    variants = {"default": VisionParams(), "disparity_fit_only": VisionParams(photometric_window=0)}
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in seeds:
+            if kept is not None:
+                scene_dir = kept / f"scene-{seed}"
+                if not (scene_dir / "truth.json").is_file():
+                    continue
+            else:
+                spec = random_scene(seed, max_views=max_views)
+                scene_dir = render_scene(spec, Path(tmp) / f"scene-{seed}")
+            scene = read_scene(scene_dir)
+            views = [v.id for v in scene.views[:max_views]]
+            for name, params in variants.items():
+                evidence, products = scene_evidence(scene, views=views, params=params)
+                found = region_errors(scene, evidence, products)
+                rows[name] += [{**r, "seed": seed} for r in found]
+            print(f"seed {seed}: {len(found)} regions on true planes", file=sys.stderr)
+    summary: dict[str, Any] = {"seeds": f"{seeds.start}-{seeds.stop - 1}", "views": max_views}
+    for name, found in rows.items():
+        summary[name] = {
+            "with_labels": kind_figures([r for r in found if r["labelled"]]),
+            "without_labels": kind_figures([r for r in found if not r["labelled"]]),
+        }
+    print(json.dumps(summary))
+
+
 def main() -> None:
+    """Presets (default) or randomised scenes (``--random-start``/``--kept``): see the module
+    docstring."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--random-start", type=int, help="first seed of randomised scenes")
+    parser.add_argument("--random-count", type=int, default=12)
+    parser.add_argument("--kept", type=Path, help="read DIR/scene-SEED instead of rendering")
+    parser.add_argument("--max-views", type=int, default=3)
+    args = parser.parse_args()
+    if args.random_start is not None:
+        seeds = range(args.random_start, args.random_start + args.random_count)
+        random_scenes(seeds, args.kept, args.max_views)
+        return
+    presets()
+
+
+def presets() -> None:
     """Render each preset, build its evidence twice, print per-preset lines and the JSON."""
     summary: dict[str, Any] = {"image": "640x480", "min_face_fraction": MIN_FRACTION}
     worst_all = 0.0
