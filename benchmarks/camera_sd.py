@@ -34,9 +34,15 @@ import json
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from aida_kb.geometry.camera import PinholeCamera
+    from aida_kb.register import RigidModel
+    from aida_kb.register.evidence import ViewMeasurements
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -67,16 +73,12 @@ SYNTHETIC_NOISE_PX = 0.5
 """The synthetic segments' edge-point noise, pixels (an eighth of the 4 px noise model)."""
 
 
-def synthetic_calibration(draws: int = 30) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Errors (degrees), standard deviations (degrees) of the two free cameras of a box seen
-    in three views, adjusted to segments with `SYNTHETIC_NOISE_PX` noise (seeds 0..draws-1),
-    and each draw's variance factor of the segments: (2·draws,), (2·draws,), (draws,)."""
-    import aida_kb.interpret.multiview as mv
+def synthetic_box() -> tuple[RigidModel, list[PinholeCamera]]:
+    """The synthetic scene of `synthetic_calibration`: a box 0.4 x 0.25 x 0.3 m, 1.4 m before
+    the reference camera (640 x 480 px, f 800 px, looking 12 deg down) and two cameras turned
+    about its vertical axis by 35 and -30 deg."""
     from aida_kb.geometry.camera import PinholeCamera
-    from aida_kb.interpret.uncertainty import problem_uncertainty
-    from aida_kb.register import RegionMeasurements, RigidModel, turned, vertical_axis
-    from aida_kb.register.evidence import ViewMeasurements
-    from aida_kb.testing.segments import simulated_segments
+    from aida_kb.register import RigidModel, turned, vertical_axis
 
     c = np.array([0.0, 0.3, 1.4])
     half = np.array([0.2, 0.125, 0.15])
@@ -105,30 +107,54 @@ def synthetic_calibration(draws: int = 30) -> tuple[FloatArray, FloatArray, Floa
     ref = PinholeCamera(K, R, -R @ np.array([0.0, -0.05, 0.0]), 640, 480)
     axis = vertical_axis(model, ref)
     cams = [ref, *(turned(ref, axis, model.centroid, math.radians(a)) for a in (35.0, -30.0))]
+    return model, cams
+
+
+def synthetic_views(
+    model: RigidModel, cams: list[PinholeCamera], seed: int
+) -> list[ViewMeasurements]:
+    """Each camera's view of `model`: its edges as segments with `SYNTHETIC_NOISE_PX` noise
+    (noise draw `seed`), no clutter, no regions."""
+    from aida_kb.register import RegionMeasurements
+    from aida_kb.register.evidence import ViewMeasurements
+    from aida_kb.testing.segments import simulated_segments
+
+    rng = np.random.default_rng(seed)
     none = RegionMeasurements(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+    return [
+        ViewMeasurements(
+            f"0{k}",
+            cam.K,
+            cam.width,
+            cam.height,
+            *simulated_segments(
+                model,
+                cam,
+                rng,
+                noise_px=SYNTHETIC_NOISE_PX,
+                clutter=0,
+                split_fraction=0,
+                drop_fraction=0,
+            ),
+            none,
+        )
+        for k, cam in enumerate(cams)
+    ]
+
+
+def synthetic_calibration(draws: int = 30) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Errors (degrees), standard deviations (degrees) of the two free cameras of a box seen
+    in three views (`synthetic_box`), adjusted to segments with `SYNTHETIC_NOISE_PX` noise
+    (`synthetic_views`, seeds 0..draws-1), and each draw's variance factor of the segments:
+    (2·draws,), (2·draws,), (draws,)."""
+    import aida_kb.interpret.multiview as mv
+    from aida_kb.interpret.uncertainty import problem_uncertainty
+
+    model, cams = synthetic_box()
     inputs = mv.JointInputs(mv.meeting_angles(model))
     errors, sds, factors = [], [], []
     for seed in range(draws):
-        rng = np.random.default_rng(seed)
-        views = [
-            ViewMeasurements(
-                f"0{k}",
-                K,
-                640,
-                480,
-                *simulated_segments(
-                    model,
-                    cam,
-                    rng,
-                    noise_px=SYNTHETIC_NOISE_PX,
-                    clutter=0,
-                    split_fraction=0,
-                    drop_fraction=0,
-                ),
-                none,
-            )
-            for k, cam in enumerate(cams)
-        ]
+        views = synthetic_views(model, cams, seed)
         n, d, adjusted, _ = mv.joint_adjustment(model, cams, views, [1, 2], inputs)
         rigid, _ = mv._rebuilt(model, n, d)
         problem = mv.joint_problem(rigid, list(adjusted), views, [1, 2], inputs)

@@ -243,18 +243,100 @@ def measurement_group(c: Constraint) -> str:
     return c.kind
 
 
+def range_basis(J: FloatArray) -> FloatArray:
+    """(m, rank) orthonormal columns spanning the range of J (m, n): the hat matrix of J is
+    ``B Bᵀ``; directions J leaves open take none (as the pseudo-inverse)."""
+    if J.shape[1] == 0:
+        return np.zeros((J.shape[0], 0))
+    w, V = np.linalg.eigh(J.T @ J)
+    keep = w > NULL_EIGEN_REL * max(float(w.max()), 0.0)
+    basis: FloatArray = J @ (V[:, keep] / np.sqrt(w[keep]))
+    return basis
+
+
 def redundancy_numbers(J: FloatArray) -> FloatArray:
     """(m,) each row's redundancy number ``1 - h_ii``, h the hat matrix ``J (JᵀJ)⁺ Jᵀ`` of the
     whitened Jacobian J (m, n): the share of its own error a row's residual keeps at the
     solution (the rest the unknowns absorb). They sum to m - rank(J); directions J leaves open
     take none (the pseudo-inverse)."""
-    if J.shape[1] == 0:
-        return np.ones(J.shape[0])
-    w, V = np.linalg.eigh(J.T @ J)
-    keep = w > NULL_EIGEN_REL * max(float(w.max()), 0.0)
-    basis = J @ (V[:, keep] / np.sqrt(w[keep]))  # orthonormal columns spanning J's range
+    basis = range_basis(J)
     out: FloatArray = np.clip(1.0 - (basis * basis).sum(axis=1), 0.0, 1.0)
     return out
+
+
+SNOOP_ALPHA = 1e-5
+"""`outlying_measurement`: a factor's test (this share of a good factor's statistic lies
+beyond the critical value, were the residuals Gaussian). Far in the tail on purpose: about 40
+fitted image edges are tested in an adjustment, and the fits' residuals are not Gaussian (they
+follow the model they are fitted at; an edge's left and right fits correlate). At 1e-3 a right
+model's fits of no effect were dropped (dev 61534: in 2 of its 4 image rounds). A fit on the
+wrong image line lies far beyond even 1e-9 (dev street 62402: view 00's ridge fitted off the
+roof's edge, 8.3 of its squared noise model where the other fits show 0.26 in the mean, moved
+view 01's camera 0.07 deg)."""
+SNOOP_MIN_REDUNDANCY = 0.05
+"""... and a factor whose residual keeps less than this share of its own error (the smallest
+eigenvalue of its block of the residuals' cofactor matrix) is not tested: the unknowns absorb
+its error, its residual shows none of it."""
+
+
+def outlying_measurement(
+    problem: Problem,
+    names: Sequence[str],
+    cameras: Sequence[PinholeCamera],
+    free: Sequence[int],
+    group: str,
+) -> int | None:
+    """The factor of measurement `group` (`measurement_group`) that the adjustment at the
+    solution `problem` starts from explains worst, if it is an outlier (Baarda's data
+    snooping): its whitened residual block r_b (k rows) against the residuals' cofactor block
+    ``Q_b = I - B_b B_bᵀ`` (`range_basis` of the measurements' Jacobian), ``t = r_bᵀ Q_b⁻¹ r_b``,
+    over the group's variance factor without it, ``s² = (Σ_g r² - t) / (redundancy_g - k)``;
+    an outlier when ``t / s²`` exceeds k times the F(k, redundancy_g - k) quantile at
+    1 - SNOOP_ALPHA. Returns its index in ``problem.constraints``; None when no factor is
+    beyond, the group has fewer than MIN_REDUNDANCY more rows than its factors absorb, or the
+    problem cannot be evaluated. Every part free, the cameras `free` (as
+    `problem_uncertainty`); the residuals unweighted by the robust loss (the test is of the
+    factor as measured)."""
+    from scipy.stats import f as f_distribution
+
+    from aida_kb.solve import Evaluation
+
+    P = len(names)
+    try:
+        ev = Evaluation(
+            problem, np.arange(P, dtype=np.intp), free_cameras=np.asarray(free, dtype=np.intp)
+        )
+        r, J = ev.residuals_and_dense_jacobian(ev.x_from(np.zeros((P, 3)), list(cameras)))
+    except AidaError:
+        return None
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        return None
+    of_row = np.asarray(ev.constraint_of_row, dtype=np.intp)
+    measured = np.array([problem.constraints[int(c)].measurement for c in of_row], dtype=bool)
+    basis = range_basis(J[measured])
+    rm, cm = r[measured], of_row[measured]
+    in_group = np.array([measurement_group(problem.constraints[int(c)]) == group for c in cm])
+    if not in_group.any():
+        return None
+    B, rg = basis[in_group], rm[in_group]
+    redundancy = float(np.clip(1.0 - (B * B).sum(axis=1), 0.0, 1.0).sum())
+    total = float(rg @ rg)
+    worst: tuple[float, int] | None = None
+    for c in np.unique(cm[in_group]):
+        rows = cm[in_group] == c
+        k = int(rows.sum())
+        if redundancy - k < MIN_REDUNDANCY:
+            return None
+        Q = np.eye(k) - B[rows] @ B[rows].T
+        if float(np.linalg.eigvalsh(Q).min()) < SNOOP_MIN_REDUNDANCY:
+            continue
+        t = float(rg[rows] @ np.linalg.solve(Q, rg[rows]))
+        s2 = max(total - t, 0.0) / (redundancy - k)
+        critical = k * float(f_distribution.ppf(1.0 - SNOOP_ALPHA, k, redundancy - k))
+        excess = t / max(s2, FACTOR_FLOOR) / critical
+        if excess > 1.0 and (worst is None or excess > worst[0]):
+            worst = (excess, int(c))
+    return None if worst is None else worst[1]
 
 
 def variance_factors(

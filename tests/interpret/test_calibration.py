@@ -3,12 +3,20 @@ image noise, the cameras' true errors scatter as their reported deviations say."
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 import aida_kb.interpret.multiview as mv
-from aida_kb.interpret.uncertainty import redundancy_numbers
-from benchmarks.camera_sd import SYNTHETIC_NOISE_PX, synthetic_calibration
+from aida_kb.interpret.uncertainty import outlying_measurement, redundancy_numbers
+from aida_kb.register.evidence import ViewMeasurements
+from benchmarks.camera_sd import (
+    SYNTHETIC_NOISE_PX,
+    synthetic_box,
+    synthetic_calibration,
+    synthetic_views,
+)
 
 
 def test_redundancy_numbers_sum_to_the_redundancy() -> None:
@@ -20,6 +28,42 @@ def test_redundancy_numbers_sum_to_the_redundancy() -> None:
     assert np.all((red >= 0) & (red <= 1))
     J[:, 3] = J[:, 2]  # a direction left open takes no redundancy
     assert float(redundancy_numbers(J).sum()) == pytest.approx(12 - 3)
+
+
+def _outlying_segment(views: list[ViewMeasurements]) -> tuple[float, float] | None:
+    """The synthetic box adjusted to `views` (cameras 01 and 02 free): the first end point of
+    the segment `outlying_measurement` finds outlying, pixels, or None."""
+    model, cams = synthetic_box()
+    inputs = mv.JointInputs(mv.meeting_angles(model))
+    n, d, adjusted, _ = mv.joint_adjustment(model, cams, views, [1, 2], inputs)
+    rigid, _ = mv._rebuilt(model, n, d)
+    problem = mv.joint_problem(rigid, list(adjusted), views, [1, 2], inputs)
+    worst = outlying_measurement(problem, rigid.names, list(adjusted), [1, 2], "edge")
+    if worst is None:
+        return None
+    edge = problem.constraints[worst].edge
+    assert edge is not None
+    return edge.p1_px
+
+
+def test_data_snooping_finds_the_one_segment_off_its_edge() -> None:
+    """The synthetic box, segments with 0.5 px noise against the 4 px noise model: none is an
+    outlier; one of view 01's moved 2 px across its edge (4 of the noise's sigmas, half a sigma
+    of the noise model: no test against the noise model alone would see it) is found, and only
+    it."""
+    model, cams = synthetic_box()
+    views = synthetic_views(model, cams, 0)
+    assert _outlying_segment(views) is None
+    v = views[1]
+    k = 2
+    d = v.p2[k] - v.p1[k]
+    across = np.array([-d[1], d[0]]) / float(np.linalg.norm(d))
+    p1, p2 = v.p1.copy(), v.p2.copy()
+    p1[k] += 2.0 * across
+    p2[k] += 2.0 * across
+    moved = [views[0], dataclasses.replace(v, p1=p1, p2=p2), views[2]]
+    found = _outlying_segment(moved)
+    assert found == pytest.approx(tuple(p1[k]))
 
 
 def test_camera_deviations_match_the_scatter_of_their_errors() -> None:
