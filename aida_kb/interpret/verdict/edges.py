@@ -53,7 +53,7 @@ def edge_coverage(
     returned is then the model with them; only the model's own edges are returned."""
     from aida_kb.register.evidence import camera_of, measurements_of
     from aida_kb.register.match import match_segments
-    from aida_kb.register.model import RigidModel
+    from aida_kb.register.model import RigidModel, VisibleEdges
 
     camera = next((c for c in model.cameras if c.view == view.id), None)
     if outlines_of:
@@ -68,7 +68,7 @@ def edge_coverage(
     if occluders:
         faces = rigid.edge_faces[edges.index]  # (E, 2), indices into the parts
         keep = (faces < own).all(axis=1) & ~flush_edges(rigid, own, edges.index)
-        edges = type(edges)(edges.index[keep], edges.a[keep], edges.b[keep], edges.length_px[keep])
+        edges = VisibleEdges(edges.index[keep], edges.a[keep], edges.b[keep], edges.length_px[keep])
     covered = np.zeros(edges.index.size)
     if edges.index.size == 0:
         return rigid, edges, covered
