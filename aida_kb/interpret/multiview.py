@@ -93,6 +93,7 @@ __all__ = [
     "JointInputs",
     "consistent_edges",
     "corroborated",
+    "fit_residuals",
     "fitted_edges",
     "joint_adjustment",
     "joint_problem",
@@ -934,9 +935,25 @@ def consistent_edges(
     model: RigidModel, camera: PinholeCamera, edges: EdgeObservations, limit: float
 ) -> EdgeObservations:
     """The fitted edges whose mean offset and slope from their model edge's projection at
-    `camera` (whitened as `_fitted_edge_factors` does) are both within `limit` sigmas."""
+    `camera` (whitened as `_fitted_edge_factors` does, `fit_residuals`) are both within
+    `limit` sigmas."""
     if edges.size == 0:
         return edges
+    offset, slope = fit_residuals(model, camera, edges)
+    keep: npt.NDArray[np.bool_] = (np.abs(offset) <= limit) & (np.abs(slope) <= limit)
+    return _subset(edges, keep)
+
+
+def fit_residuals(
+    model: RigidModel, camera: PinholeCamera, edges: EdgeObservations
+) -> tuple[FloatArray, FloatArray]:
+    """(F,), (F,): each fitted edge's signed mean offset and slope from its model edge's
+    projection at `camera`, in its own sigmas (the end points' residuals (r1, r2) across the
+    projected edge, pixels, whitened as `_fitted_edge_factors` does: ``(r1 + r2) / 2`` over
+    ``sigma / sqrt(n)`` and ``(r1 - r2) / 2`` over ``sigma·sqrt(3/n)``, sigma the fit's
+    `point_sigma`, n its length in pixels); NaN for a fit of no edge of the model."""
+    if edges.size == 0:
+        return np.zeros(0), np.zeros(0)
     pair = {(int(min(a, b)), int(max(a, b))): i for i, (a, b) in enumerate(model.edge_faces)}
     index = np.array([pair.get((int(min(a, b)), int(max(a, b))), -1) for a, b in edges.faces])
     known = index >= 0
@@ -949,10 +966,9 @@ def consistent_edges(
     r2 = np.einsum("ij,ij->i", edges.p2 - ends[:, 0], normal)
     length = np.maximum(np.linalg.norm(edges.p2 - edges.p1, axis=1), 1.0)
     sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX)
-    offset = np.abs(r1 + r2) / 2.0 / (sigma / np.sqrt(length))
-    slope = np.abs(r1 - r2) / 2.0 / (sigma * np.sqrt(3.0 / length))
-    keep: npt.NDArray[np.bool_] = known & (offset <= limit) & (slope <= limit)
-    return _subset(edges, keep)
+    offset = np.where(known, (r1 + r2) / 2.0 / (sigma / np.sqrt(length)), np.nan)
+    slope = np.where(known, (r1 - r2) / 2.0 / (sigma * np.sqrt(3.0 / length)), np.nan)
+    return offset, slope
 
 
 def _parts(

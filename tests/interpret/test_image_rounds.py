@@ -286,3 +286,40 @@ def test_a_view_whose_adjustment_breaks_the_size_ranges_is_named(
     # a scene of unknown scale has no ranges in metres
     unknown = evidence.model_copy(update={"units": "unknown"})
     assert mv._sizes_broken(buildings_kb, interp, unknown, far, [40.0 * p for p in polygons]) == []
+
+
+def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> None:
+    # the box's visible edges at the true camera as exact fits of 0.1 px points: no residual;
+    # moved 0.5 px across their edge, the offset is 0.5 px over sigma/sqrt(n); turned about
+    # their middle by 0.2 px at the ends, the slope is 0.2 px over sigma*sqrt(3/n)
+    from aida_kb.register.pose import point_sigma
+
+    model = _box()
+    _, cam = _cameras(model)
+    vis = model.visible_edges(cam, min_length_px=20.0)
+    faces = model.edge_faces[vis.index]
+    exact = EdgeObservations(faces, vis.a, vis.b, np.full(len(faces), 0.1))
+    offset, slope = mv.fit_residuals(model, cam, exact)
+    assert len(faces) >= 6
+    assert np.allclose(offset, 0.0, atol=1e-6)
+    assert np.allclose(slope, 0.0, atol=1e-6)
+    ends = cam.project(model.edge_ends[vis.index].reshape(-1, 3)).reshape(-1, 2, 2)
+    d = ends[:, 1] - ends[:, 0]
+    across = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1, keepdims=True)
+    n = np.linalg.norm(vis.b - vis.a, axis=1)
+    sigma = point_sigma(exact, mv.JOINT_EDGE_SIGMA_PX)
+    moved = EdgeObservations(faces, vis.a + 0.5 * across, vis.b + 0.5 * across, exact.sigma_px)
+    offset, slope = mv.fit_residuals(model, cam, moved)
+    assert np.allclose(offset, 0.5 / (sigma / np.sqrt(n)), rtol=1e-6)
+    assert np.allclose(slope, 0.0, atol=1e-6)
+    assert float(offset.min()) > 6.0  # far beyond IMAGE_REJECT_SIGMAS: left out
+    assert mv.consistent_edges(model, cam, moved, mv.IMAGE_REJECT_SIGMAS).size == 0
+    turned_ = EdgeObservations(faces, vis.a + 0.2 * across, vis.b - 0.2 * across, exact.sigma_px)
+    offset, slope = mv.fit_residuals(model, cam, turned_)
+    assert np.allclose(offset, 0.0, atol=1e-6)
+    assert np.allclose(slope, 0.2 / (sigma * np.sqrt(3.0 / n)), rtol=1e-6)
+    # a fit of no edge of the model has no residual
+    stray = EdgeObservations(np.array([[0, 0]]), vis.a[:1], vis.b[:1], np.array([0.1]))
+    offset, slope = mv.fit_residuals(model, cam, stray)
+    assert np.isnan(offset[0])
+    assert np.isnan(slope[0])
