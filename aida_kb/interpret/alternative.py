@@ -24,6 +24,7 @@ from aida_kb.interpret.observe import RegionView
 from aida_kb.interpret.plausibility import (
     MAX_MEAN_COST,
     attribute_violation,
+    beyond_whole,
     closed,
     hidden_inside,
     misfit,
@@ -134,6 +135,7 @@ def verify_alternative(
     offered: frozenset[str] | None = None,
     label: str = "",
     seen_by_edges: bool = False,
+    faces: dict[str, FloatArray] | None = None,
 ) -> Level | None:
     """Verify a structure in `frame` with its anchor bound to `forced`; its level, or None.
 
@@ -147,6 +149,9 @@ def verify_alternative(
     (None: those of the bindings); ``label``: how the hypothesis was generated, for the trace.
     ``seen_by_edges``: a part of the main body inserted facing the camera is accepted when
     segments lie along `VISIBLE_SEEN_MIN` of its visible edges' length (`unseen_by_edges`).
+    ``faces``: role path -> closed face (K, 3), metres, world, of the verified levels: a
+    smaller part's open face attached against one of them lies within it
+    (`plausibility.beyond_whole`).
     """
     root = structure.nodes[0]
     what = "; ".join(
@@ -163,6 +168,7 @@ def verify_alternative(
         trace.reject(hid, f"[{what}] {options}")
         return None
     best: Level | None = None
+    attachment = ctx.knowledge.attachment(structure.root)
     # the regions of the parts this one meets: segments to them are no loose evidence
     met = frozenset(exclude) | junctions
     # why each assignment fell; the trace names the first that a constraint felled (the
@@ -225,6 +231,7 @@ def verify_alternative(
                 else unseen_by_edges(ctx, adjusted.visible, edges)
             )
             or hidden_inside(ctx, solid, set(binding) | set(exclude), size)
+            or beyond_whole(attachment, closing, polygons, faces or {})
         )
         if why:
             reasons.append((why, None))

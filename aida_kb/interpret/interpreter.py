@@ -316,6 +316,7 @@ class Interpreter:
         fixed_planes = {k: v for lv in state.levels for k, v in lv.outcome.planes.items()}
         guessed = frozenset(r for lv in state.levels for r in lv.inserted)
         choices = {r: c for lv in state.levels for r, c in lv.structure.choices}
+        faces = {k: v for lv in state.levels for k, v in lv.polygons.items()}
         out: list[tuple[Level, float]] = []
         for slot in self.knowledge.concept(concept).slots:
             if slot.link != "part-of" or slot.obligatory:
@@ -356,6 +357,7 @@ class Interpreter:
                             forced=forced_by(structure, front, part),
                             exclude=used,
                             guessed=guessed,
+                            faces=faces,
                         )
                         if level is None:
                             continue

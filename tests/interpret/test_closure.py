@@ -9,8 +9,9 @@ import pytest
 
 from aida_kb.diagnostics.core import Span
 from aida_kb.errors import GeometryError
-from aida_kb.interpret.closure import close, closing_faces, settle_unseen
+from aida_kb.interpret.closure import ClosingFace, close, closing_faces, settle_unseen
 from aida_kb.interpret.hypotheses import Frame, PlanarPart
+from aida_kb.interpret.plausibility import beyond_whole
 from aida_kb.kb.model import AttachmentModel
 
 UP = np.array([0.0, -1.0, 0.0])  # OpenCV world: y down
@@ -211,3 +212,43 @@ def test_a_hip_roofs_hidden_back_corner_closes_where_four_placed_planes_meet() -
     change = {r: settled[r] - (planes[r][1] + placed[r]) for r in placed}
     assert 0.02 < max(abs(c) for c in change.values()) < 0.25
     assert change["floor"] == pytest.approx(0.0, abs=1e-6)
+
+
+def _square(centre: tuple[float, float], half: float) -> np.ndarray:
+    """A vertical square in the plane z = 0 (a wall facing -z), centre (x, y), metres."""
+    x, y = centre
+    return np.array(
+        [
+            [x - half, y - half, 0.0],
+            [x + half, y - half, 0.0],
+            [x + half, y + half, 0.0],
+            [x - half, y + half, 0.0],
+        ]
+    )
+
+
+def test_an_oriel_larger_than_the_wall_it_stands_out_of_is_refused() -> None:
+    """An open face attached against a part of the whole lies within that part's face: an
+    oriel whose back (4 m square) lies inside a 10 m front wall stands out of it; one whose
+    back is the 10 m wall's size around a 2 m patch taken for the front does not (held-out
+    61615: a 1.6 m² patch taken for the body's front, the 153 m² front wall for an oriel)."""
+    back = ClosingFace(
+        "body.oriels[0].back", "Wall", np.array([0.0, 0.0, 1.0]), 0.0, (), "body.front"
+    )
+    against = _attach("backward", "against", ("front", "back"), "back")
+    oriel = {"body.oriels[0].back": _square((0.0, -3.0), 2.0)}
+    wall = {"body.front": _square((0.0, -5.0), 5.0)}
+    assert beyond_whole(against, [back], oriel, wall) == ""
+    # a corner within the margin (10% of the face's 14.1 m diagonal) still stands out of it
+    near = {"body.oriels[0].back": _square((3.5, -3.0), 2.0)}  # reaches x = 5.5
+    assert beyond_whole(against, [back], near, wall) == ""
+    patch = {"body.front": _square((0.0, -1.0), 1.0)}
+    big = {"body.oriels[0].back": _square((0.0, -5.0), 5.0)}
+    why = beyond_whole(against, [back], big, patch)
+    assert "4 of its 4 corners" in why
+    assert "lies against body.front" in why
+    past_end = {"body.oriels[0].back": _square((5.0, -3.0), 2.0)}  # reaches x = 7
+    assert "2 of its 4 corners" in beyond_whole(against, [back], past_end, wall)
+    # a face continuing the whole's plane ('in': a wing's floor) may reach beyond it
+    assert beyond_whole(_attach("downward", "in", ("floor",), "floor"), [back], big, patch) == ""
+    assert beyond_whole(None, [back], big, patch) == ""
