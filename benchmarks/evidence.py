@@ -28,6 +28,7 @@ import json
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -188,6 +189,173 @@ def region_errors(
     return rows
 
 
+# The true faces of a view without labels.png, from the truth's exact depth (depth_left.npy):
+# a pixel lies on the true face whose plane its point is nearest, when within FACE_TOL_REL of
+# its depth (the renderer's depth and this module's undistorted rays agree to ~1e-4 of it at a
+# grazing ground; a point lies that near another face's plane only along their common edge).
+# Coplanar faces (an L's flush fronts, the floor under the ground) count as one face: no
+# region could tell them apart.
+FACE_TOL_REL = 2e-3
+COPLANAR_TOL = 1e-6  # 1 - cos of the angle and relative offset within which planes coincide
+MIN_FACE_SHARE = 0.005  # faces covering less of the view are not measured (a sliver, 0.5 %)
+SPLIT_SHARE = 0.2  # a face is split when a second region holds this share of its pixels too
+MERGE_SHARE = 0.1  # a face's main region is merged when another face holds this share of it
+LOST_COVER = 0.25  # a face whose main region covers less of it than this is lost
+FLAT_DEG = 5.0  # a slope's region fitted flat: its normal this much nearer "up" than the truth
+
+
+def truth_face_map(scene: Scene, view_id: str) -> np.ndarray:
+    """(H, W) int64 of the view's original left image: the label of the true face each pixel
+    shows (coplanar faces: the ground's, else the smallest label), 0 where none (sky, an
+    occluder, no depth). See FACE_TOL_REL."""
+    assert scene.truth is not None
+    view = scene.view(view_id)
+    assert view.depth_left is not None
+    z = np.load(view.depth_left).astype(np.float64)
+    points = original_rays(view.rig) * z[..., None]
+    planes = truth_planes_camera(scene.truth, view_id)
+    ground = scene.truth.ground.label if scene.truth.ground is not None else None
+    labels = np.array(sorted(planes, key=lambda k: (k != ground, k)), np.int64)
+    normals = np.array([planes[k][0] for k in labels])
+    offsets = np.array([planes[k][1] for k in labels])
+    scale = np.maximum(np.abs(offsets), 1.0)
+    cos = normals @ normals.T  # a floor is the ground's plane facing the other way
+    same = (np.abs(cos) >= 1.0 - COPLANAR_TOL) & (
+        np.abs(offsets[:, None] - np.sign(cos) * offsets[None, :]) <= COPLANAR_TOL * scale[:, None]
+    )
+    first = labels[np.argmax(same, axis=1)]  # the ground, else the smallest label of the group
+    with np.errstate(invalid="ignore"):
+        dist = np.abs(points @ normals.T - offsets)  # (H, W, L)
+        best = np.argmin(np.where(np.isnan(dist), np.inf, dist), axis=-1)
+        near = np.take_along_axis(dist, best[..., None], axis=-1)[..., 0] <= FACE_TOL_REL * z
+    return np.where(near, first[best], 0)
+
+
+def _face_kind(scene: Scene, view_id: str, label: int, n_true: np.ndarray) -> str | None:
+    """wall, roof or ground (as `region_errors` tells them), None for an underside."""
+    truth = scene.truth
+    assert truth is not None
+    if truth.ground is not None and label == truth.ground.label:
+        return "ground"
+    up = np.asarray(truth.pose(view_id).R, float) @ _up(scene)
+    elevation = float(np.degrees(np.arcsin(np.clip(n_true @ up, -1.0, 1.0))))
+    if abs(elevation) <= WALL_TILT_DEG:
+        return "wall"
+    return "roof" if elevation > 0.0 else None
+
+
+def face_rows(
+    scene: Scene, evidence: Evidence, products: list[ViewProducts]
+) -> list[dict[str, Any]]:
+    """One row per true face covering at least MIN_FACE_SHARE of a view: how the evidence's
+    regions cover it. view, kind, labelled (the view's regions are labels.png's), share (of
+    the image), cover (of the face's pixels in any region), main_cover (in its main region,
+    the one holding most of it), purity (of the main region's pixels on true faces, the share
+    on this one), merged (the other faces' kinds holding MERGE_SHARE of the main region), split
+    (further regions holding SPLIT_SHARE of the face), angle_deg (main region's normal to the
+    truth), z (that over the fit's 1-sigma, `fit_sigma_rad`), flat_deg (for a roof: how much
+    nearer up the main region's normal is than the truth's; > 0 flatter)."""
+    truth = scene.truth
+    assert truth is not None
+    up_world = _up(scene)
+    rows: list[dict[str, Any]] = []
+    for view, made in zip(evidence.views, products, strict=True):
+        faces = truth_face_map(scene, view.id)
+        planes = truth_planes_camera(truth, view.id)
+        regions = made.regions.astype(np.int64)
+        n_face, n_region = int(faces.max()) + 1, int(regions.max()) + 1
+        table = np.bincount(
+            faces.ravel() * n_region + regions.ravel(), minlength=n_face * n_region
+        ).reshape(n_face, n_region)  # pixels of face f in region r
+        on_faces = table[1:].sum(axis=0)  # per region: its pixels on any true face
+        by_id = {r.id: r for r in view.regions}
+        up = np.asarray(truth.pose(view.id).R, float) @ up_world
+        kinds = {
+            int(f): _face_kind(scene, view.id, int(f), planes[int(f)][0])
+            for f in np.flatnonzero(table.sum(axis=1))
+            if f > 0
+        }
+        for f, kind in kinds.items():
+            size = int(table[f].sum())
+            if kind is None or size < MIN_FACE_SHARE * faces.size:
+                continue
+            in_regions = table[f, 1:]
+            main = int(np.argmax(in_regions)) + 1
+            main_px = int(table[f, main])
+            row: dict[str, Any] = {
+                "view": view.id,
+                "face": f,
+                "kind": kind,
+                "labelled": view.segmentation == "labels",
+                "share": size / faces.size,
+                "cover": float(in_regions.sum()) / size,
+                "main_cover": main_px / size,
+                "purity": None,
+                "merged": [],
+                "split": int(np.count_nonzero(in_regions >= SPLIT_SHARE * size)) - 1,
+                "angle_deg": None,
+                "z": None,
+                "flat_deg": None,
+            }
+            if main_px > 0:
+                total = int(on_faces[main])
+                row["purity"] = main_px / max(total, 1)
+                row["merged"] = sorted(
+                    str(kinds.get(int(g)) or "underside")
+                    for g in np.flatnonzero(table[:, main] >= MERGE_SHARE * total)
+                    if g not in (0, f)
+                )
+                region = by_id.get(main)
+                if region is not None:
+                    n, n_true = np.array(region.n_init), planes[f][0]
+                    row["angle_deg"] = angle_deg(n, n_true)
+                    sigma = float(
+                        fit_sigma_rad(
+                            region.rms_m, region.inlier_count / FIT_CORRELATED_PX, region.area_m2
+                        )
+                    )
+                    if np.isfinite(sigma):
+                        row["z"] = float(np.radians(row["angle_deg"]) / sigma)
+                    if kind == "roof":
+                        row["flat_deg"] = float(
+                            np.degrees(np.arccos(np.clip(n_true @ up, -1.0, 1.0)))
+                            - np.degrees(np.arccos(np.clip(n @ up, -1.0, 1.0)))
+                        )
+            rows.append(row)
+    return rows
+
+
+def coverage_figures(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per kind of face: faces, lost (main region under LOST_COVER of it), split, merged (and
+    with which kinds), median cover / main cover / purity, median normal angle and z of the
+    main region (over the faces not lost), and for roofs the ones fitted flat (FLAT_DEG)."""
+    out: dict[str, Any] = {}
+    for kind in KINDS:
+        sel = [r for r in rows if r["kind"] == kind]
+        kept = [r for r in sel if r["main_cover"] >= LOST_COVER]
+        merged: dict[str, int] = {}
+        for r in kept:
+            for other in set(r["merged"]):
+                merged[other] = merged.get(other, 0) + 1
+        fig: dict[str, Any] = {
+            "faces": len(sel),
+            "lost": len(sel) - len(kept),
+            "split": sum(1 for r in kept if r["split"] > 0),
+            "merged": sum(1 for r in kept if r["merged"]),
+            "merged_with": merged,
+            "median_cover": _median([r["cover"] for r in sel]),
+            "median_main_cover": _median([r["main_cover"] for r in sel]),
+            "median_purity": _median([r["purity"] for r in kept]),
+            "median_angle_deg": _median([r["angle_deg"] for r in kept]),
+            "over_gross": sum(1 for r in kept if (r["angle_deg"] or 0.0) > GROSS_DEG),
+            "median_z": _median([r["z"] for r in kept]),
+        }
+        if kind == "roof":
+            fig["flat"] = sum(1 for r in kept if (r["flat_deg"] or 0.0) > FLAT_DEG)
+        out[kind] = fig
+    return out
+
+
 def _median(values: list[float | None]) -> float | None:
     """The median of the known values, 2 decimals; None when none is known."""
     known = [v for v in values if v is not None]
@@ -227,11 +395,27 @@ def kind_figures(rows: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def random_scenes(seeds: range, kept: Path | None, max_views: int) -> None:
+def random_scenes(
+    seeds: range,
+    kept: Path | None,
+    max_views: int,
+    *,
+    coverage: bool = False,
+    unlabelled: bool = False,
+    params: VisionParams | None = None,
+) -> None:
     """Per-kind figures of the region normals of randomised scenes, default pipeline and
-    disparity fits alone; a line per scene on stderr, ONE line of JSON on stdout."""
+    disparity fits alone; a line per scene on stderr, ONE line of JSON on stdout. With
+    `coverage`, the default pipeline alone, and per kind of face how its regions cover the
+    true faces (`face_rows`, `coverage_figures`), with a line per face on stderr. With
+    `unlabelled`, only the scenes without labels.png. `params`: the pipeline's parameters
+    (default VisionParams())."""
+    base = params or VisionParams()
     rows: dict[str, list[dict[str, Any]]] = {"default": [], "disparity_fit_only": []}
-    variants = {"default": VisionParams(), "disparity_fit_only": VisionParams(photometric_window=0)}
+    variants = {"default": base, "disparity_fit_only": replace(base, photometric_window=0)}
+    if coverage:
+        del variants["disparity_fit_only"], rows["disparity_fit_only"]
+    faces: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
             if kept is not None:
@@ -240,21 +424,49 @@ def random_scenes(seeds: range, kept: Path | None, max_views: int) -> None:
                     continue
             else:
                 spec = random_scene(seed, max_views=max_views)
+                if unlabelled and spec.write_labels:
+                    continue
                 scene_dir = render_scene(spec, Path(tmp) / f"scene-{seed}")
             scene = read_scene(scene_dir)
+            if unlabelled and scene.views[0].labels is not None:
+                continue
             views = [v.id for v in scene.views[:max_views]]
             for name, params in variants.items():
                 evidence, products = scene_evidence(scene, views=views, params=params)
                 found = region_errors(scene, evidence, products)
                 rows[name] += [{**r, "seed": seed} for r in found]
             print(f"seed {seed}: {len(found)} regions on true planes", file=sys.stderr)
+            if coverage:
+                covered = [{**r, "seed": seed} for r in face_rows(scene, evidence, products)]
+                faces += covered
+                for r in covered:
+                    print(f"  {_face_line(r)}", file=sys.stderr)
     summary: dict[str, Any] = {"seeds": f"{seeds.start}-{seeds.stop - 1}", "views": max_views}
     for name, found in rows.items():
         summary[name] = {
             "with_labels": kind_figures([r for r in found if r["labelled"]]),
             "without_labels": kind_figures([r for r in found if not r["labelled"]]),
         }
+    if coverage:
+        summary["coverage"] = {
+            "with_labels": coverage_figures([r for r in faces if r["labelled"]]),
+            "without_labels": coverage_figures([r for r in faces if not r["labelled"]]),
+        }
     print(json.dumps(summary))
+
+
+def _face_line(row: dict[str, Any]) -> str:
+    """One face's coverage row as a line of text."""
+
+    def fmt(value: float | None, digits: int = 2) -> str:
+        return "-" if value is None else f"{value:.{digits}f}"
+
+    return (
+        f"{row['seed']} view {row['view']} face {row['face']:>2} {row['kind']:<6} "
+        f"share {fmt(row['share'], 3)} cover {fmt(row['cover'])} main {fmt(row['main_cover'])} "
+        f"purity {fmt(row['purity'])} split {row['split']} merged {','.join(row['merged']) or '-'}"
+        f" angle {fmt(row['angle_deg'])} z {fmt(row['z'], 1)} flat {fmt(row['flat_deg'], 1)}"
+    )
 
 
 def main() -> None:
@@ -265,10 +477,20 @@ def main() -> None:
     parser.add_argument("--random-count", type=int, default=12)
     parser.add_argument("--kept", type=Path, help="read DIR/scene-SEED instead of rendering")
     parser.add_argument("--max-views", type=int, default=3)
+    parser.add_argument(
+        "--coverage", action="store_true", help="how the regions cover the true faces"
+    )
+    parser.add_argument("--unlabelled", action="store_true", help="scenes without labels.png")
     args = parser.parse_args()
     if args.random_start is not None:
         seeds = range(args.random_start, args.random_start + args.random_count)
-        random_scenes(seeds, args.kept, args.max_views)
+        random_scenes(
+            seeds,
+            args.kept,
+            args.max_views,
+            coverage=args.coverage,
+            unlabelled=args.unlabelled,
+        )
         return
     presets()
 
