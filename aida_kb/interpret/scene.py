@@ -1145,10 +1145,14 @@ def _keeps(first: Interpretation, again: Interpretation) -> bool:
 
 
 def _object_uncertainty(whole: Uncertainty, role: str) -> Uncertainty:
-    """The scene adjustment's deviations as one object's (`role`): its parts, roles relative
-    to it, and every camera."""
-    parts = {_strip(role, r): sd for r, sd in whole.parts.items() if r.startswith(role + ".")}
-    return replace(whole, parts=parts)
+    """The scene adjustment's deviations as one object's (`role`): its parts and the parts of
+    it a region lies on, roles relative to it, and every camera. (The parts a region lies on
+    were once left the scene's: every object's verdict then named every other object's parts,
+    by their scene roles, as parts whose normal the adjustment leaves open.)"""
+    prefix = role + "."
+    parts = {_strip(role, r): sd for r, sd in whole.parts.items() if r.startswith(prefix)}
+    on_regions = frozenset(_strip(role, r) for r in whole.on_regions if r.startswith(prefix))
+    return replace(whole, parts=parts, on_regions=on_regions)
 
 
 # ---- judging a scene of several objects against its truth (tests and benchmarks) ------------

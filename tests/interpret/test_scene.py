@@ -371,3 +371,35 @@ def test_no_object_is_verified_without_the_views_left_unregistered(
         assert all(any("(01)" in d for d in o.doubts) for o in judged.objects)
     # with every view registered nothing is judged again
     assert _every_view(street_kb, evidence, claimed) is claimed
+
+
+def test_an_objects_deviations_are_its_own_parts_alone() -> None:
+    from aida_kb.interpret.scene import _object_uncertainty
+    from aida_kb.interpret.uncertainty import Uncertainty
+    from aida_kb.interpret.verdict.normals import loose_normals
+
+    whole = Uncertainty(
+        parts={
+            "houses[0].body.front": (0.1, 0.01),
+            "houses[0].body.left": (0.9, 0.02),
+            "houses[1].body.front": (0.1, 0.01),
+            "houses[10].body.front": (2.0, 0.05),
+        },
+        cameras={"01": (0.02, 0.01)},
+        on_regions=frozenset(
+            {
+                "houses[0].body.front",
+                "houses[0].body.left",
+                "houses[1].body.front",
+                "houses[10].body.front",
+            }
+        ),
+    )
+    own = _object_uncertainty(whole, "houses[1]")
+    assert own.parts == {"body.front": (0.1, 0.01)}
+    assert own.on_regions == frozenset({"body.front"})
+    assert own.cameras == whole.cameras
+    # each object's verdict names its own loose parts, none of another object's
+    assert loose_normals(own) == []
+    (loose,) = loose_normals(_object_uncertainty(whole, "houses[0]"))
+    assert loose.startswith("body.left:")
