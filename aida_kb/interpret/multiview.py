@@ -58,7 +58,14 @@ from aida_kb.interpret.run import interpret
 from aida_kb.interpret.transfer import ImageTransfer
 from aida_kb.interpret.uncertainty import IMAGE_EDGE_LABEL
 from aida_kb.io.evidence import Evidence, ViewEvidence
-from aida_kb.io.model import Cahv, CameraSd, ModelCamera, ModelPart, ReconstructedModel
+from aida_kb.io.model import (
+    Cahv,
+    CameraSd,
+    ModelCamera,
+    ModelPart,
+    ReconstructedModel,
+    moved_part,
+)
 from aida_kb.io.scene import Scene
 from aida_kb.kb.paths import RolePath
 from aida_kb.register import (
@@ -1164,19 +1171,7 @@ def in_frame_of_first(interp: Interpretation, first: str) -> Interpretation | No
         return None
     R0 = np.asarray(cam0.R, dtype=np.float64)  # x_first = R0 @ x + t0
     t0 = np.asarray(cam0.t, dtype=np.float64)
-    parts = []
-    for p in model.parts:
-        n = R0 @ np.asarray(p.normal, dtype=np.float64)
-        polygon = np.asarray(p.polygon, dtype=np.float64) @ R0.T + t0
-        parts.append(
-            p.model_copy(
-                update={
-                    "normal": _v3(n / np.linalg.norm(n)),
-                    "offset_m": float(p.offset_m + n @ t0),
-                    "polygon": [_v3(v) for v in polygon],
-                }
-            )
-        )
+    parts = [moved_part(p, R0, t0) for p in model.parts]
     cameras = []
     for c in model.cameras:
         R = np.asarray(c.R, dtype=np.float64) @ R0.T

@@ -18,6 +18,9 @@ the goal, each object's instances, model parts and residuals under its role (``h
 ``houses[1]`` ...; the order found), the traces one after the other, and `objects` with every
 object's verdict; the scene is verified when every object is, doubtful when one is.
 
+An object the first view does not show (hidden behind another) is looked for in each registered
+later view once the views are registered (`later_view_objects`).
+
 Cost: round k searches with the regions of k objects removed; each round tries at most
 `ANCHORS_PER_ROUND` anchors, and each anchor's search is bounded like one object's: at most
 `interpreter.MAX_BODY_VERIFICATIONS` adjustments of the body (of the hypotheses
@@ -33,7 +36,7 @@ of the view each round (O(N · R²) cheap border tests). Never the combinations 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -66,7 +69,7 @@ from aida_kb.interpret.verdict import (
     with_verdict,
 )
 from aida_kb.io.evidence import Evidence, ViewEvidence
-from aida_kb.io.model import ModelObject, ModelPart, ReconstructedModel
+from aida_kb.io.model import ModelObject, ModelPart, ReconstructedModel, moved_part
 from aida_kb.io.scene import SceneTruth
 from aida_kb.io.subset import without_regions
 
@@ -345,26 +348,33 @@ def _prefixed(
     return instances, parts, trace
 
 
-def interpret_scene(
-    kb: KnowledgeBase,
+@dataclass(frozen=True)
+class Search:
+    """The objects `find_objects` found: each accepted interpretation with the regions it
+    explains, in the order found; the hypotheses expanded; why the rounds stopped; the choices
+    the knowledge decided for an object (by ``id`` of its interpretation)."""
+
+    found: list[tuple[Interpretation, set[str]]]
+    expanded: int
+    stop: str
+    taken: dict[int, list[str]]
+
+
+def find_objects(
+    knowledge: Knowledge,
+    view: EvidenceView,
     evidence: Evidence,
-    goal: str,
     slot: Members,
+    limit: int,
     *,
-    source: str = "",
+    already: frozenset[str] = frozenset(),
     progress: Callable[[str], None] | None = None,
     prefer: Sequence[Preference] = (),
-) -> Interpretation:
-    """Interpret `evidence` for a goal holding several objects in its role `slot` (see the
-    module docstring). The result carries every object with its own verdict in `objects`, and
-    the scene's verdict. prefer : choices along is-a that other views decided for objects found
-    before (`Preference`, `reconstruct_objects`): an object anchored on one of a preference's
-    regions takes the tied body making those choices."""
-    knowledge = Knowledge.from_kb(kb)
-    view = view_of(evidence, source)
-    limit = min(slot.max if slot.max is not None else MAX_OBJECTS, MAX_OBJECTS)
+) -> Search:
+    """The rounds of `interpret_scene` (module docstring) on the reference view of `view`:
+    at most `limit` objects of the role `slot`, none on the regions `already` explained."""
     found: list[tuple[Interpretation, set[str]]] = []
-    explained: set[str] = set()
+    explained = set(already)
     expanded = 0
     stop = ""
     reference = {r for r in view.regions if view.regions[r].view == view.reference_view}
@@ -415,6 +425,29 @@ def interpret_scene(
         own = bound | on_faces(view, one.model, reference - explained - bound)
         explained |= own
         found.append((one, own))
+    return Search(found, expanded, stop, taken)
+
+
+def interpret_scene(
+    kb: KnowledgeBase,
+    evidence: Evidence,
+    goal: str,
+    slot: Members,
+    *,
+    source: str = "",
+    progress: Callable[[str], None] | None = None,
+    prefer: Sequence[Preference] = (),
+) -> Interpretation:
+    """Interpret `evidence` for a goal holding several objects in its role `slot` (see the
+    module docstring). The result carries every object with its own verdict in `objects`, and
+    the scene's verdict. prefer : choices along is-a that other views decided for objects found
+    before (`Preference`, `reconstruct_objects`): an object anchored on one of a preference's
+    regions takes the tied body making those choices."""
+    knowledge = Knowledge.from_kb(kb)
+    view = view_of(evidence, source)
+    limit = min(slot.max if slot.max is not None else MAX_OBJECTS, MAX_OBJECTS)
+    search = find_objects(knowledge, view, evidence, slot, limit, progress=progress, prefer=prefer)
+    found, expanded, stop, taken = search.found, search.expanded, search.stop, search.taken
     # each object judged on the evidence without what the others explain
     objects: list[SceneObject] = []
     instances = [Instance(role="", concept=goal, instance_of=goal, parent=None, link="goal")]
@@ -892,7 +925,8 @@ def reconstruct_objects(
     re-judged by every view), and for a scene of several objects their ties re-judged by the
     other views object by object (see above), then the ties still open that the knowledge
     decides (`shared_choices`: a touching object's choice): at most three more reconstructions
-    of the scene, none when no object has a tie."""
+    of the scene, none when no object has a tie; last, the objects that only the later views
+    show (`later_view_objects`)."""
     from aida_kb.interpret.multiview import reconstruct_views  # they build on this module
     from aida_kb.interpret.rejudge import rejudged_views
 
@@ -903,7 +937,7 @@ def reconstruct_objects(
     )
     flips = _ties(first)
     if not flips:
-        return first
+        return later_view_objects(kb, evidence, first, source=source, progress=progress)
 
     def again(chosen: dict[str, Preference]) -> Interpretation:
         if progress is not None:
@@ -939,7 +973,152 @@ def reconstruct_objects(
         third = _every_view(kb, evidence, again(wanted))
         result = third if _keeps(result, third) else result
     confirmed = confirmed_choices(kb, result)
-    return result if confirmed is result else judge_objects(kb, confirmed, evidence)
+    result = result if confirmed is result else judge_objects(kb, confirmed, evidence)
+    return later_view_objects(kb, evidence, result, source=source, progress=progress)
+
+
+# ---- objects the first view does not show -------------------------------------------------
+# A house hidden behind another in the first view (street 62602: only a strip of its roof
+# shows there) is found in no round of `interpret_scene`, which looks at the first view alone.
+# Once the later views are registered, each one's evidence is searched the same way for more
+# objects: its regions lying on the faces of the objects found so far (`on_faces`, the model
+# moved into that view's camera frame by its registered pose) count as explained, the rounds of
+# `find_objects` run on the rest, and an object they find is moved back into the world frame
+# by the view's pose, joins the scene under the next index of the role, and every object is
+# judged again on all views (`judge_objects`). Its geometry is that view's own interpretation
+# (not adjusted jointly with the others); the verdict judges it on every view like the rest.
+# Cost: one more set of rounds per registered later view, on the regions its objects leave.
+
+
+def later_view_objects(
+    kb: KnowledgeBase,
+    evidence: Evidence,
+    interp: Interpretation,
+    *,
+    source: str = "",
+    progress: Callable[[str], None] | None = None,
+) -> Interpretation:
+    """`interp` (a scene of several objects, its later views registered) with the objects the
+    later views show and the first does not (see above); `interp` itself when there are none,
+    the role is full, or the evidence's first view is not at the world's origin."""
+    from aida_kb.interpret.multiview import first_view_swapped  # it builds on this module
+
+    model = interp.model
+    knowledge = Knowledge.from_kb(kb)
+    slot = members(knowledge, interp.goal) if interp.accepted else None
+    if model is None or not interp.objects or slot is None:
+        return interp
+    room = min(slot.max if slot.max is not None else MAX_OBJECTS, MAX_OBJECTS)
+    room -= len(interp.objects)
+    cameras = {c.view: c for c in model.cameras}
+    parts = list(model.parts)
+    solids = [
+        _vertices(p for p in parts if p.role.startswith(o.role + ".")) for o in interp.objects
+    ]
+    added: list[tuple[Interpretation, set[str], str]] = []  # world-frame result, regions, view
+    for later in evidence.views[1:]:
+        camera = cameras.get(later.id)
+        if camera is None or room <= len(added):
+            continue
+        swapped = first_view_swapped(evidence, later.id)
+        if swapped is None:
+            break
+        alone = swapped.model_copy(update={"views": swapped.views[:1]})
+        R = np.asarray(camera.R, dtype=np.float64)  # x_view = R x_world + t
+        t = np.asarray(camera.t, dtype=np.float64)
+        view = view_of(alone, source)
+        if not view.regions:
+            continue
+        seen = ReconstructedModel(parts=[moved_part(p, R, t) for p in parts])
+        already = frozenset(on_faces(view, seen, set(view.regions)))
+        if progress is not None:
+            progress(f"looking for more {slot.concept} in view {later.id}")
+        search = find_objects(
+            knowledge, view, alone, slot, room - len(added), already=already, progress=progress
+        )
+        for one, own in search.found:
+            assert one.model is not None
+            back = [moved_part(p, R.T, -R.T @ t) for p in one.model.parts]
+            mine = _vertices(back)
+            if any(_overlap(mine, theirs) for theirs in solids):
+                continue
+            moved = one.model_copy(update={"model": one.model.model_copy(update={"parts": back})})
+            added.append((moved, own, later.id))
+            parts += back
+            solids.append(mine)
+    if not added:
+        return interp
+    return judge_objects(kb, _joined(interp, slot, added), evidence)
+
+
+def _vertices(parts: Iterable[ModelPart]) -> FloatArray:
+    """(K, 3) the polygon vertices of `parts`, world frame, metres."""
+    return np.concatenate([np.asarray(p.polygon, dtype=np.float64) for p in parts])
+
+
+def _overlap(a: FloatArray, b: FloatArray) -> bool:
+    """True if the convex hull of the vertices `a` (K, 3) holds the centre of `b` (L, 3) or the
+    other way round: one object found twice."""
+    from scipy.spatial import Delaunay, QhullError
+
+    for hull, centre in ((a, b.mean(axis=0)), (b, a.mean(axis=0))):
+        try:
+            if int(Delaunay(hull).find_simplex(centre[None, :])[0]) >= 0:
+                return True
+        except QhullError:  # a flat solid holds no centre
+            continue
+    return False
+
+
+def _joined(
+    interp: Interpretation, slot: Members, added: list[tuple[Interpretation, set[str], str]]
+) -> Interpretation:
+    """`interp` with the objects `added` (world-frame results, their regions, the view each
+    was found in) under the next indices of the role `slot`, not yet judged."""
+    assert interp.model is not None
+    instances, parts = list(interp.instances), list(interp.model.parts)
+    trace, residuals, objects = list(interp.trace), list(interp.residuals), list(interp.objects)
+    notes = []
+    for one, own, view in added:
+        prefix = f"{slot.role}[{len(objects)}]"
+        inst, faces, steps = _prefixed(prefix, one, len(trace))
+        instances += inst
+        parts += faces
+        trace += steps
+        residuals += [
+            r.model_copy(
+                update={
+                    "owner": _under(prefix, r.owner),
+                    "parts": tuple(_under(prefix, p) for p in r.parts),
+                }
+            )
+            for r in one.residuals
+        ]
+        objects.append(
+            SceneObject(
+                role=prefix,
+                concept=slot.concept,
+                verdict=DOUBTFUL,
+                message=f"{one.message} (found in view {view})",
+                cost=one.cost,
+                expanded=one.expanded,
+                evidence=sorted(own),
+                ties=list(one.ties),
+            )
+        )
+        notes.append(f"{prefix} found in view {view}, which the first view does not show")
+    model = interp.model.model_copy(update={"parts": parts})
+    return interp.model_copy(
+        update={
+            "instances": instances,
+            "model": model,
+            "trace": trace,
+            "residuals": residuals,
+            "objects": objects,
+            "expanded": interp.expanded + sum(o.expanded for o, _, _ in added),
+            "message": f"{interp.message}; " + "; ".join(notes),
+        }
+    )
 
 
 def _kept_choices(interp: Interpretation, chosen: dict[str, Preference]) -> dict[str, Preference]:

@@ -9,12 +9,16 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import AfterValidator, BeforeValidator, Field, model_validator
 
 from aida_kb.io.atomic import write_text_atomic
 from aida_kb.io.jsonio import FrozenModel, read_json_model, write_json_model
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
 
 # Larger magnitudes are certainly wrong (metres, pixels, counts) and would overflow when squared.
 MAX_MAGNITUDE = 1e12
@@ -203,6 +207,26 @@ class ModelPart(_Frozen):
         if math.sqrt(sum(c * c for c in area2)) <= 2e-12:
             raise ValueError(f"part {self.role!r}: polygon has zero area")
         return self
+
+
+def moved_part(
+    part: ModelPart, R: npt.NDArray[np.float64], t: npt.NDArray[np.float64]
+) -> ModelPart:
+    """`part` in the frame ``x' = R x + t`` (R (3, 3) a rotation, t (3,) metres): its normal
+    turned, its polygon moved and its offset ``d' = d + n'·t``; its deviations kept (a rigid
+    motion does not change them)."""
+    import numpy as np  # not at import: `aida-kb lint` starts without numpy
+
+    n = R @ np.asarray(part.normal, dtype=np.float64)
+    n = n / float(np.linalg.norm(n))
+    polygon = np.asarray(part.polygon, dtype=np.float64) @ R.T + t
+    return part.model_copy(
+        update={
+            "normal": (float(n[0]), float(n[1]), float(n[2])),
+            "offset_m": float(part.offset_m + n @ t),
+            "polygon": [(float(v[0]), float(v[1]), float(v[2])) for v in polygon],
+        }
+    )
 
 
 class ModelObject(_Frozen):

@@ -403,3 +403,94 @@ def test_an_objects_deviations_are_its_own_parts_alone() -> None:
     assert loose_normals(own) == []
     (loose,) = loose_normals(_object_uncertainty(whole, "houses[0]"))
     assert loose.startswith("body.left:")
+
+
+def _without_object(interp: Interpretation, role: str) -> Interpretation:
+    """`interp` as if the object `role` had never been found."""
+    assert interp.model is not None
+    mine = role + "."
+
+    def other(name: str) -> bool:
+        return name != role and not name.startswith(mine)
+
+    return interp.model_copy(
+        update={
+            "instances": [i for i in interp.instances if other(i.role)],
+            "model": interp.model.model_copy(
+                update={
+                    "parts": [p for p in interp.model.parts if other(p.role)],
+                    "objects": [o for o in interp.model.objects if other(o.role)],
+                }
+            ),
+            "objects": [o for o in interp.objects if other(o.role)],
+            "residuals": [r for r in interp.residuals if all(other(p) for p in r.parts)],
+        }
+    )
+
+
+def test_an_object_only_a_later_view_shows_is_found_there(
+    street_kb: KnowledgeBase, street_result: tuple[Path, Evidence, Interpretation]
+) -> None:
+    """A house the first view does not show (here: taken out of the first view's result) is
+    looked for in the registered later view's evidence, beside what the objects found explain
+    there, moved into the world frame by that view's pose and judged with the others."""
+    from aida_kb.interpret.scene import later_view_objects
+
+    _, evidence, interp = street_result
+    assert interp.model is not None
+    assert len(interp.objects) == 2
+    # view 01: the same images again, registered at the first view's pose
+    first = evidence.views[0]
+    again = first.model_copy(update={"id": "01", "frame": "camera"})
+    both = evidence.model_copy(update={"views": [first, again]})
+    (cam,) = interp.model.cameras
+    model = interp.model.model_copy(
+        update={"cameras": [cam, cam.model_copy(update={"view": "01"})]}
+    )
+    lost = _without_object(interp.model_copy(update={"model": model}), "houses[1]")
+    assert [o.role for o in lost.objects] == ["houses[0]"]
+
+    found = later_view_objects(street_kb, both, lost)
+    assert [o.role for o in found.objects] == ["houses[0]", "houses[1]"]
+    new = found.objects[1]
+    assert new.evidence
+    assert all(r.startswith("01/") for r in new.evidence)
+    assert "houses[1] found in view 01" in found.message
+    assert found.model is not None
+    # the same house as the first view's: its parts where they were
+    was = {p.role: p for p in interp.model.parts if p.role.startswith("houses[1].")}
+    now = {p.role: p for p in found.model.parts if p.role.startswith("houses[1].")}
+    assert set(now) == set(was)
+    for role, part in now.items():
+        assert float(np.dot(part.normal, was[role].normal)) > np.cos(np.radians(1.0)), role
+        assert part.offset_m == pytest.approx(was[role].offset_m, abs=0.05)
+    # judged with the others: a verdict each, in the model too
+    assert [(o.role, o.verdict) for o in found.model.objects] == [
+        (o.role, o.verdict) for o in found.objects
+    ]
+    # nothing is found twice: with both houses known, view 01 adds none
+    assert later_view_objects(street_kb, both, found).objects == found.objects
+
+
+def test_a_part_moves_with_its_frame() -> None:
+    from scipy.spatial.transform import Rotation
+
+    from aida_kb.io.model import ModelPart, moved_part
+
+    part = ModelPart(
+        role="body.front",
+        concept="Wall",
+        normal=(0.0, 0.0, -1.0),
+        offset_m=-10.0,
+        polygon=[(-1.0, -1.0, 10.0), (1.0, -1.0, 10.0), (1.0, 1.0, 10.0), (-1.0, 1.0, 10.0)],
+    )
+    R = Rotation.from_rotvec([0.1, -0.4, 0.2]).as_matrix()
+    t = np.array([2.0, -1.0, 3.0])
+    moved = moved_part(part, R, t)
+    # the polygon moved, on the moved plane (the model's validator checks it too)
+    for v, w in zip(part.polygon, moved.polygon, strict=True):
+        assert np.allclose(R @ np.asarray(v) + t, w)
+    assert np.dot(moved.normal, moved.polygon[0]) == pytest.approx(moved.offset_m)
+    back = moved_part(moved, R.T, -R.T @ t)
+    assert np.allclose(back.normal, part.normal)
+    assert back.offset_m == pytest.approx(-10.0)
