@@ -133,9 +133,9 @@ def hidden_inside(
 # of) lies within that part's face in the whole's closed model; its corners may lie outside
 # that face by this fraction of the face's size, as a region's centroid may lie outside its own
 # face (`FACE_MARGIN`: plane fits and the whole's inserted walls placed by the knowledge move
-# the face's edges). Held-out 61615: a 1.6 m² patch was taken for the body's front (22 m²) and
-# the 153 m² front wall for an oriel standing out of it; 61619: an oriel reaching past the
-# front's end where the wing stands.
+# the face's edges). Dev 61615 (held out in session 15): a 1.6 m² patch was taken for the
+# body's front (22 m²) and the 153 m² front wall for an oriel standing out of it; 61619: an
+# oriel reaching past the front's end where the wing stands.
 AGAINST_MARGIN = FACE_MARGIN
 
 
