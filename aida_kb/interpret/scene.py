@@ -72,6 +72,7 @@ from aida_kb.io.evidence import Evidence, ViewEvidence
 from aida_kb.io.model import ModelObject, ModelPart, ReconstructedModel, moved_part
 from aida_kb.io.scene import SceneTruth
 from aida_kb.io.subset import without_regions
+from aida_kb.solve import ConstraintResidual
 
 if TYPE_CHECKING:
     from aida_kb.io.scene import Scene
@@ -316,9 +317,9 @@ def _under(prefix: str, role: str) -> str:
 
 def _prefixed(
     prefix: str, interp: Interpretation, offset: int
-) -> tuple[list[Instance], list[ModelPart], list[HypothesisTrace]]:
-    """An object's instances, model parts and trace under its role `prefix` in the scene; its
-    hypotheses' ids moved by `offset` (the scene's trace is one list)."""
+) -> tuple[list[Instance], list[ModelPart], list[HypothesisTrace], list[ConstraintResidual]]:
+    """An object's instances, model parts, trace and residuals under its role `prefix` in the
+    scene; its hypotheses' ids moved by `offset` (the scene's trace is one list)."""
     instances = [
         inst.model_copy(
             update={
@@ -345,7 +346,16 @@ def _prefixed(
         )
         for h in interp.trace
     ]
-    return instances, parts, trace
+    residuals = [
+        r.model_copy(
+            update={
+                "owner": _under(prefix, r.owner),
+                "parts": tuple(_under(prefix, p) for p in r.parts),
+            }
+        )
+        for r in interp.residuals
+    ]
+    return instances, parts, trace, residuals
 
 
 @dataclass(frozen=True)
@@ -452,7 +462,7 @@ def interpret_scene(
     objects: list[SceneObject] = []
     instances = [Instance(role="", concept=goal, instance_of=goal, parent=None, link="goal")]
     parts: list[ModelPart] = []
-    residuals = []
+    residuals: list[ConstraintResidual] = []
     trace: list[HypothesisTrace] = []
     dropped: list[str] = []
     for one, own in found:
@@ -463,19 +473,11 @@ def interpret_scene(
             dropped.append(judged.message)
             continue
         prefix = f"{slot.role}[{len(objects)}]"
-        inst, faces, steps = _prefixed(prefix, judged, len(trace))
+        inst, faces, steps, rows = _prefixed(prefix, judged, len(trace))
         instances += inst
         parts += faces
         trace += steps
-        residuals += [
-            r.model_copy(
-                update={
-                    "owner": _under(prefix, r.owner),
-                    "parts": tuple(_under(prefix, p) for p in r.parts),
-                }
-            )
-            for r in judged.residuals
-        ]
+        residuals += rows
         objects.append(
             SceneObject(
                 role=prefix,
@@ -1081,19 +1083,11 @@ def _joined(
     notes = []
     for one, own, view in added:
         prefix = f"{slot.role}[{len(objects)}]"
-        inst, faces, steps = _prefixed(prefix, one, len(trace))
+        inst, faces, steps, rows = _prefixed(prefix, one, len(trace))
         instances += inst
         parts += faces
         trace += steps
-        residuals += [
-            r.model_copy(
-                update={
-                    "owner": _under(prefix, r.owner),
-                    "parts": tuple(_under(prefix, p) for p in r.parts),
-                }
-            )
-            for r in one.residuals
-        ]
+        residuals += rows
         objects.append(
             SceneObject(
                 role=prefix,
