@@ -958,13 +958,19 @@ def fit_residuals(
     projection at `camera`, in its own sigmas (the end points' residuals (r1, r2) across the
     projected edge, pixels, whitened as `_fitted_edge_factors` does: ``(r1 + r2) / 2`` over
     ``sigma / sqrt(n)`` and ``(r1 - r2) / 2`` over ``sigma·sqrt(3/n)``, sigma the fit's
-    `point_sigma`, n its length in pixels); NaN for a fit of no edge of the model."""
+    `point_sigma`, n its length in pixels); NaN for a fit of no edge of the model or of an
+    edge with an end on or behind the camera's focal plane."""
     if edges.size == 0:
         return np.zeros(0), np.zeros(0)
     pair = {(int(min(a, b)), int(max(a, b))): i for i, (a, b) in enumerate(model.edge_faces)}
     index = np.array([pair.get((int(min(a, b)), int(max(a, b))), -1) for a, b in edges.faces])
-    known = index >= 0
-    ends = camera.project(model.edge_ends[np.maximum(index, 0)].reshape(-1, 3)).reshape(-1, 2, 2)
+    points = model.edge_ends[np.maximum(index, 0)]  # (F, 2, 3), world
+    # an edge reaching behind the camera has no line in the image (a wrong model's wall running
+    # past the camera: independent render 70901 stopped with a GeometryError here)
+    known = (index >= 0) & camera.in_front(points.reshape(-1, 3)).reshape(-1, 2).all(axis=1)
+    ends = np.zeros((len(index), 2, 2))
+    if known.any():
+        ends[known] = camera.project(points[known].reshape(-1, 3)).reshape(-1, 2, 2)
     d = ends[:, 1] - ends[:, 0]
     normal = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.maximum(
         np.linalg.norm(d, axis=1, keepdims=True), 1e-9

@@ -323,3 +323,20 @@ def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> Non
     offset, slope = mv.fit_residuals(model, cam, stray)
     assert np.isnan(offset[0])
     assert np.isnan(slope[0])
+    # an edge with an end behind the camera has no line in the image: no residual, no error
+    # the camera moved forward along its axis to the median depth of the edges' ends
+    R = cam.R_cam_world
+    depth = float(np.median(cam.depth(model.edge_ends[vis.index].reshape(-1, 3))))
+    within = PinholeCamera(
+        cam.K, R, cam.t_cam_world - np.array([0.0, 0.0, depth]), cam.width, cam.height
+    )
+    ahead = within.in_front(model.edge_ends[vis.index].reshape(-1, 3)).reshape(-1, 2).all(axis=1)
+    assert ahead.any()
+    assert not ahead.all()
+    offset, slope = mv.fit_residuals(model, within, exact)
+    assert np.all(np.isnan(offset[~ahead]))
+    assert np.all(np.isnan(slope[~ahead]))
+    assert np.all(np.isfinite(offset[ahead]))
+    assert mv.consistent_edges(model, within, exact, mv.IMAGE_REJECT_SIGMAS).size <= int(
+        ahead.sum()
+    )
