@@ -224,7 +224,8 @@ def test_a_tie_the_other_views_decide_is_taken_for_its_object_alone(
     shed whose back wall stands under the ridge explain view 00 alike (a tie, kept per object
     so that its verdict doubts it). Preferred by the other views (`Preference`), the tied
     choice is taken for that object alone and is no longer named a tie."""
-    from aida_kb.interpret.scene import Preference, _ties
+    from aida_kb.interpret.scene import Preference
+    from aida_kb.interpret.scene.ties import _ties
 
     _, evidence, first = street_result
     roofs = {i.role: i.concept for i in first.instances if i.role.endswith("body.roof")}
@@ -251,7 +252,7 @@ def test_a_choice_taken_for_one_object_must_not_lose_another() -> None:
     """`reconstruct_objects` keeps a reconstruction made with a tied choice only when every
     object of the first is still there (one sharing regions with it)."""
     from aida_kb.interpret.result import SceneObject
-    from aida_kb.interpret.scene import _keeps, _matching
+    from aida_kb.interpret.scene.judging import keeps, matching
 
     def scene(*evidence: list[str]) -> Interpretation:
         objects = [
@@ -268,12 +269,12 @@ def test_a_choice_taken_for_one_object_must_not_lose_another() -> None:
         return Interpretation(goal="Street", accepted=True, message="", expanded=1, objects=objects)
 
     first = scene(["00/2", "00/4"], ["00/9", "00/11"])
-    assert _keeps(first, scene(["00/9", "00/11", "00/13"], ["00/2"]))
-    assert not _keeps(first, scene(["00/2", "00/4"]))
-    match = _matching(scene(["00/2"], ["00/4", "00/9", "00/11"]), frozenset({"00/9", "00/11"}))
+    assert keeps(first, scene(["00/9", "00/11", "00/13"], ["00/2"]))
+    assert not keeps(first, scene(["00/2", "00/4"]))
+    match = matching(scene(["00/2"], ["00/4", "00/9", "00/11"]), frozenset({"00/9", "00/11"}))
     assert match is not None
     assert match.role == "houses[1]"
-    assert _matching(first, frozenset({"00/30"})) is None
+    assert matching(first, frozenset({"00/30"})) is None
 
 
 def test_faces_too_small_for_their_regions_leave_them_outside(
@@ -282,11 +283,12 @@ def test_faces_too_small_for_their_regions_leave_them_outside(
     """`inside_faces`: the faces of an object's model hold the regions on them; the same
     planes with every face shrunk to half its size about its centre leave about three
     quarters of the largest region outside (a shed too short for the gable wall a view sees)."""
-    from aida_kb.interpret.scene import _sub_interpretation, inside_faces
+    from aida_kb.interpret.scene import inside_faces
+    from aida_kb.interpret.scene.roles import object_interpretation
 
     _, evidence, interp = street_result
     obj = interp.objects[0]
-    model = _sub_interpretation(interp, obj.role, obj).model
+    model = object_interpretation(interp, obj.role, obj).model
     assert model is not None
     view = evidence.views[0]
     held = inside_faces(view, model)
@@ -314,8 +316,8 @@ def test_a_tie_is_judged_on_the_views_both_reconstructions_registered(
     from types import SimpleNamespace
     from typing import cast
 
-    from aida_kb.interpret import scene
     from aida_kb.interpret.result import SceneObject
+    from aida_kb.interpret.scene import ties as scene
 
     def street(ties: list[str]) -> Interpretation:
         house = SceneObject(
@@ -349,9 +351,10 @@ def test_no_object_is_verified_without_the_views_left_unregistered(
     street_result: tuple[Path, Evidence, Interpretation], street_kb: KnowledgeBase
 ) -> None:
     """A scene whose second view the reconstruction left without a camera: every object is
-    judged on every view (`judge_objects`, `_every_view`), none verified by view 00 alone
+    judged on every view (`judge_objects`, `every_view`), none verified by view 00 alone
     (fresh street 62052: view 01 unregistered, a house verified)."""
-    from aida_kb.interpret.scene import _every_view, judge_objects
+    from aida_kb.interpret.scene import judge_objects
+    from aida_kb.interpret.scene.judging import every_view
 
     _, evidence, interp = street_result
     first = evidence.views[0]
@@ -366,15 +369,15 @@ def test_no_object_is_verified_without_the_views_left_unregistered(
             ]
         }
     )
-    for judged in (judge_objects(street_kb, interp, both), _every_view(street_kb, both, claimed)):
+    for judged in (judge_objects(street_kb, interp, both), every_view(street_kb, both, claimed)):
         assert all(o.verdict == "doubtful" for o in judged.objects)
         assert all(any("(01)" in d for d in o.doubts) for o in judged.objects)
     # with every view registered nothing is judged again
-    assert _every_view(street_kb, evidence, claimed) is claimed
+    assert every_view(street_kb, evidence, claimed) is claimed
 
 
 def test_an_objects_deviations_are_its_own_parts_alone() -> None:
-    from aida_kb.interpret.scene import _object_uncertainty
+    from aida_kb.interpret.scene.roles import object_uncertainty
     from aida_kb.interpret.uncertainty import Uncertainty
     from aida_kb.interpret.verdict.normals import loose_normals
 
@@ -395,13 +398,13 @@ def test_an_objects_deviations_are_its_own_parts_alone() -> None:
             }
         ),
     )
-    own = _object_uncertainty(whole, "houses[1]")
+    own = object_uncertainty(whole, "houses[1]")
     assert own.parts == {"body.front": (0.1, 0.01)}
     assert own.on_regions == frozenset({"body.front"})
     assert own.cameras == whole.cameras
     # each object's verdict names its own loose parts, none of another object's
     assert loose_normals(own) == []
-    (loose,) = loose_normals(_object_uncertainty(whole, "houses[0]"))
+    (loose,) = loose_normals(object_uncertainty(whole, "houses[0]"))
     assert loose.startswith("body.left:")
 
 
