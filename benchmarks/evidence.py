@@ -481,6 +481,16 @@ def main() -> None:
         "--coverage", action="store_true", help="how the regions cover the true faces"
     )
     parser.add_argument("--unlabelled", action="store_true", help="scenes without labels.png")
+    parser.add_argument(
+        "--approximate-ncc",
+        action="store_true",
+        help="the matcher's pixel-wise normalised NCC (VisionParams.ncc_exact = False)",
+    )
+    parser.add_argument(
+        "--no-outlines",
+        action="store_true",
+        help="no regions on outlined faces without texture (VisionParams.outlined_faces)",
+    )
     args = parser.parse_args()
     if args.random_start is not None:
         seeds = range(args.random_start, args.random_start + args.random_count)
@@ -490,6 +500,9 @@ def main() -> None:
             args.max_views,
             coverage=args.coverage,
             unlabelled=args.unlabelled,
+            params=VisionParams(
+                ncc_exact=not args.approximate_ncc, outlined_faces=not args.no_outlines
+            ),
         )
         return
     presets()

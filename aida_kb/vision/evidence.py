@@ -12,6 +12,7 @@ its own left camera frame (`frame = "camera"`), to be registered later (paper §
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
@@ -65,12 +66,14 @@ from aida_kb.vision.segmentation import (
     COMPLETE_SIGMAS,
     DISPARITY_SIGMA_PX,
     LINE_SIDE_PX,
+    OUTLINE_REACH_PX,
     absorb_recesses,
     complete_regions,
     extend_to_border,
     line_kinds,
     local_planes,
     merge_coplanar,
+    outlined_patches,
     region_contours,
     segment_planes,
 )
@@ -119,6 +122,16 @@ class VisionParams:
     # aggregation of the same NCC costs (aida_kb.vision.sgm: fills weak texture, slower);
     # with "sgm" the window is SGM_WINDOW unless `window` is changed from 11
     matcher: Literal["ncc", "sgm"] = "ncc"
+    # the NCC of each window with its own mean and deviation (`ncc_disparity`'s exact mode)
+    # rather than of the images normalised pixel by pixel: at an outline against a flat area
+    # (a roof's verge against the sky, a dark roof's eave) the pixel-wise normalisation
+    # blows the flat side's noise up to the edge's contrast, the peak falls to ~0.35 and the
+    # outline gets no certain depth (development scene 61618: 9 % of its roof's outline
+    # pixels certain, 27 % exact); about twice the matcher's time
+    ncc_exact: bool = True
+    # regions on the faces without texture that the image's edges outline and the matcher
+    # measures all round (`segmentation.outlined_patches`): segmentation by orientation only
+    outlined_faces: bool = True
     min_certainty: float = 0.05
     min_line_px: float = 15.0
     min_region_px: int = 200
@@ -420,6 +433,7 @@ def _complete(
         np.abs(centroids[:, 2]),
         rect.focal_px,
         rect.baseline_m,
+        p.window,
     )
     _, _, _, tolerances = _plane_tolerances(plane_regions, pose, rect)
     half = rect.focal_px * COMPLETE_GAP_M / (2.0 * np.maximum(np.abs(centroids[:, 2]), 1e-9))
@@ -441,6 +455,151 @@ def _complete(
         grown, disp, depth, rect, rays, calib, p.window, to_frame, False, photometric, regions
     )
     return grown, refit
+
+
+# A textureless face's plane (`segmentation.outlined_patches`) is fitted to the certain
+# points along its outline (within OUTLINE_REACH_PX of it, either side: the edge's depth is the
+# face's where the face is in front or meets its neighbour there), but of a neighbouring
+# region only its pixels within OUTLINE_EDGE_PX of the edge (a wall's pixels a few rows below
+# the eave lie on the wall, off the roof's plane, and a wall's texture gives many more of them
+# than the roof's outline) -- and accepted when the outline
+# is one plane: OUTLINE_INLIER_SHARE of those points kept by the robust fit, their RMS within
+# OUTLINE_RMS_SIGMAS of the depth noise at the face's distance, and spread across their main
+# line by OUTLINE_SPREAD of the patch's own spread (a single verge is a line: any plane through
+# it fits). Two faces under one patch (the hips of a dark roof with no edge between them)
+# leave a whole side of the outline off the fit.
+OUTLINE_INLIER_SHARE = 0.8
+OUTLINE_RMS_SIGMAS = COMPLETE_SIGMAS
+OUTLINE_EDGE_PX = 2  # 2 px off the eave a wall's point is ~0.1 m off the roof at 50 m
+# The outline's points fix the plane's tilt to rms / (sqrt(n / (window - 2)²) · g): g their
+# lesser spread on the plane (metres; a single verge is a line, g ~ 0: any plane through it
+# fits), n / (window - 2)² the independent ones among them (a matching window's pixels share
+# their error, as `aida_kb.interpret.observe.FIT_CORRELATED_PX` counts them). A fit whose tilt
+# is not fixed to OUTLINE_MAX_TILT_DEG is left out (a far roof's outline with ~0.3 m of depth
+# noise: development scene 61615 at 90 m); the region's inlier_count is cut so that the
+# interpreter's sigma, which spreads the inliers over a square of the region's area, is no
+# smaller than this one.
+OUTLINE_MAX_TILT_DEG = 2.0
+
+
+def _outline_tilt_rad(points: F64, n: F64, rms_m: float, inliers: int, window: int) -> float:
+    """The 1-sigma tilt (radians) of a plane of unit normal n (3,) fitted to the outline's
+    points (N, 3) (metres) with `inliers` of them kept at `rms_m`: see OUTLINE_MAX_TILT_DEG."""
+    if len(points) < 3 or inliers < 1:
+        return math.inf
+    on = points - points.mean(axis=0)
+    on = on - np.outer(on @ n, n)  # projected onto the plane
+    spread = np.sort(np.linalg.eigvalsh(on.T @ on / len(on)))[1]  # the lesser in-plane axis
+    if spread <= 0.0:
+        return math.inf
+    samples = inliers / float((window - 2) ** 2)
+    return float(rms_m / (math.sqrt(max(samples, 1.0)) * math.sqrt(spread)))
+
+
+@dataclass(frozen=True)
+class _Stereo:
+    """One view's stereo measurements at the working resolution, as `_plane_regions` takes
+    them: the disparity (rectified), the depth (original image), the rectification, the
+    original image's viewing rays (H, W, 3) and the rig."""
+
+    disp: DisparityMap
+    depth: DepthMap
+    rect: Rectification
+    rays: F64
+    calib: StereoCalib
+
+
+def _outlined(
+    regions: I32,
+    plane_regions: list[Region],
+    image: npt.NDArray[np.uint8],
+    stereo: _Stereo,
+    p: VisionParams,
+    to_frame: tuple[F64, F64] | None,
+) -> tuple[I32, list[Region]]:
+    """Regions added on the textureless faces (`segmentation.outlined_patches`): each patch
+    with the certain pixels of no region along its outline, its plane fitted to the certain
+    pixels along the outline (no photometric refinement: they straddle the outline). Pixel
+    figures are the patch's; inlier_count at most its pixels with depth. See
+    OUTLINE_INLIER_SHARE."""
+    disp, depth, rect, rays, calib = (
+        stereo.disp,
+        stereo.depth,
+        stereo.rect,
+        stereo.rays,
+        stereo.calib,
+    )
+    patches, certain, edges = outlined_patches(
+        regions, image, depth.certainty, min_pixels=p.min_region_px
+    )
+    count = int(patches.max())
+    if count == 0:
+        return regions, plane_regions
+    next_id = int(max([int(regions.max()), *(r.id for r in plane_regions)])) + 1
+    side = 2 * OUTLINE_REACH_PX + 1
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (side, side))
+    has = ~np.isnan(depth.depth_m)
+    fx, fy = float(calib.K1[0, 0]), float(calib.K1[1, 1])
+    side = 2 * OUTLINE_EDGE_PX + 1
+    at_edge = cv2.dilate(edges.astype(np.uint8), np.ones((side, side), np.uint8)) > 0
+    out = regions.copy()
+    added: list[Region] = []
+    for k in range(1, count + 1):
+        mask = (patches == k).astype(np.uint8)
+        inside = cv2.erode(mask, disc, borderType=cv2.BORDER_CONSTANT, borderValue=0) > 0
+        along = (cv2.dilate(mask, disc) > 0) & ~inside & certain & has & ((out == 0) | at_edge)
+        band = np.where(along, next_id, 0).astype(np.int32)
+        window = p.window
+        found = _plane_regions(band, disp, depth, rect, rays, calib, window, to_frame, False, None)
+        if not found:
+            continue
+        r = found[0]
+        n_out, d_out, c_out = np.array(r.n_init), r.d_init, np.array(r.c_init)
+        n_cam, d_cam, c_cam = n_out, d_out, c_out
+        if to_frame is not None:  # world -> camera: x_cam = R x_w + t
+            R, t = to_frame
+            n_cam = R @ n_out
+            d_cam = d_out + float(n_cam @ t)
+            c_cam = R @ c_out + t
+        z = abs(float(c_cam[2]))
+        sigma_z = z * z * DISPARITY_SIGMA_PX / max(rect.focal_px * rect.baseline_m, 1e-12)
+        tilt = _outline_tilt_rad(
+            depth.points[along].astype(np.float64), n_cam, r.rms_m, r.inlier_count, p.window
+        )
+        if not (
+            r.inlier_count >= OUTLINE_INLIER_SHARE * int(along.sum())
+            and r.rms_m <= OUTLINE_RMS_SIGMAS * sigma_z
+            and tilt <= math.radians(OUTLINE_MAX_TILT_DEG)
+        ):
+            continue
+        extent = (mask > 0) | (along & (out == 0))
+        ys, xs = np.nonzero(extent)
+        pixels = int(extent.sum())
+        areas = pixel_areas_m2(rays[extent], n_cam, d_cam, fx, fy)
+        w_c = min(float(depth.certainty[extent].sum()), float(pixels))
+        with_depth = int(np.count_nonzero(has & extent))
+        area = float(np.nansum(np.where(areas > 0, areas, 0.0)))
+        # inliers that give a square of the region's area no smaller a tilt than the outline
+        honest = (
+            float((p.window - 2) ** 2)
+            * (r.rms_m / max(tilt * math.sqrt(max(area, 1e-12) / 12.0), 1e-12)) ** 2
+        )
+        added.append(
+            r.model_copy(
+                update={
+                    "pixel_count": pixels,
+                    "depth_pixel_count": with_depth,
+                    "inlier_count": min(r.inlier_count, with_depth, int(honest)),
+                    "area_m2": area,
+                    "w_c": w_c,
+                    "mean_certainty": min(1.0, w_c / pixels),
+                    "bbox": (int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max())),
+                }
+            )
+        )
+        out[extent] = next_id
+        next_id += 1
+    return out, plane_regions + added
 
 
 def _unseen_by_right(
@@ -636,7 +795,14 @@ def process_view(
         window = SGM_WINDOW if p.window == DEFAULT_WINDOW else p.window
         disp = sgm_disparity(left_r, right_r, min_disp=min_disp, num_disp=num_disp, window=window)
     else:
-        disp = ncc_disparity(left_r, right_r, min_disp=min_disp, num_disp=num_disp, window=p.window)
+        disp = ncc_disparity(
+            left_r,
+            right_r,
+            min_disp=min_disp,
+            num_disp=num_disp,
+            window=p.window,
+            exact=p.ncc_exact,
+        )
     sparse = sparse_disparities(left_r, right_r) if p.num_disp is not None else None
     warnings += saturation_warnings(disp, min_disp, num_disp, sparse)
     tick("depth")
@@ -703,6 +869,9 @@ def process_view(
         )
     kept = {r.id for r in plane_regions}
     regions = np.where(np.isin(regions, list(kept)), regions, 0).astype(np.int32)
+    if used == "orientation" and p.outlined_faces:
+        stereo = _Stereo(disp, depth, rect, rays, calib)
+        regions, plane_regions = _outlined(regions, plane_regions, left_w, stereo, p, to_frame)
     work_size = calib.image_size
     if calib is not full:  # back to the images' own pixels
         W0, H0 = full.image_size

@@ -269,6 +269,27 @@ def test_a_segment_along_a_notch_of_its_region_is_no_edge_of_its_face() -> None:
     assert not _cuts(foot, [outline[outline[:, 1] > 200], outline[outline[:, 1] < 200]])
 
 
+def test_a_segment_between_two_notches_of_its_region_does_not_run_along_it() -> None:
+    """The real courtyard wall's region (Strecha castle, exact NCC) reaches its true foot
+    (y 580) between two bollards that cut notches up to y 548 into it; the plinth's top at y
+    568 runs inside the region from notch to notch, its ends 1-3 px from the outline, its
+    middle 12 px: no edge of the wall. The foot, along the outline all its length, is one; so
+    is a foot the outline follows with a wiggle of 6 px along a fifth of it."""
+    from aida_kb.interpret.observe import _along
+
+    outline = np.array(
+        [[600, 300], [900, 300], [900, 580], [820, 580], [818, 548], [812, 548], [810, 580],
+         [712, 580], [710, 548], [704, 548], [702, 580], [600, 580]],
+        dtype=np.float64,
+    )  # fmt: skip
+    plinth_top = np.array([[711.0, 568.0], [811.0, 568.0]])
+    assert not _along(plinth_top, outline)
+    assert _along(np.array([[720.0, 579.0], [800.0, 579.0]]), outline)
+    wiggle = [[776.0, 580.0], [772.0, 586.0], [764.0, 586.0], [760.0, 580.0]]  # 6 px, 16 px
+    wiggly = np.insert(outline, 7, wiggle, axis=0)  # between (810, 580) and (712, 580)
+    assert _along(np.array([[720.0, 579.0], [800.0, 579.0]]), wiggly)
+
+
 def test_a_vertical_that_makes_the_heaviest_wall_overhang_is_rejected() -> None:
     """Dev seed 58002's regions: a front wall, a sliver of side wall and a 47-deg roof. The
     side wall and the roof cross along a line 43 deg off the vertical under which the roof is a

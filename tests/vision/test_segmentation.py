@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from aida_kb.vision.segmentation import local_planes, plane_normals, segment_planes
@@ -121,6 +122,30 @@ def test_complete_regions_grows_a_wall_over_dropouts_and_openings() -> None:
     assert not np.any(out[pole] == 4)  # what stands in front stays out
     assert not np.any(out[~wall] == 4)  # nothing beyond the outline
     assert np.all(out[:10, :10] == 9)
+
+
+def test_complete_regions_claims_no_strip_narrower_than_a_window() -> None:
+    """A wall 20 m away (region 4, rows 60-110) and, above it, a strip 8 px wide on its plane
+    extended (a tower's corner rising past the eave: windows straddling a silhouette take the
+    front's depth) beside a wide patch on the plane: with an 11-px matching window the strip
+    stays out and the patch joins; with no window the strip joins too."""
+    from aida_kb.vision.segmentation import complete_regions
+
+    H, W, f, B = 120, 200, 200.0, 4.0
+    vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
+    rays = np.stack([(us - W / 2) / f, (vs - H / 2) / f, np.ones_like(us)], axis=-1)
+    points = (rays * 20.0).astype(np.float32)
+    wall = (vs >= 60) & (vs < 110) & (us >= 20) & (us < 180)
+    strip = (vs >= 10) & (vs < 60) & (us >= 150) & (us < 158)
+    patch = (vs >= 30) & (vs < 60) & (us >= 40) & (us < 100)
+    points[~(wall | strip | patch)] = np.nan
+    regions = np.where(wall, 4, 0).astype(np.int32)
+    args = (np.array([4]), np.array([[0.0, 0.0, -1.0]]), np.array([-20.0]), np.array([0.01]))
+    windowed = complete_regions(regions, points, *args, np.array([20.0]), f, B, 11)
+    assert not np.any(windowed[strip & (vs < 50)] == 4)
+    assert np.all(windowed[patch] == 4)
+    plain = complete_regions(regions, points, *args, np.array([20.0]), f, B)
+    assert np.all(plain[strip] == 4)
 
 
 def test_line_kinds_tell_structural_from_texture() -> None:
@@ -295,3 +320,52 @@ def test_extend_to_border_takes_the_strip_only_the_left_camera_sees() -> None:
     assert np.all(out[20:30, :30] == 2)
     assert not np.any(out[60:, :30] == 1)  # beside the porch: the wall is not seen going on
     assert not np.any(out[:10] == 1)
+
+
+def test_outlined_patches_take_a_dark_face_measured_on_its_outline_not_the_sky() -> None:
+    """A dark roof (a trapezoid with slanted verges) between the bright sky and a wall region:
+    its outline has certain depth along the verges and the eave (not along the ridge, a row:
+    no disparity there for any matcher), so it is a patch; the sky, cut by the image's
+    border, is not. Without depth along the verges the roof is no patch either."""
+    from aida_kb.vision.segmentation import OUTLINE_REACH_PX, outlined_patches
+
+    H, W = 120, 200
+    v, u = np.mgrid[0:H, 0:W]
+    roof = (v >= 30) & (v < 70) & (u >= 40 + (70 - v)) & (u < 160 - (70 - v))
+    image = np.full((H, W), 200, np.uint8)  # sky
+    image[roof] = 40
+    image[v >= 70] = 120  # the wall
+    regions = np.where(v >= 70, 1, 0).astype(np.int32)
+    roof_u8 = roof.astype(np.uint8)
+    ring = cv2.dilate(roof_u8, np.ones((5, 5), np.uint8)) - cv2.erode(roof_u8, np.ones((5, 5)))
+    certainty = np.where((ring > 0) & (v > 33), 0.5, 0.0).astype(np.float32)  # not the ridge
+    certainty[v >= 70] = 0.5
+    patches, certain, edges = outlined_patches(regions, image, certainty, min_pixels=200)
+    assert int(patches.max()) == 1
+    inside = cv2.erode(roof_u8, np.ones((2 * OUTLINE_REACH_PX + 1,) * 2, np.uint8)) > 0
+    assert np.all(patches[inside] == 1)
+    assert np.all(patches[v < 20] == 0)  # the sky
+    assert np.array_equal(certain, certainty >= 0.1)
+    assert edges[50, 40 + 20 - 1 : 40 + 20 + 2].any()  # the left verge
+    without = np.where(v >= 70, 0.5, 0.0).astype(np.float32)
+    assert int(outlined_patches(regions, image, without, min_pixels=200)[0].max()) == 0
+
+
+def test_an_outline_on_one_line_fixes_no_tilt() -> None:
+    """Points along two verges 20 m long, 8 m apart, fix a roof plane's tilt to rms /
+    (sqrt(n/81) · g), g = 4 m their spread across the verges;
+    points along one verge (a line) fix none."""
+    import math
+
+    from aida_kb.vision.evidence import _outline_tilt_rad
+
+    s = np.linspace(0.0, 20.0, 50)
+    n = np.array([0.0, 0.6, -0.8])
+    along = np.array([0.0, 0.8, 0.6])  # the verge's direction on the plane
+    across = np.cross(n, along)
+    left = np.outer(s, along)
+    right = left + 8.0 * across
+    both = np.vstack([left, right]) + np.array([0.0, 0.0, 30.0])
+    tilt = _outline_tilt_rad(both, n, 0.05, 100, 11)
+    assert math.isclose(tilt, 0.05 / (math.sqrt(100 / 81) * 4.0), rel_tol=1e-6)
+    assert _outline_tilt_rad(left + np.array([0.0, 0.0, 30.0]), n, 0.05, 100, 11) > 1e3
