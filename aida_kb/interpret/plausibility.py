@@ -24,7 +24,7 @@ import numpy.typing as npt
 from aida_kb.diagnostics.core import Span
 from aida_kb.interpret.closure import ClosingFace, close, inside_face
 from aida_kb.interpret.context import Context
-from aida_kb.interpret.ground import elevation, ground_height
+from aida_kb.interpret.ground import GROUND_LEVEL_DEG, elevation, ground_height
 from aida_kb.interpret.hypotheses import Frame
 from aida_kb.interpret.knowledge import Structure, join
 from aida_kb.interpret.observe import RegionView
@@ -47,6 +47,7 @@ FACE_MARGIN = 0.1
 # ... and an unbound region's centroid this fraction of the solid's size inside it (stereo
 # noise and planes fitted to a region's edge) before it contradicts the solid
 INSIDE_MARGIN = 0.05
+COS_LEVEL = math.cos(math.radians(GROUND_LEVEL_DEG))
 
 
 def unexplained(ctx: Context, used: set[str]) -> float:
@@ -222,12 +223,54 @@ def _faces_under(polygons: dict[str, FloatArray], prefix: str) -> list[FloatArra
     ]
 
 
+# a level region is the object's top, not the ground under it, when its centre lies within
+# this fraction of the solid's size of an upward-facing face's plane and (by FACE_MARGIN)
+# inside that face: a flat roof's region whose 221 stereo points fit its plane 4 deg and
+# 0.15 m off (held-out 61713) lies well within it; the ground under a house lies a
+# storey's height (a quarter of a house's size and more) below its lowest upward face
+ON_TOP_MARGIN = 0.1
+
+
+def on_object(
+    ctx: Context,
+    binding: Mapping[str, str],
+    planes: Planes,
+    polygons: Mapping[str, FloatArray],
+    up: FloatArray,
+) -> set[str]:
+    """Ids of the reference view's regions that are the object's own, not its ground: those
+    `binding` binds to its parts (region id -> role path), and the level regions (normal
+    within `ground.GROUND_LEVEL_DEG` of `up`) lying on a closed face that faces up
+    (`ON_TOP_MARGIN`: a flat roof's region a hypothesis inserts its top under).
+
+    planes : role path -> (unit outward normal (3,), offset m); polygons : role path ->
+    closed face (K, 3), metres, world frame; up : (3,) unit vector.
+    """
+    mine = set(binding)
+    tops = [r for r, (n, _) in planes.items() if r in polygons and float(n @ up) >= COS_LEVEL]
+    if not tops or not polygons:
+        return mine
+    corners = np.concatenate(list(polygons.values()))
+    size = float(np.max(np.ptp(corners, axis=0)))
+    for region in ctx.regions:
+        if region.id in mine or abs(float(region.normal @ up)) < COS_LEVEL:
+            continue
+        for role in tops:
+            n, d = planes[role]
+            near = abs(float(n @ region.centroid_m) - d) <= ON_TOP_MARGIN * size
+            if near and inside_face(polygons[role], region.centroid_m, margin=FACE_MARGIN):
+                mine.add(region.id)
+                break
+    return mine
+
+
 def attribute_violation(
     ctx: Context,
     structure: Structure,
     frame: Frame,
     planes: Planes,
     polygons: dict[str, FloatArray],
+    binding: Mapping[str, str] | None = None,
 ) -> Violation | None:
     """The first attribute of a length measure (height, width, depth, distance, elevation) of
     the structure's instances whose measure in the closed model lies outside its range, or None
@@ -238,12 +281,14 @@ def attribute_violation(
     ``width`` along its frame's right, ``depth`` along its front; ``distance(a, b)`` is the
     distance of a point of plane b from plane a; ``elevation`` the height of the part's lowest
     point above the ground the reference view shows (`aida_kb.interpret.ground`; not taken
-    where it shows none).
+    where it shows none), the object's own regions (`on_object`; `binding`: region id ->
+    role path) left out of it.
     """
     if not ctx.evidence.metric:  # lengths in unknown units: a range in metres does not apply
         return None
     axes = {"height": frame.up, "width": frame.right, "depth": frame.front}
-    ground = ground_height(ctx.regions, frame.up)
+    own = on_object(ctx, binding or {}, planes, polygons, frame.up)
+    ground = ground_height(ctx.regions, frame.up, own)
     for node in structure.nodes:
         for attribute in ctx.knowledge.concept(node.concept).attributes.values():
             if attribute.measure not in LENGTH_MEASURES or not attribute.measure_args:

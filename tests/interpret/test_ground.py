@@ -113,3 +113,59 @@ def test_a_house_floating_above_the_ground_is_no_house(
     widened = compile_text(wide)
     assert widened.kb is not None
     assert interpret(widened.kb, _lifted_ground(synthetic, 2.5), source="s").accepted
+
+
+def _box_faces() -> tuple[dict[str, tuple[np.ndarray, float]], dict[str, np.ndarray]]:
+    """A box 10 m wide, 6 m deep, 8 m high (camera frame, y down): its floor at y = 2, its
+    top at y = -6, its front at z = 20; outward unit normals and offsets, and closed faces."""
+    x0, x1, y_top, y_floor, z0, z1 = -5.0, 5.0, -6.0, 2.0, 20.0, 26.0
+
+    def quad(*corners: tuple[float, float, float]) -> np.ndarray:
+        return np.array(corners, dtype=np.float64)
+
+    planes = {
+        "body.front": (np.array([0.0, 0.0, -1.0]), -z0),
+        "body.roof.top": (np.array([0.0, -1.0, 0.0]), -y_top),
+        "body.floor": (np.array([0.0, 1.0, 0.0]), y_floor),
+    }
+    polygons = {
+        "body.front": quad((x0, y_floor, z0), (x1, y_floor, z0), (x1, y_top, z0), (x0, y_top, z0)),
+        "body.roof.top": quad((x0, y_top, z0), (x1, y_top, z0), (x1, y_top, z1), (x0, y_top, z1)),
+        "body.floor": quad(
+            (x0, y_floor, z0), (x0, y_floor, z1), (x1, y_floor, z1), (x1, y_floor, z0)
+        ),
+    }
+    return planes, polygons
+
+
+def test_the_objects_own_top_is_no_ground() -> None:
+    """The ground unlabelled or absent, a flat roof's region is the lowest level surface the
+    view shows: measured from it, the house's floor lies 8 m below the ground (held-out 61713,
+    -8.61 m, every hypothesis rejected). A hypothesis's own regions are no ground: bound to
+    its parts, or lying on its upward face; the ground under its floor still is."""
+    from types import SimpleNamespace
+    from typing import cast
+
+    from aida_kb.interpret.context import Context
+    from aida_kb.interpret.plausibility import ON_TOP_MARGIN, on_object
+
+    planes, polygons = _box_faces()
+    front = _region("00/2", [0, 0, -1], [0, -2.0, 20.0], 60000)
+    # the roof's sparse stereo fits its plane 4 deg and 0.15 m off (61713: 221 points)
+    roof = _region("00/6", [0, -1, -0.07], [0.5, -6.15, 23.0], 9000)
+    ground = _region("00/9", [0, -1, 0], [0, 2.1, 15.0], 40000)
+    ctx = cast(Context, SimpleNamespace(regions=(front, roof, ground)))
+    assert ON_TOP_MARGIN * 10.0 > 0.15  # the box's size is 10 m
+    # unbound, the roof's region lies on the top face: the object's
+    own = on_object(ctx, {"00/2": "body.front"}, planes, polygons, UP)
+    assert own == {"00/2", "00/6"}
+    assert ground_height([front, roof], UP) == 6.15  # the roof taken for the ground
+    assert ground_height([front, roof], UP, own) is None  # no ground: not measured
+    # the ground below the floor is not the object's: it stays the ground
+    assert ground_height([front, roof, ground], UP, own) == -2.1
+    bound = on_object(ctx, {"00/2": "body.front", "00/6": "body.roof.top"}, planes, polygons, UP)
+    assert bound == {"00/2", "00/6"}
+    # a level region beside the box, at its top's height, is not on its face
+    beside = _region("00/7", [0, -1, 0], [14.0, -6.0, 23.0], 9000)
+    ctx2 = cast(Context, SimpleNamespace(regions=(front, beside)))
+    assert on_object(ctx2, {"00/2": "body.front"}, planes, polygons, UP) == {"00/2"}

@@ -148,3 +148,67 @@ def test_only_a_goal_of_one_object_is_started_from_another_view(buildings_kb: An
     assert street is not None
     assert mv.single_object(buildings_kb, None)
     assert not mv.single_object(street, "Street")
+
+
+def test_a_first_result_that_leaves_the_ranges_gives_way_to_the_best_other_start(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The first view shows one face: its model is a slab at the knowledge's least depth,
+    refined with the later views it leaves the ranges (held-out 61701, 61718, 61730: depth
+    1.85, 0.0066, 1.92 m, nothing found). The other starts are tried; of those that
+    register the first view and keep the ranges, the one the views explain best is taken."""
+    import aida_kb.interpret.rejudge as rj
+
+    evidence = read_evidence(FIXTURES / "house_occluded.json")
+    first = evidence.views[0]
+    three = evidence.model_copy(
+        update={
+            "views": [
+                first,
+                first.model_copy(update={"id": "01", "frame": "camera"}),
+                first.model_copy(update={"id": "02", "frame": "camera"}),
+            ]
+        }
+    )
+    model, _, _ = _model_in_frame_of_01()
+    registered = model.model_copy(
+        update={"cameras": [_camera(first.id, np.eye(3), np.zeros(3)), model.cameras[0]]}
+    )
+    broken = {f"from {first.id}"}
+    scores = {"from 01": 1.5, "from 02": 2.5}
+
+    def fake(kb: Any, ev: Any, **_: Any) -> Interpretation:
+        view = ev.views[0].id
+        used = registered if view == first.id else model
+        message = f"from {view}"
+        return Interpretation(goal="House", accepted=True, expanded=1, message=message, model=used)
+
+    def sizes(kb: Any, interp: Interpretation, ev: Any) -> list[str]:
+        return (
+            ["body: depth = 1.85 m outside [2, 60] (HouseBody)"]
+            if any(interp.message.startswith(b) for b in broken)
+            else []
+        )
+
+    def score(interp: Interpretation, ev: Any) -> dict[str, Any]:
+        return {"00": (scores[interp.message], None, None)}
+
+    monkeypatch.setattr(mv, "reconstruct_from_first", fake)
+    monkeypatch.setattr(mv, "single_object", lambda kb, goal: True)
+    monkeypatch.setattr(mv, "model_sizes_broken", sizes)
+    monkeypatch.setattr(rj, "score", score)
+    out = mv.reconstruct_views(None, three)  # type: ignore[arg-type]
+    assert out.message.startswith("from 02; interpreted from view 02: the result of view")
+    assert "depth = 1.85 m outside" in out.message
+    assert "(score 2.50)" in out.message
+    assert out.model is not None
+    assert out.model.cameras[0].view == first.id
+    # a start whose own result leaves the ranges does not qualify
+    broken.add("from 02")
+    assert mv.reconstruct_views(None, three).message.startswith("from 01; interpreted")  # type: ignore[arg-type]
+    # none qualifies: the first view's result stands (the verdict rejects it)
+    broken.add("from 01")
+    assert mv.reconstruct_views(None, three).message == f"from {first.id}"  # type: ignore[arg-type]
+    # a result within the ranges stands: nothing else is tried
+    broken.clear()
+    assert mv.reconstruct_views(None, three).message == f"from {first.id}"  # type: ignore[arg-type]
