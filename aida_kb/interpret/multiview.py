@@ -36,7 +36,7 @@ without labels 1.03 deg / 2.3 % instead of 0.46 deg / 0.93 %).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -1089,15 +1089,7 @@ def reconstruct_views(
         if not broken:
             return interp
         return _best_other_start(kb, interp, evidence, broken, from_first, progress)
-    for view in evidence.views[1:]:
-        swapped = first_view_swapped(evidence, view.id)
-        if swapped is None:
-            break
-        if progress is not None:
-            progress(f"interpreting view {view.id} first")
-        moved = in_frame_of_first(from_first(swapped), evidence.views[0].id)
-        if moved is None:
-            continue
+    for view, moved in _other_starts(evidence, from_first, progress):
         return moved.model_copy(
             update={
                 "message": f"{moved.message}; interpreted from view {view.id}: the result of "
@@ -1106,6 +1098,26 @@ def reconstruct_views(
             }
         )
     return interp
+
+
+def _other_starts(
+    evidence: Evidence,
+    from_first: Callable[[Evidence], Interpretation],
+    progress: Callable[[str], None] | None,
+) -> Iterator[tuple[ViewEvidence, Interpretation]]:
+    """Each later view of unknown pose in turn, with the result of interpreting it first
+    (`first_view_swapped`) expressed in the first view's frame (`in_frame_of_first`); a view
+    whose result registers no first view is skipped. Lazy: each start is interpreted only when
+    the caller asks for it."""
+    for view in evidence.views[1:]:
+        swapped = first_view_swapped(evidence, view.id)
+        if swapped is None:
+            return
+        if progress is not None:
+            progress(f"interpreting view {view.id} first")
+        moved = in_frame_of_first(from_first(swapped), evidence.views[0].id)
+        if moved is not None:
+            yield view, moved
 
 
 def _best_other_start(
@@ -1133,14 +1145,8 @@ def _best_other_start(
 
     first = evidence.views[0].id
     best: tuple[float, str, Interpretation] | None = None
-    for view in evidence.views[1:]:
-        swapped = first_view_swapped(evidence, view.id)
-        if swapped is None:
-            break
-        if progress is not None:
-            progress(f"interpreting view {view.id} first")
-        moved = in_frame_of_first(from_first(swapped), first)
-        if moved is None or model_sizes_broken(kb, moved, evidence):
+    for view, moved in _other_starts(evidence, from_first, progress):
+        if model_sizes_broken(kb, moved, evidence):
             continue
         total = sum(
             explained + (edges or 0.0) + (held or 0.0)
