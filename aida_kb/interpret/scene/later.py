@@ -147,16 +147,14 @@ def _joined(
             message=f"{one.message} (found in view {view})",
         )
         notes.append(f"{prefix} found in view {view}, which the first view does not show")
-    instances, parts, objects = scene.instances, scene.parts, scene.objects
-    trace, residuals = scene.trace, scene.residuals
-    model = interp.model.model_copy(update={"parts": parts})
+    model = interp.model.model_copy(update={"parts": scene.parts})
     return interp.model_copy(
         update={
-            "instances": instances,
+            "instances": scene.instances,
             "model": model,
-            "trace": trace,
-            "residuals": residuals,
-            "objects": objects,
+            "trace": scene.trace,
+            "residuals": scene.residuals,
+            "objects": scene.objects,
             "expanded": interp.expanded + sum(o.expanded for o, _, _ in added),
             "message": f"{interp.message}; " + "; ".join(notes),
         }
