@@ -788,6 +788,15 @@ def line_kinds(
 # not asked for; the image's border never supports (the sky is cut by it, and so is a face
 # whose outline is not seen whole). The evidence fits each patch's plane to the certain
 # points along its outline (`aida_kb.vision.evidence`).
+# Nor is a patch's left outline (the patch to its right) without certain depth asked for: the
+# right camera sees everything shifted left by its disparity, so a face in front covers the
+# strip of the background just left of its left outline (a half-occlusion as wide as their
+# disparities differ), and every matching window across that outline holds pixels the other
+# image does not show. A dark roof in front of the far field loses its whole left verge so
+# (development scene 61816: the measurable outline 337 px, 167 of them certain, none on the
+# left verge; its right verge and the eave fix the plane to 0.25 deg). Where the left outline
+# is measured it counts as any other; the plane's own tests in the evidence (one plane, tilt
+# fixed) still judge what the rest of the outline gives.
 EDGE_BLUR_PX = 1.5  # Gaussian sigma before the edge detector: the sensor noise's edges go
 EDGE_LOW = 20  # Canny's hysteresis thresholds on the blurred image's Sobel gradient, grey
 EDGE_HIGH = 60  # levels per pixel (x 4 of Sobel's kernel): a step of 5 and of 15 grey levels
@@ -835,9 +844,12 @@ def outlined_patches(
     gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1)
     measurable = outline & (np.abs(gx) >= np.sin(np.radians(EPIPOLAR_DEG)) * np.hypot(gx, gy))
     measurable |= outline & border
-    labels = comp[measurable]
+    # the patch's left outline (the mask rising to the right) unmeasured: a half-occlusion
+    occluded = outline & ~border & ~near & (gx > 0)
+    asked = measurable & ~occluded
+    labels = comp[asked]
     total = np.bincount(labels, minlength=n)
-    held = np.bincount(labels[near[measurable] & ~border[measurable]], minlength=n)
+    held = np.bincount(labels[near[asked] & ~border[asked]], minlength=n)
     ok = (stats[:, cv2.CC_STAT_AREA] >= min_pixels) & (held >= OUTLINE_SUPPORT * total)
     ok &= total > 0
     ok[0] = False

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from aida_kb.vision.segmentation import local_planes, plane_normals, segment_planes
 
@@ -322,13 +323,12 @@ def test_extend_to_border_takes_the_strip_only_the_left_camera_sees() -> None:
     assert not np.any(out[:10] == 1)
 
 
-def test_outlined_patches_take_a_dark_face_measured_on_its_outline_not_the_sky() -> None:
-    """A dark roof (a trapezoid with slanted verges) between the bright sky and a wall region:
-    its outline has certain depth along the verges and the eave (not along the ridge, a row:
-    no disparity there for any matcher), so it is a patch; the sky, cut by the image's
-    border, is not. Without depth along the verges the roof is no patch either."""
-    from aida_kb.vision.segmentation import OUTLINE_REACH_PX, outlined_patches
-
+def _dark_roof() -> tuple[
+    npt.NDArray[np.bool_], npt.NDArray[np.uint8], npt.NDArray[np.int32], npt.NDArray[np.uint8]
+]:
+    """A dark roof (a trapezoid with verges at 45 deg, columns 10-190 of a 120 x 200 image)
+    between the bright sky and a wall region (1, rows 70 and below): the roof's mask, the
+    image, the regions and the roof's outline ring (5 px wide)."""
     H, W = 120, 200
     v, u = np.mgrid[0:H, 0:W]
     roof = (v >= 30) & (v < 70) & (u >= 40 + (70 - v)) & (u < 160 - (70 - v))
@@ -338,17 +338,47 @@ def test_outlined_patches_take_a_dark_face_measured_on_its_outline_not_the_sky()
     regions = np.where(v >= 70, 1, 0).astype(np.int32)
     roof_u8 = roof.astype(np.uint8)
     ring = cv2.dilate(roof_u8, np.ones((5, 5), np.uint8)) - cv2.erode(roof_u8, np.ones((5, 5)))
+    return roof, image, regions, np.asarray(ring, np.uint8)
+
+
+def test_outlined_patches_take_a_dark_face_measured_on_its_outline_not_the_sky() -> None:
+    """A dark roof between the bright sky and a wall region: its outline has certain depth
+    along the verges and the eave (not along the ridge, a row: no disparity there for any
+    matcher), so it is a patch; the sky, cut by the image's border, is not. Without depth
+    along the verges the roof is no patch either."""
+    from aida_kb.vision.segmentation import OUTLINE_REACH_PX, outlined_patches
+
+    roof, image, regions, ring = _dark_roof()
+    v = np.mgrid[0 : roof.shape[0], 0 : roof.shape[1]][0]
     certainty = np.where((ring > 0) & (v > 33), 0.5, 0.0).astype(np.float32)  # not the ridge
     certainty[v >= 70] = 0.5
     patches, certain, edges = outlined_patches(regions, image, certainty, min_pixels=200)
     assert int(patches.max()) == 1
-    inside = cv2.erode(roof_u8, np.ones((2 * OUTLINE_REACH_PX + 1,) * 2, np.uint8)) > 0
-    assert np.all(patches[inside] == 1)
+    inside = cv2.erode(roof.astype(np.uint8), np.ones((2 * OUTLINE_REACH_PX + 1,) * 2, np.uint8))
+    assert np.all(patches[inside > 0] == 1)
     assert np.all(patches[v < 20] == 0)  # the sky
     assert np.array_equal(certain, certainty >= 0.1)
     assert edges[50, 40 + 20 - 1 : 40 + 20 + 2].any()  # the left verge
     without = np.where(v >= 70, 0.5, 0.0).astype(np.float32)
     assert int(outlined_patches(regions, image, without, min_pixels=200)[0].max()) == 0
+
+
+def test_outlined_patches_excuse_the_half_occluded_left_verge_only() -> None:
+    """The right camera sees the far field beside the roof's left verge hidden behind the
+    roof: no certain depth there, yet the roof is a patch on its right verge and its eave. The
+    right verge (its background seen by both cameras) without depth is no excuse: no patch."""
+    from aida_kb.vision.segmentation import outlined_patches
+
+    roof, image, regions, ring = _dark_roof()
+    v, u = np.mgrid[0 : roof.shape[0], 0 : roof.shape[1]]
+    measured = (ring > 0) & (v > 33)
+    certainty = np.where(v >= 70, 0.5, 0.0).astype(np.float32)
+    left = measured & (u < 100)  # the left verge's ring
+    right = measured & (u >= 100)
+    no_left = np.where(right, 0.5, certainty).astype(np.float32)
+    assert int(outlined_patches(regions, image, no_left, min_pixels=200)[0].max()) == 1
+    no_right = np.where(left, 0.5, certainty).astype(np.float32)
+    assert int(outlined_patches(regions, image, no_right, min_pixels=200)[0].max()) == 0
 
 
 def test_an_outline_on_one_line_fixes_no_tilt() -> None:
