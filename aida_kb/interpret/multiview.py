@@ -1025,6 +1025,34 @@ def _sizes_broken(
     return check_attributes(kb, interp, model, unit=SIZE_UNIT)
 
 
+def _left_ranges(what: str, broken: list[str]) -> str:
+    """The note of an adjustment not taken because it leaves the knowledge's ranges."""
+    ranges = "; ".join(broken[:2])
+    return f"{what} stopped: it takes the model out of the knowledge's ranges ({ranges})"
+
+
+def _newly_broken(
+    kb: KnowledgeBase,
+    interp: Interpretation,
+    evidence: Evidence,
+    step: tuple[RigidModel, Sequence[FloatArray]],
+    before: tuple[RigidModel, Sequence[FloatArray]],
+) -> list[str]:
+    """The knowledge's size ranges (`_sizes_broken`) an adjustment's `step` (its planes and
+    polygons) leaves that the model `before` it met: such a step is not taken. Empty when it
+    keeps them, or when the model before it left them already.
+
+    A refinement re-matches the segments to the model's edges at every round: a floor seen
+    edge-on (a camera 0.5 m above the ground) shows its far edges along the horizon, and each
+    round matched them there and pulled the back further out (dev 61802, labels: the model
+    registered both views at 13.7 x 12.1 x 9.2 m, the two final rounds took it to 50 x 50 x
+    170 m and then 245 m deep, and nothing was found)."""
+    broken = _sizes_broken(kb, interp, evidence, step[0], step[1])
+    if broken and not _sizes_broken(kb, interp, evidence, before[0], before[1]):
+        return broken
+    return []
+
+
 def _image_judge(
     scene: Scene,
     evidence: Evidence,
@@ -1388,8 +1416,8 @@ def reconstruct_from_first(
         if isinstance(step, str):
             notes.append(f"joint adjustment with view {v.id} skipped: {step}")
             continue
-        broken = _sizes_broken(kb, interp, evidence, step[0], step[1])
-        if broken and not _sizes_broken(kb, interp, evidence, rigid, polygons):
+        broken = _newly_broken(kb, interp, evidence, step[:2], (rigid, polygons))
+        if broken:
             # the view's pose is not the model's: what it made of the model is no house
             notes.append(
                 f"view {v.id} left out: adjusted with it, the model leaves the knowledge's "
@@ -1409,6 +1437,10 @@ def reconstruct_from_first(
         if isinstance(step, str):
             notes.append(f"refinement with all views skipped: {step}")
             break
+        broken = _newly_broken(kb, interp, evidence, step[:2], (rigid, polygons))
+        if broken:
+            notes.append(_left_ranges("refinement with all views", broken))
+            break
         rigid, polygons, cams, report = step
     wanted = IMAGE_ROUNDS > 0 and scene is not None and len(cams) > n_known
     greys = view_images(scene, evidence, views) if wanted and scene is not None else []
@@ -1423,11 +1455,16 @@ def reconstruct_from_first(
         limit = IMAGE_REJECT_SIGMAS if round_ else None
         fitted, fitted_right = fitted_edges(rigid, cams, greys, rights, limit, views)
         free = list(range(n_known, len(cams)))
+        broken = []
         for snoop in range(IMAGE_SNOOPS + 1):
             fitted, fitted_right = _without_fits(fitted, fitted_right, outliers)
             inputs = JointInputs(angles, internal, pairs, fitted, fitted_right)
             step = _adjusted(rigid, cams, views, free, inputs)
             if isinstance(step, str):
+                break
+            broken = _newly_broken(kb, interp, evidence, step[:2], (rigid, polygons))
+            if broken:
+                step = _left_ranges("refinement with the images' edges", broken)
                 break
             rigid, polygons, cams, report = step
             worst = (
@@ -1437,7 +1474,7 @@ def reconstruct_from_first(
                 break
             outliers.add(worst)
         if isinstance(step, str):
-            notes.append(f"refinement with the images' edges skipped: {step}")
+            notes.append(step if broken else f"refinement with the images' edges skipped: {step}")
             break
         own_sd = _camera_deviations(rigid, cams, views, free, inputs)
     model = ReconstructedModel(

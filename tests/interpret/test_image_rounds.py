@@ -288,6 +288,35 @@ def test_a_view_whose_adjustment_breaks_the_size_ranges_is_named(
     assert mv._sizes_broken(buildings_kb, interp, unknown, far, [40.0 * p for p in polygons]) == []
 
 
+def test_an_adjustment_step_is_not_taken_only_when_it_breaks_ranges_the_model_met(
+    buildings_kb: KnowledgeBase, interpreted: Get
+) -> None:
+    # dev 61802: the final rounds took a model of 13.7 x 12.1 x 9.2 m to 170 m deep
+    interp, evidence = _house(interpreted)
+    assert interp.model is not None
+    rigid = RigidModel.from_model(interp.model)
+    polygons = [np.asarray(p.polygon, dtype=np.float64) for p in interp.model.parts]
+    far_polygons = [40.0 * p for p in polygons]
+    far = RigidModel.from_polygons(rigid.names, rigid.normals, 40.0 * rigid.offsets, far_polygons)
+    broken = mv._newly_broken(
+        buildings_kb, interp, evidence, (far, far_polygons), (rigid, polygons)
+    )
+    assert broken == mv._sizes_broken(buildings_kb, interp, evidence, far, far_polygons)
+    assert broken
+    # a step that keeps the ranges, or one from a model that had left them already, is taken
+    assert (
+        mv._newly_broken(buildings_kb, interp, evidence, (rigid, polygons), (far, far_polygons))
+        == []
+    )
+    assert (
+        mv._newly_broken(buildings_kb, interp, evidence, (far, far_polygons), (far, far_polygons))
+        == []
+    )
+    note = mv._left_ranges("refinement with all views", broken)
+    assert note.startswith("refinement with all views stopped: ")
+    assert broken[0] in note
+
+
 def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> None:
     # the box's visible edges at the true camera as exact fits of 0.1 px points: no residual;
     # moved 0.5 px across their edge, the offset is 0.5 px over sigma/sqrt(n); turned about

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -57,6 +58,37 @@ def test_two_view_house_registers_the_second_view_and_refines_the_model(
     knowledge = [r for r in interp.residuals if r.rule == "knowledge"]
     assert all(r.span is not None and r.span.file.endswith("buildings.kb") for r in knowledge)
     assert {r.owner for r in knowledge} == {"body"}
+
+
+def test_a_refinement_that_takes_the_model_out_of_its_ranges_is_not_taken(
+    evidence: Evidence, buildings_kb: object, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the final rounds re-match the segments: where they pull the model out of the ranges it
+    # met once registered (dev 61802: 9 m deep, then 170 m), the model stays as it was
+    import aida_kb.interpret.multiview as mv
+    from aida_kb.register.model import RigidModel
+
+    adjusted = mv._adjusted
+    calls: list[int] = []
+
+    def blown(*args: Any, **kwargs: Any) -> Any:
+        step = adjusted(*args, **kwargs)
+        calls.append(len(calls))
+        if isinstance(step, str) or len(calls) == 1:  # the registration's step is kept
+            return step
+        rigid, polygons = step[0], [40.0 * p for p in step[1]]
+        far = RigidModel.from_polygons(rigid.names, rigid.normals, 40.0 * rigid.offsets, polygons)
+        return (far, polygons, *step[2:])
+
+    monkeypatch.setattr(mv, "_adjusted", blown)
+    interp = reconstruct_views(buildings_kb, evidence)  # type: ignore[arg-type]
+    assert interp.model is not None
+    assert [c.view for c in interp.model.cameras] == ["00", "01"]
+    assert mv.model_sizes_broken(buildings_kb, interp, evidence) == []  # type: ignore[arg-type]
+    assert "refinement with all views stopped: it takes the model out of the knowledge's" in (
+        interp.message
+    )
+    assert len(calls) == 2  # the registration's step and the first final round only
 
 
 def test_a_view_that_cannot_be_registered_is_left_out_and_named(
