@@ -44,12 +44,13 @@ import numpy as np
 
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.multiview import reconstruct_views
-from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.verdict import check_attributes, check_orientations, check_view
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.scene import Scene
 from aida_kb.kb.model import KnowledgeBase
 from aida_kb.kb.paths import RolePath
+from aida_kb.solve.report import ConstraintResidual
 
 # a candidate wins when its score (per view: explained share + seen edge share + the share its
 # faces hold, each 0..1)
@@ -66,6 +67,7 @@ __all__ = [
     "ViewScore",
     "contradicted",
     "decide",
+    "guessed_by_stronger",
     "judged",
     "judging",
     "most_specific",
@@ -294,7 +296,13 @@ def most_specific(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
     (`contradicted`). The model is the same; the knowledge's more specific concept describes
     it (held-out 61702: a gable taken for an asymmetric gable whose slopes differ by 0.06
     deg, the symmetry's residual 0.015 of its threshold 10.8; the randomised asymmetric
-    gables' slopes differ by 8 deg or more). The message says so."""
+    gables' slopes differ by 8 deg or more). The message says so.
+
+    Only where the evidence measures what the stronger asserts more: where a part of those
+    constraints is inserted by the knowledge (`guessed_by_stronger`), it sits where the
+    knowledge put it, and meeting them says nothing (dev 61819: a shed taken for an asymmetric
+    gable whose back slope no region showed, inserted at the front's pitch, then named a
+    gable)."""
     model = interp.model
     if model is None or interp.objects:
         return interp
@@ -310,6 +318,8 @@ def most_specific(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
             if current.get(role) != concept:
                 continue
             stronger = _relabelled(interp, role, strong.partition("=")[2])
+            if guessed_by_stronger(kb, interp, stronger):
+                continue
             broken = stronger_broken(kb, interp, stronger)
             broken = broken or list(contradicted(kb, stronger, evidence))
             if broken:
@@ -334,31 +344,82 @@ def _relabelled(interp: Interpretation, role: str, concept: str) -> Interpretati
     return interp.model_copy(update={"instances": instances})
 
 
+def guessed_by_stronger(
+    kb: KnowledgeBase, weak: Interpretation, strong: Interpretation
+) -> list[str]:
+    """The guessed parts among those of the internal constraints `strong` asserts and `weak`
+    does not (the same model, other concepts): inserted by the knowledge (bound to no region:
+    `result.INSERTED`) with a slope the knowledge leaves open (`_slope_open`: a roof plane
+    tilted by its pitch, placed at the pitch's default). An inserted wall counts as measured
+    here: the knowledge stands it upright, and a symmetry of slopes about it holds by the
+    slopes alone. Role paths, sorted; every part when the model's planes make no problem."""
+    model = weak.model
+    if model is None:
+        return []
+    rows = _stronger_rows(kb, weak, strong)
+    if isinstance(rows, str):
+        return sorted(p.role for p in model.parts)
+    inserted = {i.role for i in weak.instances if INSERTED in i.bindings}
+    parts = {p for r in rows for p in r.parts if p in inserted}
+    return sorted(p for p in parts if _slope_open(kb, weak, p))
+
+
+def _slope_open(kb: KnowledgeBase, interp: Interpretation, role: str) -> bool:
+    """True if the knowledge leaves the slope of the planar part at `role` to the evidence:
+    the nearest orientation declared for it (by its whole, or a whole of that: the concepts
+    of `interp`'s instances) is tilted by an attribute, or none is declared. Upward and
+    downward parts and upright or fixed-tilt ones have their slope from the knowledge."""
+    concepts = {i.role: i.concept for i in interp.instances}
+    path = RolePath.parse(role)
+    for depth in range(len(path) - 1, -1, -1):
+        owner = RolePath(path.steps[:depth])
+        concept = kb.concepts.get(concepts.get(str(owner), ""))
+        if concept is not None:
+            o = concept.orientations.get(str(path.relative_to(owner).plain))
+            if o is not None:
+                return o.tilt_from is not None
+    return True
+
+
 def stronger_broken(kb: KnowledgeBase, weak: Interpretation, strong: Interpretation) -> list[str]:
     """The internal constraints of the knowledge that `strong` asserts and `weak` does not
     (the same model, other concepts) whose residual on the model's planes exceeds its
     threshold (`aida_kb.solve.report`: chi-square quantile or ``reject_above``); their labels.
     Everything broken when the model's planes make no problem."""
+    if weak.model is None:
+        return ["no model"]
+    rows = _stronger_rows(kb, weak, strong)
+    if isinstance(rows, str):
+        return [rows]
+    return [r.label for r in rows if r.rejected]
+
+
+def _stronger_rows(
+    kb: KnowledgeBase, weak: Interpretation, strong: Interpretation
+) -> list[ConstraintResidual] | str:
+    """The residuals (`aida_kb.solve.report`) of the internal constraints of the knowledge
+    that `strong` asserts and `weak` does not, on the planes of `weak`'s model (not None);
+    a solve error's text when those planes make no problem."""
     from aida_kb.errors import SolveError
     from aida_kb.interpret.multiview import kb_constraints
     from aida_kb.solve.problem import build_problem
     from aida_kb.solve.report import residual_report
 
     model = weak.model
-    if model is None:
-        return ["no model"]
+    assert model is not None  # the callers check
     names = [p.role for p in model.parts]
     normals = np.array([p.normal for p in model.parts], dtype=np.float64)
     offsets = np.array([p.offset_m for p in model.parts], dtype=np.float64)
     rows = []
     for interp in (weak, strong):
         try:
-            problem = build_problem(normals, offsets, kb_constraints(kb, interp, names))
+            constraints = kb_constraints(kb, interp, names)
+            problem = build_problem(normals, offsets, constraints, names=names)
             rows.append(residual_report(problem, np.zeros((len(names), 3))).rows)
         except SolveError as exc:
-            return [str(exc)]
+            return str(exc)
     known = {(r.label, r.parts) for r in rows[0]}
-    return [r.label for r in rows[1] if (r.label, r.parts) not in known and r.rejected]
+    return [r for r in rows[1] if (r.label, r.parts) not in known]
 
 
 def _named(candidate: Candidate) -> str:

@@ -314,9 +314,12 @@ def test_a_weaker_choice_of_a_tied_one_is_judged_by_the_views_too(
     assert out.message.startswith("House verified (body.roof=GableRoof)")
 
 
-def _gable_result(pitch_back_deg: float | None) -> tuple[Interpretation, Any]:
+def _gable_result(
+    pitch_back_deg: float | None, seen: tuple[str, ...] = ("body.roof.front", "body.roof.back")
+) -> tuple[Interpretation, Any]:
     """A gable house's model (35 deg front slope, `pitch_back_deg` at the back) taken for an
-    asymmetric gable, and evidence without views (nothing to judge ranges against)."""
+    asymmetric gable, and evidence without views (nothing to judge ranges against). The
+    parts `seen` are bound to a region each; the others are inserted by the knowledge."""
     from aida_kb.interpret.result import Instance
     from aida_kb.io.model import ModelPart
     from aida_kb.synth import buildings as bld
@@ -352,9 +355,9 @@ def _gable_result(pitch_back_deg: float | None) -> tuple[Interpretation, Any]:
             instance_of=p.concept,
             parent=p.role.rpartition(".")[0],
             link="part-of",
-            bindings=["inserted"],
+            bindings=[f"00/{k}"] if p.role in seen else ["inserted"],
         )
-        for p in parts
+        for k, p in enumerate(parts)
     ]
     interp = Interpretation(
         goal="House",
@@ -399,3 +402,22 @@ def test_an_asymmetric_gable_whose_slopes_are_equal_is_the_symmetric_gable(
     kept = rejudge.most_specific(buildings_kb, uneven, evidence)
     assert kept.instance("body.roof").concept == weak
     assert kept.message == uneven.message
+
+
+def test_a_slope_the_knowledge_inserted_does_not_make_the_gable_symmetric(
+    buildings_kb: Any,
+) -> None:
+    """Dev 61819: a shed taken for an asymmetric gable whose back slope no region showed
+    (inserted at the pitch's default) was named a gable: the symmetry held by the guess.
+    The inserted walls the symmetry names stand upright by the knowledge: no guess."""
+    guessed, evidence = _gable_result(None, seen=("body.roof.front",))
+    strong = rejudge._relabelled(guessed, "body.roof", "GableRoof")
+    assert rejudge.stronger_broken(buildings_kb, guessed, strong) == []
+    assert rejudge.guessed_by_stronger(buildings_kb, guessed, strong) == ["body.roof.back"]
+    kept = rejudge.most_specific(buildings_kb, guessed, evidence)
+    assert kept.instance("body.roof").concept == "AsymmetricGableRoof"
+    assert kept.message == guessed.message
+    # both slopes seen, the walls inserted (the back no view shows): the symmetry is measured
+    seen, _ = _gable_result(None)
+    both = rejudge._relabelled(seen, "body.roof", "GableRoof")
+    assert rejudge.guessed_by_stronger(buildings_kb, seen, both) == []
