@@ -210,7 +210,10 @@ def verify_alternative(
         except GeometryError as exc:
             reasons.append((f"its planes do not close a solid: {exc}", None))
             continue
-        violation = attribute_violation(ctx, structure, frame, outcome.planes, polygons, binding)
+        whole = (fixed, faces or {}, exclude) if smaller else None
+        violation = attribute_violation(
+            ctx, structure, frame, outcome.planes, polygons, binding, whole
+        )
         if violation is not None:
             reasons.append((violation.text, violation))
             continue

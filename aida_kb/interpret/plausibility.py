@@ -14,7 +14,7 @@ penalties for evidence it leaves unexplained.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -271,6 +271,7 @@ def attribute_violation(
     planes: Planes,
     polygons: dict[str, FloatArray],
     binding: Mapping[str, str] | None = None,
+    whole: tuple[Planes, Mapping[str, FloatArray], Iterable[str]] | None = None,
 ) -> Violation | None:
     """The first attribute of a length measure (height, width, depth, distance, elevation) of
     the structure's instances whose measure in the closed model lies outside its range, or None
@@ -282,12 +283,19 @@ def attribute_violation(
     distance of a point of plane b from plane a; ``elevation`` the height of the part's lowest
     point above the ground the reference view shows (`aida_kb.interpret.ground`; not taken
     where it shows none), the object's own regions (`on_object`; `binding`: region id ->
-    role path) left out of it.
+    role path) left out of it. ``whole``: for a smaller part, the verified levels' planes,
+    closed faces and bound regions: they are the object's too (an oriel's ground is not the
+    body's flat roof where the view shows no ground).
     """
     if not ctx.evidence.metric:  # lengths in unknown units: a range in metres does not apply
         return None
     axes = {"height": frame.up, "width": frame.right, "depth": frame.front}
-    own = on_object(ctx, binding or {}, planes, polygons, frame.up)
+    if whole is not None:
+        fixed, fixed_faces, bound = whole
+        mine = {**dict.fromkeys(bound, ""), **(binding or {})}
+        own = on_object(ctx, mine, {**fixed, **planes}, {**fixed_faces, **polygons}, frame.up)
+    else:
+        own = on_object(ctx, binding or {}, planes, polygons, frame.up)
     ground = ground_height(ctx.regions, frame.up, own)
     for node in structure.nodes:
         for attribute in ctx.knowledge.concept(node.concept).attributes.values():

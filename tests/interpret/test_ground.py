@@ -184,9 +184,13 @@ def test_an_oriel_stands_clear_of_the_ground(buildings_kb: Any) -> None:
     from aida_kb.interpret.knowledge import Knowledge
     from aida_kb.interpret.plausibility import attribute_violation
 
-    def violation(kb: Any, bottom_y: float) -> Any:
+    body_planes, body_faces = _box_faces()  # the body: floor at y = 2, flat top at y = -6
+    flat_top = _region("00/6", [0, -1, 0], [0.5, -6.0, 23.0], 9000)
+
+    def violation(kb: Any, bottom_y: float, ground_seen: bool = True, whole: Any = None) -> Any:
         """An oriel 3 m wide standing 1.2 m out of a front at z = 20, its bottom at height
-        -bottom_y (camera frame, y down), over the ground at y = 2."""
+        -bottom_y (camera frame, y down), over the ground at y = 2 (or, not `ground_seen`,
+        only the body's flat roof level)."""
         structure = Knowledge.from_kb(kb).structures("Oriel", "body.oriels[0]", "body", "part-of")[
             0
         ]
@@ -195,7 +199,7 @@ def test_an_oriel_stands_clear_of_the_ground(buildings_kb: Any) -> None:
         ctx = cast(
             Context,
             SimpleNamespace(
-                regions=(ground, front),
+                regions=(ground if ground_seen else flat_top, front),
                 evidence=SimpleNamespace(metric=True),
                 knowledge=Knowledge.from_kb(kb),
             ),
@@ -214,7 +218,7 @@ def test_an_oriel_stands_clear_of_the_ground(buildings_kb: Any) -> None:
             "body.oriels[0].front": (np.array([0.0, 0.0, -1.0]), -z0),
         }
         return attribute_violation(
-            ctx, structure, frame, planes, polygons, {"00/4": "body.oriels[0].front"}
+            ctx, structure, frame, planes, polygons, {"00/4": "body.oriels[0].front"}, whole
         )
 
     assert violation(buildings_kb, -1.2) is None  # 3.2 m above the ground
@@ -229,3 +233,8 @@ def test_an_oriel_stands_clear_of_the_ground(buildings_kb: Any) -> None:
     plain = compile_text(text.replace(line, ""))
     assert plain.kb is not None
     assert violation(plain.kb, 2.0) is None
+    # no ground in view: the body's flat roof is no ground for its oriel (the verified body's
+    # planes and faces are the object's, `whole`); alone, the oriel would hang below it
+    assert violation(buildings_kb, -1.2, ground_seen=False) is not None
+    whole = (body_planes, body_faces, ())
+    assert violation(buildings_kb, -1.2, ground_seen=False, whole=whole) is None
