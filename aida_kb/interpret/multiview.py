@@ -1329,7 +1329,9 @@ def reconstruct_from_first(
     their ``.kb`` lines, each view's segments and regions, the first shape's angles). A view
     that cannot be registered is left out of the model (no camera), and the message names it
     and says why; so is a view with which the adjusted model leaves the knowledge's size
-    ranges that it met before (`_sizes_broken`).
+    ranges that it met before (`_newly_broken`). A refinement round (with all views, or with
+    the images' edges) that would take the model out of those ranges is not taken either:
+    the model stays as the round before left it, and the message says so.
     """
     later = [v for v in evidence.views[1:] if v.frame == "camera"]
     # views whose pose the scene gives (structure from motion): they join like registered
