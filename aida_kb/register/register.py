@@ -59,6 +59,7 @@ from aida_kb.register.pose import (
     pose_covariance,
 )
 from aida_kb.register.twins import (
+    RIVAL_COST_RATIO,
     PhotometricJudge,
     PoseSupport,
     photometric_choice,
@@ -71,6 +72,7 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
 __all__ = [
+    "RIVAL_RETRIES",
     "RegionMeasurements",
     "Registration",
     "RegistrationOptions",
@@ -83,6 +85,7 @@ __all__ = [
     "realigned",
     "refine",
     "register_view",
+    "rival_turns",
     "symmetry_order",
     "turned",
     "vertical_axis",
@@ -558,6 +561,28 @@ def plane_starts(
     return out
 
 
+RIVAL_RETRIES = 2
+"""A later view whose registered pose its evidence does not confirm is registered again about at
+most this many rival turns (`rival_turns`), the cheapest first: a box's twins (its half and
+quarter turns) are two, and each try costs a registration and a joint adjustment."""
+
+
+def rival_turns(reg: Registration, options: RegistrationOptions | None = None) -> list[float]:
+    """The turns (degrees, as ``reg.angle_deg``) of the registration's refined poses farther
+    than the search's span (``options.span_deg``) from the pose taken and from each other
+    whose edges fit about as well (chamfer cost at most `twins.RIVAL_COST_RATIO` times the
+    pose's), the cheapest first: at most `RIVAL_RETRIES`. Registered again about one of them
+    (``init_angle_deg``), the view may land where its evidence confirms the pose."""
+    span = (options or RegistrationOptions()).span_deg
+    out: list[float] = []
+    for _, final, cost in sorted(reg.candidates, key=lambda c: c[2]):
+        if cost > RIVAL_COST_RATIO * reg.cost or len(out) == RIVAL_RETRIES:
+            break
+        if all(abs(_wrap(final - a)) > span for a in [reg.angle_deg, *out]):
+            out.append(final)
+    return out
+
+
 def _local_minima(costs: FloatArray, angles: FloatArray, count: int, sep_deg: float) -> list[int]:
     order = np.argsort(costs, kind="stable")
     chosen: list[int] = []
@@ -688,6 +713,7 @@ def register_view(
         raise SolveError("registration: no start converged to a pose that matches the image")
     if regions is not None and region_sigma_rad is not None:
         results += _realigned_results(model, reference, up, results, given, region_sigma_rad)
+    refined = tuple(results)  # every refined pose: the registration's candidates
     # a pose whose regions' normals disagree with the model by several sigma is not the view's
     limit = opts.region_disagree_sigmas * opts.region_sigma_deg
     agreeing = []
@@ -747,7 +773,7 @@ def register_view(
         won = photometric_choice([a for a, _ in rivals], supports, opts.span_deg)
         if won is not None:
             chosen = results[picked[won]]
-            return _registration(model, reference, up, chosen, results, (), given, image)
+            return _registration(model, reference, up, chosen, refined, (), given, image)
     inside = [r for r in results if abs(_wrap(r[1] - centre)) <= half]
     results = inside or results
     best = min(results, key=lambda r: r[0])
@@ -801,7 +827,7 @@ def register_view(
     alternatives = tuple(sorted(others.items()))
     chosen = (cost, final, cam, rms, ne, nr, 0.0)
     return _registration(
-        model, reference, up, chosen, results, alternatives, given, image, undecided
+        model, reference, up, chosen, refined, alternatives, given, image, undecided
     )
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -9,11 +11,21 @@ from typing import Any
 import numpy as np
 import pytest
 
+from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.interpret.evaluate import compare_with_truth
-from aida_kb.interpret.multiview import kb_constraints, reconstruct_views
+from aida_kb.interpret.multiview import (
+    REGISTERED_EXPLAINED_MIN,
+    kb_constraints,
+    reconstruct_from_first,
+    reconstruct_views,
+    view_explained_share,
+)
 from aida_kb.interpret.result import Interpretation
 from aida_kb.io.evidence import Evidence
+from aida_kb.io.model import ModelCamera, ReconstructedModel
 from aida_kb.io.scene import read_scene
+from aida_kb.register import Registration, RigidModel, turned, vertical_axis
+from aida_kb.register.evidence import register_evidence_view
 from aida_kb.synth.scenes import preset, render_scene
 from aida_kb.vision.evidence import scene_evidence
 
@@ -168,3 +180,97 @@ def test_joint_adjustment_can_take_the_right_images_through_rig_cameras(
     truth = read_scene(house).truth
     assert truth is not None
     assert compare_with_truth(interp.model, truth).max_vertex_error_rel < 0.02
+
+
+@pytest.fixture(scope="module")
+def refined(evidence: Evidence, buildings_kb: object) -> Interpretation:
+    return reconstruct_views(buildings_kb, evidence)  # type: ignore[arg-type]
+
+
+def _turned_camera(model: ReconstructedModel, view: str, deg: float) -> PinholeCamera:
+    """The model's camera of `view` turned by `deg` about the vertical through the model."""
+    cam = next(c for c in model.cameras if c.view == view)
+    camera = PinholeCamera(
+        np.array(cam.K), np.array(cam.R), np.array(cam.t), cam.image_width, cam.image_height
+    )
+    rigid = RigidModel.from_model(model)
+    up = vertical_axis(rigid, camera)
+    return turned(camera, up, rigid.centroid, math.radians(deg))
+
+
+def test_the_model_explains_a_registered_views_regions_only_at_its_own_turn(
+    refined: Interpretation, evidence: Evidence
+) -> None:
+    model = refined.model
+    assert model is not None
+    rigid = RigidModel.from_model(model)
+    view = evidence.views[1]
+    shares = [
+        view_explained_share(model, rigid, rigid.polygons, view, _turned_camera(model, "01", d))
+        for d in (0.0, 90.0, 180.0)
+    ]
+    assert shares[0] is not None
+    assert shares[0] > 0.95
+    # a quarter turn puts the house's end walls where the view sees its front: the view's
+    # regions no longer lie on the faces before them
+    assert shares[1] is not None
+    assert shares[1] < REGISTERED_EXPLAINED_MIN
+    # a half turn of the symmetric house is its twin: the regions lie on the faces it turns
+    # towards the camera just as well (`register_view` decides that by the expected turn)
+    assert shares[2] is not None
+    assert shares[2] > 0.95
+
+
+def _angle_deg(a: ModelCamera, b: ModelCamera) -> float:
+    cos = (np.trace(np.array(a.R) @ np.array(b.R).T) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+
+
+def test_a_pose_its_regions_do_not_confirm_gives_way_to_a_rival_turn_they_do(
+    refined: Interpretation,
+    evidence: Evidence,
+    buildings_kb: object,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    assert refined.model is not None
+    wrong = _turned_camera(refined.model, "01", 90.0)
+
+    def first_at_a_quarter_turn(*args: Any, **kwargs: Any) -> Registration:
+        reg = register_evidence_view(*args, **kwargs)
+        if kwargs.get("init_angle_deg") is not None:  # registered again about a rival turn
+            return reg
+        # the first registration took a pose a quarter turn off; the right one is its rival
+        return dataclasses.replace(reg, camera=wrong, angle_deg=reg.angle_deg + 90.0)
+
+    monkeypatch.setattr(
+        "aida_kb.interpret.multiview.register_evidence_view", first_at_a_quarter_turn
+    )
+    interp = reconstruct_from_first(buildings_kb, evidence)  # type: ignore[arg-type]
+    assert interp.model is not None
+    assert [c.view for c in interp.model.cameras] == ["00", "01"]
+    assert _angle_deg(interp.model.cameras[1], refined.model.cameras[1]) < 0.05
+    assert "where the evidence confirms it (adjusted with it, at a turn of" in interp.message
+    assert "of its region weight inside its projection (at least 50%)" in interp.message
+
+
+def test_a_pose_no_rival_explains_better_stays_for_the_verdict_to_judge(
+    refined: Interpretation,
+    evidence: Evidence,
+    buildings_kb: object,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    assert refined.model is not None
+    wrong = _turned_camera(refined.model, "01", 90.0)
+
+    def always_a_quarter_turn_off(*args: Any, **kwargs: Any) -> Registration:
+        return dataclasses.replace(register_evidence_view(*args, **kwargs), camera=wrong)
+
+    monkeypatch.setattr(
+        "aida_kb.interpret.multiview.register_evidence_view", always_a_quarter_turn_off
+    )
+    interp = reconstruct_from_first(buildings_kb, evidence)  # type: ignore[arg-type]
+    assert interp.model is not None
+    # the model, not the pose, may be what the view contradicts: the view stays, named
+    assert [c.view for c in interp.model.cameras] == ["00", "01"]
+    assert _angle_deg(interp.model.cameras[1], refined.model.cameras[1]) > 45.0
+    assert "and no rival turn explains it better" in interp.message

@@ -21,6 +21,7 @@ from aida_kb.register import (
     match_segments,
     orbit_pivot,
     register_view,
+    rival_turns,
     symmetry_order,
     turned,
     vertical_axis,
@@ -661,3 +662,20 @@ def test_realigned_needs_two_regions_of_different_directions() -> None:
 def _angle_deg(a: PinholeCamera, b: PinholeCamera) -> float:
     cos = (float(np.trace(a.R_cam_world @ b.R_cam_world.T)) - 1.0) / 2.0
     return math.degrees(math.acos(float(np.clip(cos, -1.0, 1.0))))
+
+
+def test_the_rival_turns_of_a_registration_lead_to_the_symmetric_twin() -> None:
+    model = _box()
+    ref = _reference()
+    up = vertical_axis(model, ref)
+    truth = turned(ref, up, model.centroid, math.radians(40.0))
+    p1, p2 = simulated_segments(model, truth, np.random.default_rng(7), noise_px=0.5)
+    reg = register_view(model, ref, p1, p2)
+    assert abs(reg.angle_deg - 40.0) < 0.1
+    # the half-turned twin fits the edges as well; poses near -50 deg fit 5 times worse
+    rivals = rival_turns(reg)
+    assert len(rivals) == 1
+    assert abs(rivals[0] + 140.0) < 0.1
+    again = register_view(model, ref, p1, p2, init_angle_deg=rivals[0])
+    assert abs(again.angle_deg + 140.0) < 0.1
+    assert again.cost == pytest.approx(reg.cost, abs=1e-6)
