@@ -1446,9 +1446,13 @@ def reconstruct_from_first(
     their ``.kb`` lines, each view's segments and regions, the first shape's angles). A view
     that cannot be registered is left out of the model (no camera), and the message names it
     and says why; so is a view with which the adjusted model leaves the knowledge's size
-    ranges that it met before (`_newly_broken`). A refinement round (with all views, or with
-    the images' edges) that would take the model out of those ranges is not taken either:
-    the model stays as the round before left it, and the message says so.
+    ranges that it met before (`_newly_broken`). A registered pose the views' own stereo does
+    not confirm (`REGISTERED_EXPLAINED_MIN`) is registered again about its rival turns
+    (`aida_kb.register.rival_turns`); with none confirmed it stays if only its own view is
+    unexplained, and the view is left out if it bent the model off an earlier view. A
+    refinement round (with all views, or with the images' edges) that would take the model out
+    of those ranges is not taken either: the model stays as the round before left it, and the
+    message says so.
     """
     later = [v for v in evidence.views[1:] if v.frame == "camera"]
     # views whose pose the scene gives (structure from motion): they join like registered
