@@ -275,17 +275,6 @@ def explained_shares(
     return [None if c is None else c.explained_share for c in checks]
 
 
-def view_explained_share(
-    model0: ReconstructedModel,
-    rigid: RigidModel,
-    polygons: Sequence[FloatArray],
-    view: ViewEvidence,
-    camera: PinholeCamera,
-) -> float | None:
-    """`explained_shares` of one view seen from `camera`."""
-    return explained_shares(model0, rigid, polygons, [view], [camera])[0]
-
-
 def _unexplained(shares: Sequence[float | None]) -> list[int]:
     """The indices of the views whose explained share is below `REGISTERED_EXPLAINED_MIN`."""
     return [i for i, s in enumerate(shares) if s is not None and s < REGISTERED_EXPLAINED_MIN]

@@ -15,10 +15,10 @@ from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.interpret.evaluate import compare_with_truth
 from aida_kb.interpret.multiview import (
     REGISTERED_EXPLAINED_MIN,
+    explained_shares,
     kb_constraints,
     reconstruct_from_first,
     reconstruct_views,
-    view_explained_share,
 )
 from aida_kb.interpret.result import Interpretation
 from aida_kb.io.evidence import Evidence
@@ -206,7 +206,7 @@ def test_the_model_explains_a_registered_views_regions_only_at_its_own_turn(
     rigid = RigidModel.from_model(model)
     view = evidence.views[1]
     shares = [
-        view_explained_share(model, rigid, rigid.polygons, view, _turned_camera(model, "01", d))
+        explained_shares(model, rigid, rigid.polygons, [view], [_turned_camera(model, "01", d)])[0]
         for d in (0.0, 90.0, 180.0)
     ]
     assert shares[0] is not None
