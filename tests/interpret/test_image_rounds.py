@@ -9,6 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 import aida_kb.interpret.multiview as mv
@@ -39,6 +40,7 @@ from tests.register.test_register import _box
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
 K = np.array([[800.0, 0.0, 319.5], [0.0, 800.0, 239.5], [0.0, 0.0, 1.0]])
+FloatArray = npt.NDArray[np.float64]
 Get = Callable[[str], Interpretation]
 
 
@@ -154,6 +156,19 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
 def _house(interpreted: Get) -> tuple[Interpretation, Evidence]:
     """The house fixture's interpretation and evidence."""
     return interpreted("house_correct.json"), read_evidence(FIXTURES / "house_correct.json")
+
+
+def _far(
+    interp: Interpretation,
+) -> tuple[RigidModel, list[FloatArray], RigidModel, list[FloatArray]]:
+    """The model of `interp` (planes, polygons) and the same 40 times as far from the origin
+    (what a view registered at a wrong pose made of dev seed 58008: 292 m walls)."""
+    assert interp.model is not None
+    rigid = RigidModel.from_model(interp.model)
+    polygons = [np.asarray(p.polygon, dtype=np.float64) for p in interp.model.parts]
+    far_polygons = [40.0 * p for p in polygons]
+    far = RigidModel.from_polygons(rigid.names, rigid.normals, 40.0 * rigid.offsets, far_polygons)
+    return rigid, polygons, far, far_polygons
 
 
 def test_a_camera_fixed_by_its_image_edges_keeps_that_deviation(
@@ -273,19 +288,14 @@ def test_a_view_whose_adjustment_breaks_the_size_ranges_is_named(
     # the house as interpreted meets its ranges; the same planes 40 times as far from the
     # origin (what a view registered at a wrong pose made of dev seed 58008: 292 m walls) not
     interp, evidence = _house(interpreted)
-    assert interp.model is not None
-    rigid = RigidModel.from_model(interp.model)
-    polygons = [np.asarray(p.polygon, dtype=np.float64) for p in interp.model.parts]
+    rigid, polygons, far, far_polygons = _far(interp)
     assert mv._sizes_broken(buildings_kb, interp, evidence, rigid, polygons) == []
-    far = RigidModel.from_polygons(
-        rigid.names, rigid.normals, 40.0 * rigid.offsets, [40.0 * p for p in polygons]
-    )
-    broken = mv._sizes_broken(buildings_kb, interp, evidence, far, [40.0 * p for p in polygons])
+    broken = mv._sizes_broken(buildings_kb, interp, evidence, far, far_polygons)
     assert broken
     assert all("outside" in b for b in broken)
     # a scene of unknown scale has no ranges in metres
     unknown = evidence.model_copy(update={"units": "unknown"})
-    assert mv._sizes_broken(buildings_kb, interp, unknown, far, [40.0 * p for p in polygons]) == []
+    assert mv._sizes_broken(buildings_kb, interp, unknown, far, far_polygons) == []
 
 
 def test_an_adjustment_step_is_not_taken_only_when_it_breaks_ranges_the_model_met(
@@ -293,11 +303,7 @@ def test_an_adjustment_step_is_not_taken_only_when_it_breaks_ranges_the_model_me
 ) -> None:
     # dev 61802: the final rounds took a model of 13.7 x 12.1 x 9.2 m to 170 m deep
     interp, evidence = _house(interpreted)
-    assert interp.model is not None
-    rigid = RigidModel.from_model(interp.model)
-    polygons = [np.asarray(p.polygon, dtype=np.float64) for p in interp.model.parts]
-    far_polygons = [40.0 * p for p in polygons]
-    far = RigidModel.from_polygons(rigid.names, rigid.normals, 40.0 * rigid.offsets, far_polygons)
+    rigid, polygons, far, far_polygons = _far(interp)
     broken = mv._newly_broken(
         buildings_kb, interp, evidence, (far, far_polygons), (rigid, polygons)
     )
