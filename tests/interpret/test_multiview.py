@@ -226,6 +226,26 @@ def _angle_deg(a: ModelCamera, b: ModelCamera) -> float:
     return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
 
 
+def _registered_a_quarter_turn_off(
+    refined: Interpretation, monkeypatch: pytest.MonkeyPatch, *, rivals_too: bool
+) -> None:
+    """Make view 01's registration (`register_evidence_view` as multiview calls it) land a
+    quarter turn off the refined model's camera: the first registration only, or also every
+    registration again about a rival turn (`rivals_too`)."""
+    assert refined.model is not None
+    wrong = _turned_camera(refined.model, "01", 90.0)
+
+    def quarter_turn_off(*args: Any, **kwargs: Any) -> Registration:
+        reg = register_evidence_view(*args, **kwargs)
+        if rivals_too:
+            return dataclasses.replace(reg, camera=wrong)
+        if kwargs.get("init_angle_deg") is not None:  # registered again about a rival turn
+            return reg
+        return dataclasses.replace(reg, camera=wrong, angle_deg=reg.angle_deg + 90.0)
+
+    monkeypatch.setattr("aida_kb.interpret.multiview.register_evidence_view", quarter_turn_off)
+
+
 def test_a_pose_its_regions_do_not_confirm_gives_way_to_a_rival_turn_they_do(
     refined: Interpretation,
     evidence: Evidence,
@@ -233,18 +253,8 @@ def test_a_pose_its_regions_do_not_confirm_gives_way_to_a_rival_turn_they_do(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     assert refined.model is not None
-    wrong = _turned_camera(refined.model, "01", 90.0)
-
-    def first_at_a_quarter_turn(*args: Any, **kwargs: Any) -> Registration:
-        reg = register_evidence_view(*args, **kwargs)
-        if kwargs.get("init_angle_deg") is not None:  # registered again about a rival turn
-            return reg
-        # the first registration took a pose a quarter turn off; the right one is its rival
-        return dataclasses.replace(reg, camera=wrong, angle_deg=reg.angle_deg + 90.0)
-
-    monkeypatch.setattr(
-        "aida_kb.interpret.multiview.register_evidence_view", first_at_a_quarter_turn
-    )
+    # the first registration took a pose a quarter turn off; the right one is its rival
+    _registered_a_quarter_turn_off(refined, monkeypatch, rivals_too=False)
     interp = reconstruct_from_first(buildings_kb, evidence)  # type: ignore[arg-type]
     assert interp.model is not None
     assert [c.view for c in interp.model.cameras] == ["00", "01"]
@@ -260,14 +270,7 @@ def test_a_pose_no_rival_explains_better_stays_for_the_verdict_to_judge(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     assert refined.model is not None
-    wrong = _turned_camera(refined.model, "01", 90.0)
-
-    def always_a_quarter_turn_off(*args: Any, **kwargs: Any) -> Registration:
-        return dataclasses.replace(register_evidence_view(*args, **kwargs), camera=wrong)
-
-    monkeypatch.setattr(
-        "aida_kb.interpret.multiview.register_evidence_view", always_a_quarter_turn_off
-    )
+    _registered_a_quarter_turn_off(refined, monkeypatch, rivals_too=True)
     interp = reconstruct_from_first(buildings_kb, evidence)  # type: ignore[arg-type]
     assert interp.model is not None
     # the model, not the pose, may be what the view contradicts: the view stays, named
