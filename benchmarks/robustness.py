@@ -14,7 +14,10 @@ Scenes with labels.png and without are reported apart. The seeds reported by def
 (10000 ...) were never looked at while the code was developed (development used seeds below
 3000). Figures: correct_rate, wrong_accepted_rate (verified but not correct), doubtful_rate,
 nothing_rate (nothing found), error_rate, the correct rate per kind, nothing found in the
-scenes without a house, and the count of each failure cause.
+scenes without a house, the count of each failure cause, and how many scenes with a house
+show every true part in some view (`aida_kb.interpret.sight`: a face of 200 px or half of an
+edge; a part no view shows is the knowledge's guess whatever the interpretation) with the
+correct ones among them (objects_fully_shown, correct_of_fully_shown).
 
 Image width: the random scenes draw their own sizes (480, 640, 720 or 800 px wide);
 ``--max-width`` caps them. Keep the default 800 (the scenes' own sizes) for the figures: the

@@ -16,7 +16,8 @@ diagonal of its bounding box). Angles are those at which the planes meet inside 
 truth: the right outcome (an object found where there is one, nothing where there is none),
 the specialisations chosen (truth.json's `concepts`), the normals, the vertices and every
 view's camera. It is what `aida-kb evaluate`, `aida-kb demo` and `benchmarks/robustness.py`
-report.
+report; with the true parts no view shows (`aida_kb.interpret.sight`), named apart, since
+no interpretation can measure them.
 """
 
 from __future__ import annotations
@@ -208,6 +209,9 @@ class Evaluation:
     comparison: TruthComparison | None
     cameras: list[CameraError]
     doubts: tuple[str, ...] = ()  # the verdict's reasons when the result is doubtful
+    # true parts no view shows well enough to measure (`aida_kb.interpret.sight`): no
+    # interpretation can place them to the targets; None when unknown (no rendered depth)
+    unmeasurable: tuple[str, ...] | None = None
 
     def summary(self) -> dict[str, object]:
         """The figures as a JSON-ready mapping."""
@@ -223,6 +227,7 @@ class Evaluation:
             "max_vertex_error_pct": None if c is None else round(100 * c.max_vertex_error_rel, 3),
             "missing": [] if c is None else c.missing,
             "extra": [] if c is None else c.extra,
+            "unmeasurable": None if self.unmeasurable is None else list(self.unmeasurable),
             "cameras": [
                 {
                     "view": e.view,
@@ -266,11 +271,19 @@ def _camera_errors(model: ReconstructedModel, truth: SceneTruth) -> list[CameraE
     return out
 
 
-def evaluate(interp: Interpretation, truth: SceneTruth, *, goal: str | None = None) -> Evaluation:
+def evaluate(
+    interp: Interpretation,
+    truth: SceneTruth,
+    *,
+    goal: str | None = None,
+    unmeasurable: tuple[str, ...] | None = None,
+) -> Evaluation:
     """Judge `interp` (with its model) against `truth` (see `Evaluation`).
 
     goal : the concept searched for (default: the interpretation's goal). A truth whose
     object is another concept, or has no parts, expects nothing to be found.
+    unmeasurable : the true parts no view shows (`aida_kb.interpret.sight.unmeasurable`;
+    None: not known), reported with the result; they change no check.
     """
     goal = goal or interp.goal
     expected = truth.object == goal and bool(truth.parts)
@@ -311,7 +324,15 @@ def evaluate(interp: Interpretation, truth: SceneTruth, *, goal: str | None = No
     if expected and found and cause == "" and outcome != "verified":
         cause = "right but doubtful"
     return Evaluation(
-        expected, outcome, correct, cause, wrong_kind, comparison, cameras, tuple(interp.doubts)
+        expected,
+        outcome,
+        correct,
+        cause,
+        wrong_kind,
+        comparison,
+        cameras,
+        tuple(interp.doubts),
+        unmeasurable if expected else None,
     )
 
 
@@ -337,6 +358,11 @@ def format_evaluation(result: Evaluation) -> list[str]:
             f"  largest vertex error: {c.max_vertex_error_m:.3f} m = "
             f"{100 * c.max_vertex_error_rel:.2f}% of the object's size {c.size_m:.2f} m "
             f"(target {100 * VERTEX_TARGET:g}%)"
+        )
+    if result.unmeasurable:
+        lines.append(
+            "  shown by no view (neither the face nor an edge of it: placed by the knowledge "
+            f"alone, whatever the interpretation): {', '.join(result.unmeasurable)}"
         )
     for e in result.cameras:
         lines.append(
