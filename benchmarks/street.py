@@ -37,6 +37,7 @@ import time
 from pathlib import Path
 
 from aida_kb.interpret.scene import evaluate_scene, reconstruct_objects, scene_evidence_of
+from aida_kb.interpret.sight import part_sights, unmeasurable
 from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.scene import read_scene
 from aida_kb.kb.compiler import compile_path
@@ -80,6 +81,7 @@ def _house(row: dict[str, object]) -> dict[str, object]:
         "cause": row.get("cause", "missed"),
         "cameras": row.get("cameras", []),
         "doubts": row.get("doubts", []),
+        "unmeasurable": row.get("unmeasurable"),  # its parts no view shows (interpret.sight)
     }
 
 
@@ -130,9 +132,10 @@ def main() -> None:
                 interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
                 seconds = time.perf_counter() - start
                 total_seconds += seconds
-                truth = read_scene(folder, with_truth=True).truth
+                shown = read_scene(folder, with_truth=True)
+                truth = shown.truth
                 assert truth is not None
-                judged = evaluate_scene(interp, truth, "houses")
+                judged = evaluate_scene(interp, truth, "houses", unmeasurable(part_sights(shown)))
                 houses = [
                     r for r in judged if r.get("truth") and r["status"] in ("found", "missed")
                 ]

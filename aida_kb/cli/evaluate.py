@@ -67,9 +67,10 @@ def run(args: argparse.Namespace) -> int:
     truth = scene.truth
     if truth is None:
         raise FormatError(f"{args.scene}: the scene has no truth.json to compare with")
+    hidden = unmeasurable(part_sights(scene))
     if interp.objects:  # several objects per scene: every true one against its own
-        return _evaluate_objects(interp, truth, as_json=args.json)
-    result = evaluate(interp, truth, unmeasurable=unmeasurable(part_sights(scene)))
+        return _evaluate_objects(interp, truth, hidden, as_json=args.json)
+    result = evaluate(interp, truth, unmeasurable=hidden)
     if args.json:
         print(json.dumps(result.summary()))
     else:
@@ -78,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK if result.correct else EXIT_ERRORS
 
 
-def _evaluate_objects(interp: Any, truth: Any, *, as_json: bool) -> int:
+def _evaluate_objects(interp: Any, truth: Any, hidden: Any, *, as_json: bool) -> int:
     """Every true object of a scene of several against the reconstructed one paired with it
     (`aida_kb.interpret.scene.evaluate_scene`); correct when each is, none is missed,
     invented or taken twice."""
@@ -88,7 +89,7 @@ def _evaluate_objects(interp: Any, truth: Any, *, as_json: bool) -> int:
     from aida_kb.interpret.scene import evaluate_scene
 
     role = interp.objects[0].role.split("[", 1)[0]
-    rows = evaluate_scene(interp, truth, role)
+    rows = evaluate_scene(interp, truth, role, hidden)
     correct = all(r["status"] == "found" and r.get("correct") for r in rows)
     if as_json:
         print(json.dumps({"correct": correct, "objects": rows}))
@@ -104,4 +105,7 @@ def _evaluate_objects(interp: Any, truth: Any, *, as_json: bool) -> int:
                 f"  {r['truth']} as {r['object']}: {cause}, {r['outcome']}; normals "
                 f"{r['max_normal_error_deg']} deg, vertices {r['max_vertex_error_pct']}%"
             )
+            unseen = r.get("unmeasurable")
+            if isinstance(unseen, list) and unseen:
+                print(f"    shown by no view: {', '.join(str(u) for u in unseen)}")
     return EXIT_OK if correct else EXIT_ERRORS

@@ -253,10 +253,12 @@ def _judged_street(
     labels: bool,
     views: int,
     interp: Interpretation,
-    truth: SceneTruth,
+    scene: Scene,
     seconds: float,
 ) -> StreetOutcome:
-    rows = evaluate_scene(interp, truth, role)
+    truth = scene.truth
+    assert truth is not None  # a kept or rendered street always has one
+    rows = evaluate_scene(interp, truth, role, unmeasurable(part_sights(scene)))
     houses = tuple(
         {
             "truth": r["truth"],
@@ -265,6 +267,7 @@ def _judged_street(
             "cause": r.get("cause", "missed"),
             "max_normal_error_deg": r.get("max_normal_error_deg"),
             "max_vertex_error_pct": r.get("max_vertex_error_pct"),
+            "unmeasurable": r.get("unmeasurable"),
         }
         for r in rows
         if r.get("status") in ("found", "missed")
@@ -345,9 +348,8 @@ def run_random_street(
         name = type(exc).__name__
         return _street_error(role, seed, preset, labels, views, houses, name, str(exc))
     seconds = time.perf_counter() - start
-    truth = read_scene(scene_dir).truth
-    assert truth is not None  # render_scene always writes one
-    return _judged_street(role, seed, preset, labels, views, result.interpretation, truth, seconds)
+    scene = read_scene(scene_dir)
+    return _judged_street(role, seed, preset, labels, views, result.interpretation, scene, seconds)
 
 
 def members_of(kb: KnowledgeBase) -> str | None:
@@ -383,7 +385,7 @@ def rejudge_street(kb: KnowledgeBase, seed: int, workdir: str | Path) -> StreetO
     evidence = read_evidence(out_dir / "evidence.json")
     interp = judge_objects(kb, interp, evidence)
     interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
-    return _judged_street(role, seed, preset, labels, len(scene.views), interp, truth, 0.0)
+    return _judged_street(role, seed, preset, labels, len(scene.views), interp, scene, 0.0)
 
 
 def scene_rates(rows: Sequence[SceneOutcome]) -> dict[str, object]:

@@ -113,6 +113,32 @@ def test_street_objects_each_with_own_verdict_and_evidence(
     assert {r["truth"] for r in rows if r.get("truth")} >= {"houses[0]", "houses[1]"}
 
 
+def test_scene_evaluation_names_each_houses_unseen_parts(
+    street_result: tuple[Path, Evidence, Interpretation],
+) -> None:
+    from aida_kb.interpret.sight import part_sights, unmeasurable
+    from aida_kb.io.scene import read_scene
+
+    folder, _, interp = street_result
+    scene = read_scene(folder, with_truth=True)
+    assert scene.truth is not None
+    hidden = unmeasurable(part_sights(scene))
+    assert hidden is not None
+    # one view of the terrace from the front left: house 0's back wall ends where its left
+    # wall's far outline shows; house 1's left is the party wall, so nothing shows its back
+    assert hidden == ("houses[1].body.back",)
+    rows = {r["truth"]: r for r in evaluate_scene(interp, scene.truth, "houses", hidden)}
+    assert rows["houses[0]"]["unmeasurable"] == []
+    assert rows["houses[1]"]["unmeasurable"] == ["body.back"]
+    # the scene's roles are split among the houses, relative to each
+    made_up = ("houses[0].body.back", "houses[1].body.left", "elsewhere.body.front")
+    rows = {r["truth"]: r for r in evaluate_scene(interp, scene.truth, "houses", made_up)}
+    assert rows["houses[0]"]["unmeasurable"] == ["body.back"]
+    assert rows["houses[1]"]["unmeasurable"] == ["body.left"]
+    rows = {r["truth"]: r for r in evaluate_scene(interp, scene.truth, "houses")}
+    assert rows["houses[0]"]["unmeasurable"] is None
+
+
 def test_context_leaves_out_explained_and_foreign_evidence(
     street_result: tuple[Path, Evidence, Interpretation], street_kb: KnowledgeBase
 ) -> None:

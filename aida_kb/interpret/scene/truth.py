@@ -17,13 +17,21 @@ from aida_kb.io.scene import SceneTruth
 if TYPE_CHECKING:
     pass
 
-from aida_kb.interpret.scene.roles import object_interpretation, object_of, object_truth
+from aida_kb.interpret.scene.roles import (
+    object_interpretation,
+    object_of,
+    object_truth,
+    relative_role,
+)
 
 FloatArray = npt.NDArray[np.float64]
 
 
 def evaluate_scene(
-    interp: Interpretation, truth: SceneTruth, members_role: str
+    interp: Interpretation,
+    truth: SceneTruth,
+    members_role: str,
+    unmeasurable: tuple[str, ...] | None = None,
 ) -> list[dict[str, object]]:
     """Every true object of `truth` against the reconstructed object paired with it.
 
@@ -33,7 +41,9 @@ def evaluate_scene(
     at most one reconstructed object. Returns one row per true object (its role, the paired
     object or None, `evaluate.evaluate`'s figures of the pair) and one per reconstructed
     object paired with no true one ('invented') or with a true object already taken
-    ('twice').
+    ('twice'). `unmeasurable`: the scene's true parts no view shows
+    (`aida_kb.interpret.sight.unmeasurable`, role paths of the whole scene; None: not known);
+    each true object's row lists its own, relative to it.
     """
     from aida_kb.interpret.evaluate import evaluate
 
@@ -79,10 +89,23 @@ def evaluate_scene(
     for t in true_roles:
         f_role = pairs.get(t)
         sub_truth = object_truth(truth, t)
+        hidden = (
+            None
+            if unmeasurable is None
+            else tuple(relative_role(t, r) for r in unmeasurable if r.startswith(t + "."))
+        )
         if f_role is None or model is None:
-            rows.append({"truth": t, "object": None, "status": "missed", "correct": False})
+            rows.append(
+                {
+                    "truth": t,
+                    "object": None,
+                    "status": "missed",
+                    "correct": False,
+                    "unmeasurable": None if hidden is None else list(hidden),
+                }
+            )
             continue
         sub = object_interpretation(interp, f_role, verdicts[f_role])
-        result = evaluate(sub, sub_truth, goal=sub.goal)
+        result = evaluate(sub, sub_truth, goal=sub.goal, unmeasurable=hidden)
         rows.append({"truth": t, "object": f_role, "status": "found", **result.summary()})
     return rows
