@@ -302,19 +302,24 @@ def _append_view(
     pairs.append(stereo)
 
 
+ModelState = tuple[RigidModel, Sequence[FloatArray], Sequence[PinholeCamera]]
+"""A model, its polygons and the cameras of the views registered to it."""
+
+
 def _unconfirmed(
     model0: ReconstructedModel,
-    before: tuple[RigidModel, Sequence[FloatArray], Sequence[PinholeCamera]],
-    step: AdjustedStep,
+    before: ModelState,
+    after: ModelState,
     shown: Sequence[ViewEvidence],
     ids: Sequence[str],
 ) -> tuple[str, bool]:
-    """Why the model adjusted with the last of the `shown` views (`step`) is not confirmed by
-    the views' own stereo, or '' when it is: the model explains less than
+    """Why the model with the last of the `shown` views (`after`: adjusted with it, or as it
+    was where the adjustment could not take the view, with the view's registered camera) is
+    not confirmed by the views' own stereo, or '' when it is: the model explains less than
     `REGISTERED_EXPLAINED_MIN` of that view's region weight inside its projection, or of an
     earlier view's that it explained `before` (the model, its polygons and the earlier views'
     cameras) — the pose bent the model off it (then ``True`` as well)."""
-    shares = explained_shares(model0, step[0], step[1], shown, step[2])
+    shares = explained_shares(model0, after[0], after[1], shown, after[2])
     rigid, polygons, cams = before
     was = set(_unexplained(explained_shares(model0, rigid, polygons, shown[:-1], cams)))
     spoilt = [i for i in _unexplained(shares[:-1]) if i not in was]
@@ -1438,7 +1443,9 @@ def reconstruct_from_first(
     ranges that it met before (`_newly_broken`). A registered pose the views' own stereo does
     not confirm (`REGISTERED_EXPLAINED_MIN`) is registered again about its rival turns
     (`aida_kb.register.rival_turns`); with none confirmed it stays if only its own view is
-    unexplained, and the view is left out if it bent the model off an earlier view. A
+    unexplained, and the view is left out if it bent the model off an earlier view; such a
+    pose does not start the next view's search (the last confirmed camera does). A pose whose
+    joint adjustment fails is judged where the registration put it. A
     refinement round (with all views, or with the images' edges) that would take the model out
     of those ranges is not taken either: the model stays as the round before left it, and the
     message says so.
@@ -1481,6 +1488,9 @@ def reconstruct_from_first(
     # the known poses start the adjustments as a registration's would, refined like them
     n_known = len(cams) - len(placed)
     turn: float | None = None
+    # the cameras whose pose the views' own stereo confirmed (the first views' are known):
+    # only they start the next view's search and carry their images into it
+    trusted = list(range(len(cams)))
     notes: list[str] = []
     undecided: dict[str, tuple[float, ...]] = {}  # views whose registration chose a twin
     report: ResidualReport | None = None  # the last adjustment's, for interpretation.json
@@ -1495,14 +1505,30 @@ def reconstruct_from_first(
         if progress is not None:
             progress(f"registering view {v.id}")
         stereo = None if scene is None else right_segments(scene, v.id)
-        judge = None if scene is None else _image_judge(scene, evidence, rigid, cams, views, v)
-        # views of a sequence turn alike: the last turn is the expected one
+        judge = (
+            None
+            if scene is None
+            else _image_judge(
+                scene,
+                evidence,
+                rigid,
+                [cams[i] for i in trusted],
+                [views[i] for i in trusted],
+                v,
+            )
+        )
+        # the search starts at the last confirmed camera: a pose kept unconfirmed (see below)
+        # may be a twin's, and a view turned from it would be searched about that twin
+        reference = cams[trusted[-1]]
+        # views of a sequence turn alike: the last turn is the expected one, when its view
+        # is the reference
+        adjacent = trusted[-1] == len(cams) - 1
         try:
             reg = register_evidence_view(
                 rigid,
-                cams[-1],
+                reference,
                 v,
-                expected_turn_deg=turn,
+                expected_turn_deg=turn if adjacent else None,
                 stereo=stereo,
                 photometric=judge,
                 region_sigma=region_normal_sigma_rad,
@@ -1515,20 +1541,30 @@ def reconstruct_from_first(
         refused: list[str] = []  # the turns tried whose pose the evidence does not confirm
         # the first pose, adjusted, when its own view's stereo alone does not confirm it: kept
         # unless a rival's does (then the model, not the pose, may be what the view contradicts)
-        kept_first: tuple[Registration, AdjustedStep, str] | None = None
+        # (str: its joint adjustment was skipped, and why)
+        kept_first: tuple[Registration, AdjustedStep | str, str] | None = None
         while True:
             _append_view(cams, views, ids, shown, pairs, reg.camera, v, right)
             # the model and the new view's pose in one joint optimisation (for the second
             # view: the first shape and the second pose), the views before it held where they are
             inputs = JointInputs(angles, internal, pairs)
             step = _adjusted(rigid, cams, views, [len(cams) - 1], inputs)
-            if isinstance(step, str):
-                notes.append(f"joint adjustment with view {v.id} skipped: {step}")
-                break
-            broken = _newly_broken(kb, interp, evidence, step[:2], (rigid, polygons))
-            why, bent = _unconfirmed(model0, (rigid, polygons, cams[:-1]), step, shown, ids)
+            # a pose the adjustment cannot take is judged where the registration put it, on
+            # the model as it was: it must be confirmed all the same (dev 61902: views 92 and
+            # 177 deg off stayed, unjudged, where both adjustments failed)
+            after = (rigid, polygons, cams) if isinstance(step, str) else step[:3]
+            broken = (
+                []
+                if isinstance(step, str)
+                else _newly_broken(kb, interp, evidence, step[:2], (rigid, polygons))
+            )
+            why, bent = _unconfirmed(model0, (rigid, polygons, cams[:-1]), after, shown, ids)
             if not (broken or why):
-                rigid, polygons, cams, report = step
+                if isinstance(step, str):
+                    notes.append(f"joint adjustment with view {v.id} skipped: {step}")
+                else:
+                    rigid, polygons, cams, report = step
+                trusted.append(len(cams) - 1)
                 break
             for kept in (cams, views, ids, pairs, shown):
                 kept.pop()
@@ -1544,7 +1580,7 @@ def reconstruct_from_first(
                 try:
                     again = register_evidence_view(
                         rigid,
-                        cams[-1],
+                        reference,
                         v,
                         init_angle_deg=rivals.pop(0),
                         stereo=stereo,
@@ -1565,7 +1601,10 @@ def reconstruct_from_first(
             # no rival explains the view better: the pose stands, the verdict judges the model
             reg, adjusted, why = kept_first
             _append_view(cams, views, ids, shown, pairs, reg.camera, v, right)
-            rigid, polygons, cams, report = adjusted
+            if isinstance(adjusted, str):
+                notes.append(f"joint adjustment with view {v.id} skipped: {adjusted}")
+            else:
+                rigid, polygons, cams, report = adjusted
             refused = []
             notes.append(
                 f"view {v.id}: adjusted with it at a turn of {reg.angle_deg:.1f} deg, {why}, "
@@ -1585,7 +1624,8 @@ def reconstruct_from_first(
                 f"view {v.id}: its images fit turns of {turns} deg about as well as the "
                 f"{reg.angle_deg:.1f} deg taken"
             )
-        turn = reg.angle_deg
+        if trusted[-1] == len(cams) - 1:  # confirmed: the turn from its reference
+            turn = reg.angle_deg if adjacent else None
         if reg.undecided:
             undecided[v.id] = reg.undecided
     for _ in range(FINAL_ROUNDS if len(cams) > n_known else 0):
