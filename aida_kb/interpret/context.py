@@ -111,6 +111,8 @@ class Context:
     reference_weight: float = 0.0
     # other objects' regions (`interpret.scene`): they may hide this object's parts
     foreign: frozenset[str] = frozenset()
+    # the reference view's regions' summed area, pixels (0: the sum of `regions`' areas)
+    total_area_px: float = 0.0
 
     @classmethod
     def build(
@@ -166,7 +168,18 @@ class Context:
             pinholes=tuple(evidence.cameras[v].pinhole for v in views),
             reference_weight=reference_weight,
             foreign=foreign,
+            total_area_px=sum(r.area_px for r in seen),
         )
+
+    def share(self, region: RegionView) -> float:
+        """The share of the reference view's evidence `region` carries, in [0, 1]: the
+        larger of its share of the regions' weight (`total_weight`) and of their pixels
+        (`total_area_px`). A dark, low-texture face in view carries little certainty but
+        covers its pixels all the same (dev seed 61907, a hip roof's slopes: 5.5 % of the
+        weight, 12.8 % of the pixels)."""
+        area = self.total_area_px or sum(r.area_px for r in self.regions)
+        pixels = region.area_px / area if area > 0.0 else 0.0
+        return max(region.weight / self.total_weight, pixels)
 
     def significant(self, region: RegionView, fraction: float = MIN_WALL_WEIGHT_FRACTION) -> bool:
         """True if `region` carries at least `fraction` of the reference view's evidence."""

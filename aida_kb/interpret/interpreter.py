@@ -168,7 +168,7 @@ class Interpreter:
             and not ctx.significant(r)
         ]
         walls = vertical(lighter, levels[0].frame.up)
-        return out + UNEXPLAINED_PENALTY * sum(r.weight for r in walls) / ctx.total_weight
+        return out + UNEXPLAINED_PENALTY * sum(ctx.share(r) for r in walls)
 
     # ---- level 0: the main body --------------------------------------------------------------
     def body_candidates(self, parent: int) -> list[Pending]:
@@ -223,11 +223,10 @@ class Interpreter:
                 continue
             free = [r for r in ctx.regions if r.id not in h.binding and ctx.significant(r)]
             walls = vertical(free, h.frame.frame.up)
-            weight = sum(r.weight for r in walls)
             out.append(
                 Pending(
                     h,
-                    UNEXPLAINED_PENALTY * weight / ctx.total_weight,
+                    UNEXPLAINED_PENALTY * sum(ctx.share(r) for r in walls),
                     frozenset(r.id for r in walls),
                     facing,
                 )

@@ -51,17 +51,18 @@ COS_LEVEL = math.cos(math.radians(GROUND_LEVEL_DEG))
 
 
 def unexplained(ctx: Context, used: set[str]) -> float:
-    """The penalty for the significant regions of the reference view not in `used`."""
-    left = sum(r.weight for r in ctx.regions if r.id not in used and ctx.significant(r))
-    return UNEXPLAINED_PENALTY * left / ctx.total_weight
+    """The penalty for the significant regions of the reference view not in `used`, each
+    by its share of the evidence (`Context.share`: weight or pixels, the larger)."""
+    left = sum(ctx.share(r) for r in ctx.regions if r.id not in used and ctx.significant(r))
+    return UNEXPLAINED_PENALTY * left
 
 
 def misfit(ctx: Context, cost: float, loose: float, left_out: set[str]) -> float:
     """An adjusted alternative's cost: its reduced cost, plus penalties for the fraction of
     segments it leaves unexplained (`loose`) and the regions it could have bound but did not
-    (`left_out`, region ids)."""
-    weight = sum(ctx.evidence.regions[r].weight for r in left_out)
-    return cost + SEGMENT_PENALTY * loose + UNEXPLAINED_PENALTY * weight / ctx.total_weight
+    (`left_out`, region ids; each by its share of the evidence, `Context.share`)."""
+    share = sum(ctx.share(ctx.evidence.regions[r]) for r in left_out)
+    return cost + SEGMENT_PENALTY * loose + UNEXPLAINED_PENALTY * share
 
 
 def closed(
