@@ -66,6 +66,7 @@ from aida_kb.vision.segmentation import (
     COMPLETE_SIGMAS,
     DISPARITY_SIGMA_PX,
     LINE_SIDE_PX,
+    OUTLINE_EDGE_PX,
     OUTLINE_REACH_PX,
     absorb_recesses,
     complete_regions,
@@ -470,7 +471,6 @@ def _complete(
 # leave a whole side of the outline off the fit.
 OUTLINE_INLIER_SHARE = 0.8
 OUTLINE_RMS_SIGMAS = COMPLETE_SIGMAS
-OUTLINE_EDGE_PX = 2  # 2 px off the eave a wall's point is ~0.1 m off the roof at 50 m
 # The outline's points fix the plane's tilt to rms / (sqrt(n / (window - 2)²) · g): g their
 # lesser spread on the plane (metres; a single verge is a line, g ~ 0: any plane through it
 # fits), n / (window - 2)² the independent ones among them (a matching window's pixels share

@@ -797,6 +797,14 @@ def line_kinds(
 # left verge; its right verge and the eave fix the plane to 0.25 deg). Where the left outline
 # is measured it counts as any other; the plane's own tests in the evidence (one plane, tilt
 # fixed) still judge what the rest of the outline gives.
+# The outline counts as measured only by the depth the face's plane is then fitted to: of no
+# region, or of a region within OUTLINE_EDGE_PX of an edge (where the face meets it). A
+# region's depth away from any edge lies on the region's surface, not on the face's outline:
+# where no edge parts them they may be one surface, and a patch held so was fitted to the
+# rest of its outline alone (unlabelled development scene 61935 view 00: far ground and a wall
+# striped along the rows, 88,000 px, held by the near ground's region and fitted as the wall,
+# 90 deg off; 61914 view 01 likewise). On the unlabelled 61902-61935 this leaves out 2 of the
+# 10 outlined regions far off their face, and none of the 12 right ones (within 2.2 deg).
 EDGE_BLUR_PX = 1.5  # Gaussian sigma before the edge detector: the sensor noise's edges go
 EDGE_LOW = 20  # Canny's hysteresis thresholds on the blurred image's Sobel gradient, grey
 EDGE_HIGH = 60  # levels per pixel (x 4 of Sobel's kernel): a step of 5 and of 15 grey levels
@@ -804,6 +812,7 @@ OUTLINE_REACH_PX = 4  # the edge's dilated width and a pixel: where the outline'
 OUTLINE_SUPPORT = 0.7  # the share of the measurable outline with certain depth within reach
 OUTLINE_CERTAINTY = 0.1  # a depth at least this certain measures the outline
 EPIPOLAR_DEG = 15.0  # an outline closer than this to the image's rows is not measurable
+OUTLINE_EDGE_PX = 2  # 2 px off the eave a wall's point is ~0.1 m off the roof at 50 m
 
 
 def outlined_patches(
@@ -831,7 +840,11 @@ def outlined_patches(
     n, comp, stats, _ = cv2.connectedComponentsWithStats(free, connectivity=4)
     side = 2 * OUTLINE_REACH_PX + 1
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (side, side))
-    near = cv2.dilate(certain.astype(np.uint8), disc) > 0
+    # the depth the face's plane is fitted to: of no region, or a region's right at an edge
+    edge_side = 2 * OUTLINE_EDGE_PX + 1
+    at_edge = cv2.dilate(thin, np.ones((edge_side, edge_side), np.uint8)) > 0
+    usable = certain & ((regions == 0) | at_edge)
+    near = cv2.dilate(usable.astype(np.uint8), disc) > 0
     border = np.ones((H, W), bool)
     border[1:-1, 1:-1] = False
     square = np.ones((3, 3), np.uint8)

@@ -381,6 +381,26 @@ def test_outlined_patches_excuse_the_half_occluded_left_verge_only() -> None:
     assert int(outlined_patches(regions, image, no_right, min_pixels=200)[0].max()) == 0
 
 
+def test_outlined_patches_count_a_neighbours_depth_only_at_an_edge() -> None:
+    """The roof's right verge borders a region (2) of its own grey with certain depth all
+    over: no edge parts them, and only a region's depth right at an edge is fitted to the
+    roof's plane, so that depth does not measure the roof's outline (61935: a patch of far
+    ground and a striped wall, held by the near ground's region, was fitted as the wall). Where
+    the neighbour is lighter (an edge between them) its depth at the edge measures it."""
+    from aida_kb.vision.segmentation import outlined_patches
+
+    roof, image, regions, ring = _dark_roof()
+    v, u = np.mgrid[0 : roof.shape[0], 0 : roof.shape[1]]
+    beside = (v >= 30) & (v < 70) & (u >= 160 - (70 - v)) & (u < 190)
+    regions = np.where(beside, 2, regions).astype(np.int32)
+    certainty = np.where((ring > 0) & (v > 33) & (u < 100), 0.5, 0.0).astype(np.float32)
+    certainty[(v >= 70) | beside] = 0.5
+    same = np.where(beside, 40, image).astype(np.uint8)
+    assert int(outlined_patches(regions, same, certainty, min_pixels=200)[0].max()) == 0
+    lighter = np.where(beside, 120, image).astype(np.uint8)
+    assert int(outlined_patches(regions, lighter, certainty, min_pixels=200)[0].max()) == 1
+
+
 def test_an_outline_on_one_line_fixes_no_tilt() -> None:
     """Points along two verges 20 m long, 8 m apart, fix a roof plane's tilt to rms /
     (sqrt(n/81) · g), g = 4 m their spread across the verges;
