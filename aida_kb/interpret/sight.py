@@ -91,8 +91,9 @@ def _face_samples(polygon: FloatArray, normal: FloatArray) -> tuple[FloatArray, 
     uv = np.column_stack([(polygon - polygon[0]) @ u, (polygon - polygon[0]) @ v])
     lo, hi = uv.min(axis=0), uv.max(axis=0)
     step = np.maximum(hi - lo, 1e-9) / FACE_GRID
-    # the polygon rasterised on the grid: cell (i, j) is inside when its centre is
-    cells = np.round((uv - lo) / step * 16).astype(np.int32)  # 4 fractional bits
+    # the polygon rasterised on the grid: cell (i, j) is inside when its centre is (fillPoly
+    # tests the pixel at integer (i, j): the polygon is shifted by half a cell; 4 fractional bits)
+    cells = np.round(((uv - lo) / step - 0.5) * 16).astype(np.int32)
     mask = np.zeros((FACE_GRID, FACE_GRID), np.uint8)
     cv2.fillPoly(mask, [cells.reshape(-1, 1, 2)], (1,), lineType=cv2.LINE_8, shift=4)
     j, i = np.nonzero(mask)
