@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from aida_kb.errors import FormatError
 from aida_kb.io.scene import read_depth
 
 if TYPE_CHECKING:
@@ -173,7 +174,8 @@ def part_sights(scene: Scene) -> list[PartSight] | None:
     """How well the scene's views show every true part (`PartSight`, in truth.json's order).
 
     None when the scene has no truth or a view has no rendered depth (only synthetic scenes
-    have both).
+    have both), or one that `read_depth` refuses (a render's depth behind the camera, seen at
+    development seed 63002: negative depths).
     """
     truth = scene.truth
     if truth is None or any(v.depth_left is None for v in scene.views):
@@ -187,7 +189,10 @@ def part_sights(scene: Scene) -> list[PartSight] | None:
             continue
         R = np.asarray(pose.R, dtype=np.float64)
         t = np.asarray(pose.t, dtype=np.float64)
-        depth = read_depth(view.depth_left)
+        try:
+            depth = read_depth(view.depth_left)
+        except FormatError:  # not a depth map the format allows: nothing can be claimed
+            return None
         for k, part in enumerate(truth.parts):
             face_px, edge_share = _view_sight(view, R, t, part, depth)
             looks[k].append((face_px, edge_share, view.id))

@@ -67,6 +67,17 @@ def test_without_rendered_depth_nothing_is_claimed(lshape_run: Any) -> None:
     assert unmeasurable(None) is None
 
 
+def test_a_refused_depth_map_claims_nothing(lshape_run: Any, tmp_path: Any) -> None:
+    scene = read_scene(lshape_run.scene)
+    view = scene.views[0]
+    assert view.depth_left is not None
+    depth = read_depth(view.depth_left)
+    depth[0, 0] = -1.0  # behind the camera: the format refuses it
+    bad = tmp_path / "depth_left.npy"
+    np.save(bad, depth)
+    assert part_sights(replace(scene, views=(replace(view, depth_left=bad),))) is None
+
+
 def test_evaluation_reports_the_unmeasurable_parts(lshape_run: Any) -> None:
     scene = read_scene(lshape_run.scene)
     assert scene.truth is not None
