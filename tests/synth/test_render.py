@@ -268,3 +268,36 @@ def test_texture_prefilter_follows_the_footprint() -> None:
     # a footprint far beyond the tile: the tile's mean colour everywhere
     flat = tx.sample(tex, texel, u, v, np.full(2000, 100.0))
     np.testing.assert_allclose(flat, np.broadcast_to(tex.mean(axis=(0, 1)), flat.shape), atol=0.02)
+
+
+def test_a_ray_missing_its_samples_plane_takes_the_samples_depth() -> None:
+    """With lens distortion each pixel takes the label of its nearest sample of the ideal
+    canvas and the exact depth of its own ray on that face's plane; where the ray meets the
+    plane behind the camera (the ground at a grazing angle, at its edge) the sample's depth
+    stands instead (development seed 63002 rendered depths down to -494,090 m there)."""
+    from aida_kb.synth.render import Surface, _labels_along_rays
+
+    ground = Surface(
+        label=5,
+        role="ground",
+        concept="Ground",
+        material="grass",
+        polygon=np.zeros((3, 3)),
+        normal=np.array([0.0, -1.0, 0.0]),  # up, in the camera frame (y down)
+        d=-1.5,  # 1.5 m below the camera
+        origin=np.zeros(3),
+        axis_u=np.array([1.0, 0.0, 0.0]),
+        axis_v=np.array([0.0, 0.0, 1.0]),
+        length=1.0,
+    )
+    K = np.array([[100.0, 0.0, 1.0], [0.0, 100.0, 0.5], [0.0, 0.0, 1.0]])
+    # two pixels whose nearest samples are ground: one ray above the horizon, one below
+    und = np.array([[0.0, -200.0], [1.0, 300.0]])
+    labels = np.full((1, 2), 5, dtype=np.int32)
+    sampled = np.full((1, 2), 30.0)
+    lab, depth = _labels_along_rays(
+        [ground], K, np.eye(3), np.zeros(3), und, 2, 1, K, labels, sampled, 1
+    )
+    assert lab.tolist() == [[5, 5]]
+    assert depth[0, 0] == 30.0  # behind the camera along its own ray: the sample's
+    assert depth[0, 1] == pytest.approx(1.5 / 2.995)  # in front: exact
