@@ -37,7 +37,7 @@ import time
 from pathlib import Path
 
 from aida_kb.interpret.scene import evaluate_scene, reconstruct_objects, scene_evidence_of
-from aida_kb.interpret.sight import part_sights, unmeasurable
+from aida_kb.interpret.sight import unseen_parts
 from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.scene import read_scene
 from aida_kb.kb.compiler import compile_path
@@ -135,7 +135,7 @@ def main() -> None:
                 shown = read_scene(folder, with_truth=True)
                 truth = shown.truth
                 assert truth is not None
-                judged = evaluate_scene(interp, truth, "houses", unmeasurable(part_sights(shown)))
+                judged = evaluate_scene(interp, truth, "houses", unseen_parts(shown))
                 houses = [
                     r for r in judged if r.get("truth") and r["status"] in ("found", "missed")
                 ]

@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from aida_kb.errors import FormatError
     from aida_kb.interpret.evaluate import evaluate, format_evaluation
     from aida_kb.interpret.result import read_interpretation
-    from aida_kb.interpret.sight import part_sights, unmeasurable
+    from aida_kb.interpret.sight import unseen_parts
     from aida_kb.io.scene import read_scene
 
     file = Path(args.output) / "interpretation.json"
@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
     truth = scene.truth
     if truth is None:
         raise FormatError(f"{args.scene}: the scene has no truth.json to compare with")
-    hidden = unmeasurable(part_sights(scene))
+    hidden = unseen_parts(scene)
     if interp.objects:  # several objects per scene: every true one against its own
         return _evaluate_objects(interp, truth, hidden, as_json=args.json)
     result = evaluate(interp, truth, unmeasurable=hidden)

@@ -34,7 +34,7 @@ from aida_kb.interpret.evaluate import Evaluation, evaluate
 from aida_kb.interpret.pipeline import reconstruct_scene
 from aida_kb.interpret.result import Interpretation, read_interpretation
 from aida_kb.interpret.scene import evaluate_scene, judge_objects, members
-from aida_kb.interpret.sight import part_sights, unmeasurable
+from aida_kb.interpret.sight import unseen_parts
 from aida_kb.interpret.verdict import judge, with_verdict
 from aida_kb.io.evidence import read_evidence
 from aida_kb.io.scene import left_images, read_scene
@@ -157,7 +157,7 @@ def run_random_scene(
     scene = read_scene(scene_dir)
     truth = scene.truth
     assert truth is not None  # render_scene always writes one
-    hidden = unmeasurable(part_sights(scene))
+    hidden = unseen_parts(scene)
     judged = evaluate(result.interpretation, truth, goal=goal, unmeasurable=hidden)
     return SceneOutcome.judged(seed, kind, spec.write_labels, len(spec.views_site), judged, seconds)
 
@@ -207,7 +207,7 @@ def rejudge_scene(
     evidence = read_evidence(out_dir / "evidence.json")
     images = left_images(scene, [v.id for v in evidence.views])
     interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True, images=images))
-    judged = evaluate(interp, truth, unmeasurable=unmeasurable(part_sights(scene)))
+    judged = evaluate(interp, truth, unmeasurable=unseen_parts(scene))
     return SceneOutcome.judged(seed, kind, labels, len(scene.views), judged, 0.0)
 
 
@@ -258,7 +258,7 @@ def _judged_street(
 ) -> StreetOutcome:
     truth = scene.truth
     assert truth is not None  # a kept or rendered street always has one
-    rows = evaluate_scene(interp, truth, role, unmeasurable(part_sights(scene)))
+    rows = evaluate_scene(interp, truth, role, unseen_parts(scene))
     houses = tuple(
         {
             "truth": r["truth"],

@@ -216,3 +216,9 @@ def unmeasurable(sights: list[PartSight] | None) -> tuple[str, ...] | None:
     if sights is None:
         return None
     return tuple(s.role for s in sights if not s.measurable)
+
+
+def unseen_parts(scene: Scene) -> tuple[str, ...] | None:
+    """The role paths of the scene's true parts no view shows well enough to measure
+    (`part_sights`, then `unmeasurable`); None when that is not known."""
+    return unmeasurable(part_sights(scene))
