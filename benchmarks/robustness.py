@@ -29,7 +29,13 @@ at the scenes' own 720 px, seeds 2001 and 2009: 0.10, 0.18 and 0.13 deg (+-0.12-
 ``--max-width 480`` is a fast screen for wrong_accepted_rate, not a measure of correct_rate.
 The closing figures also give the registered cameras' median error, the share within 0.1
 deg and the share within two of the adjustment's standard deviations (about 0.95 when those
-are honest).
+are honest), and over the scenes whose model has the truth's form (right specialisations, no
+part missing or extra; `aida_kb.interpret.robustness.sd_figures`) the median error over sd of
+the cameras (camera_error_over_sd_median, 0.7-0.9 when honest) and of the parts' normals
+(part_normal_error_over_sd_median) and the parts' share within two sd
+(part_normals_within_2sd). On the kept dev closing sets 61600-63035 (main 01bbf29, rejudged):
+part normals 0.25-0.40 in the median yet only 0.86-0.95 within two sd: the parts' deviations
+are too large for most parts and too small for a few.
 
 Streets (``--streets N``, its own section ``streets`` of the JSON line): N randomised street
 variants (`aida_kb.synth.street.random_street_spec`: 2-5 free-standing houses of different

@@ -64,6 +64,9 @@ class TruthComparison:
     missing: list[str]  # true roles with no reconstructed part
     normal_errors_deg: dict[str, float] = field(default_factory=dict)  # true role -> angle
     extra: list[str] = field(default_factory=list)  # model roles paired with no true part
+    # true role -> the paired model part's normal deviation (model.json `sd`), degrees; only
+    # the parts the adjustment fixes (a finite sd)
+    normal_sds_deg: dict[str, float] = field(default_factory=dict)
 
     @property
     def max_normal_error_deg(self) -> float:
@@ -143,6 +146,11 @@ def compare_with_truth(
         for t in true_parts
         if t.role in parts
     }
+    normal_sds = {
+        role: float(m.sd.normal_deg)
+        for role, m in parts.items()
+        if m.sd is not None and m.sd.normal_deg is not None and math.isfinite(m.sd.normal_deg)
+    }
     paired = {m.role for m in parts.values()}
     extra = [] if roles is not None else [m.role for m in model.parts if m.role not in paired]
     worst_vertex = 0.0
@@ -162,7 +170,14 @@ def compare_with_truth(
             angles.append(AngleError(p.role, q.role, truth_deg, model_deg))
     worst_angle = max((a.error_deg for a in angles), default=0.0)
     return TruthComparison(
-        angles, worst_angle, worst_vertex, size, missing, normal_errors, sorted(set(extra))
+        angles,
+        worst_angle,
+        worst_vertex,
+        size,
+        missing,
+        normal_errors,
+        sorted(set(extra)),
+        normal_sds,
     )
 
 
@@ -225,6 +240,13 @@ class Evaluation:
             "specialisations": {k: list(v) for k, v in self.specialisations.items()},
             "max_normal_error_deg": None if c is None else round(c.max_normal_error_deg, 4),
             "max_vertex_error_pct": None if c is None else round(100 * c.max_vertex_error_rel, 3),
+            # every paired part: [normal error, the model's sd of it (None: not fixed)], degrees
+            "normals": {}
+            if c is None
+            else {
+                role: [round(e, 4), _rounded(c.normal_sds_deg.get(role))]
+                for role, e in c.normal_errors_deg.items()
+            },
             "missing": [] if c is None else c.missing,
             "extra": [] if c is None else c.extra,
             "unmeasurable": None if self.unmeasurable is None else list(self.unmeasurable),
@@ -238,6 +260,15 @@ class Evaluation:
                 for e in self.cameras
             ],
         }
+
+
+def _rounded(value: float | None) -> float | None:
+    return None if value is None else round(value, 4)
+
+
+def _in_sds(error: float, sd: float | None) -> str:
+    """': 3.1 sd' — an error in the model's own standard deviations ('' without one)."""
+    return "" if sd is None or sd <= 0 else f"; the model's sd {sd:.3f} deg: {error / sd:.1f} sd"
 
 
 def outcome_of(interp: Interpretation) -> str:
@@ -354,6 +385,10 @@ def format_evaluation(result: Evaluation) -> list[str]:
         lines.append(
             f"  largest normal error: {worst[1]:.3f} deg ({worst[0]}; target {NORMAL_TARGET_DEG})"
         )
+        for role, off in sorted(c.normal_errors_deg.items(), key=lambda kv: -kv[1]):
+            if off > NORMAL_TARGET_DEG:
+                sd = c.normal_sds_deg.get(role)
+                lines.append(f"    normal of {role}: {off:.3f} deg off{_in_sds(off, sd)}")
         lines.append(
             f"  largest vertex error: {c.max_vertex_error_m:.3f} m = "
             f"{100 * c.max_vertex_error_rel:.2f}% of the object's size {c.size_m:.2f} m "
@@ -368,6 +403,7 @@ def format_evaluation(result: Evaluation) -> list[str]:
         lines.append(
             f"  camera of view {e.view}: {e.angle_deg:.3f} deg, {e.centre_m:.3f} m = "
             f"{100 * e.centre_rel:.2f}% of its distance {e.distance_m:.1f} m (targets "
-            f"{CAMERA_ANGLE_TARGET_DEG} deg, {100 * CAMERA_DISTANCE_TARGET:g}%)"
+            f"{CAMERA_ANGLE_TARGET_DEG} deg, {100 * CAMERA_DISTANCE_TARGET:g}%"
+            f"{_in_sds(e.angle_deg, e.sd_deg)})"
         )
     return lines

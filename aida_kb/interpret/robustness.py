@@ -432,11 +432,26 @@ def scene_rates(rows: Sequence[SceneOutcome]) -> dict[str, object]:
     }
 
 
+RIGHT_FORM_CAUSES = ("", "camera", "vertices", "normals", "right but doubtful")
+"""The causes of scenes whose model has the truth's form (an object found, the right
+specialisations, no part missing or extra): their errors are the measurement's, which the
+adjustment's standard deviations describe; the others' are the hypothesis's, which they do not."""
+
+
+def _median(values: Sequence[float]) -> float:
+    ordered = sorted(values)
+    return ordered[len(ordered) // 2]
+
+
 def camera_figures(rows: Sequence[SceneOutcome]) -> dict[str, object]:
     """The registered cameras (not view 00, which sets the world frame) of the scenes where
     the right specialisations were found: how many, the median rotation error, the share
     within the 0.1 degree target, and the share within two of the adjustment's standard
-    deviations (its honesty: about 0.95 if they are calibrated)."""
+    deviations (its honesty: about 0.95 if they are calibrated). The same honesty for the
+    scenes whose model has the truth's form (`RIGHT_FORM_CAUSES`): the median of the
+    cameras' and the parts' normals' errors over their deviations (calibrated: 0.7-0.9 for a
+    rotation's, whose sd is the root of its three axes' variances; about 0.7-1.2 for a
+    normal's, two axes) and the parts' share within two deviations (`sd_figures`)."""
     errors: list[float] = []
     within_2sd: list[bool] = []
     for r in rows:
@@ -452,11 +467,50 @@ def camera_figures(rows: Sequence[SceneOutcome]) -> dict[str, object]:
             if isinstance(sd, float):
                 within_2sd.append(angle <= 2.0 * sd)
     if not errors:
-        return {"registered_cameras": 0}
-    ordered = sorted(errors)
+        return {"registered_cameras": 0, **sd_figures(rows)}
     return {
         "registered_cameras": len(errors),
-        "camera_error_median_deg": round(ordered[len(ordered) // 2], 3),
+        "camera_error_median_deg": round(_median(errors), 3),
         "cameras_within_0p1_deg": round(sum(e <= 0.1 for e in errors) / len(errors), 3),
         "cameras_within_2sd": (round(sum(within_2sd) / len(within_2sd), 3) if within_2sd else None),
+        **sd_figures(rows),
     }
+
+
+def sd_figures(rows: Sequence[SceneOutcome]) -> dict[str, object]:
+    """How honest the adjustment's standard deviations are where the model has the truth's
+    form (`RIGHT_FORM_CAUSES`; camera errors over 5 degrees are registration failures, not
+    noise, and left out): the median error over sd of the later cameras' rotations and of
+    the parts' normals, and the parts' share within two sd. Empty without such scenes."""
+    cams: list[float] = []
+    parts: list[float] = []
+    for r in rows:
+        if not r.figures.get("expected_object") or r.cause not in RIGHT_FORM_CAUSES:
+            continue
+        if r.outcome == "nothing":
+            continue
+        cameras = r.figures.get("cameras")
+        for c in cameras if isinstance(cameras, list) else []:
+            angle, sd = c.get("angle_deg"), c.get("sd_deg")
+            if c.get("view") == "00" or not isinstance(sd, float) or sd <= 0:
+                continue
+            if isinstance(angle, float) and angle <= FAR_CAMERA_DEG:
+                cams.append(angle / sd)
+        normals = r.figures.get("normals")
+        for pair in normals.values() if isinstance(normals, dict) else []:
+            error, sd = pair
+            if isinstance(sd, float) and sd > 0:
+                parts.append(float(error) / sd)
+    out: dict[str, object] = {}
+    if cams:
+        out["camera_error_over_sd_median"] = round(_median(cams), 2)
+    if parts:
+        out["part_normals_judged"] = len(parts)
+        out["part_normal_error_over_sd_median"] = round(_median(parts), 2)
+        out["part_normals_within_2sd"] = round(sum(q <= 2.0 for q in parts) / len(parts), 3)
+    return out
+
+
+FAR_CAMERA_DEG = 5.0
+"""A camera this far off was registered to a wrong pose (a twin, a wrong model): its error
+is no measurement noise, and its sd does not describe it."""

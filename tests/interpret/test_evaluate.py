@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from aida_kb.cli.main import main
-from aida_kb.interpret.evaluate import evaluate
+from aida_kb.interpret.evaluate import evaluate, format_evaluation
 from aida_kb.interpret.result import Instance, Interpretation, write_interpretation
-from aida_kb.io.model import ModelCamera, ModelPart, ReconstructedModel
+from aida_kb.interpret.robustness import SceneOutcome, sd_figures
+from aida_kb.io.model import ModelCamera, ModelPart, PartSd, ReconstructedModel
 from aida_kb.io.scene import PartTruth, PoseTruth, SceneTruth, StereoCalib, ViewData, write_scene
 from aida_kb.synth import buildings as bld
 
@@ -96,6 +98,46 @@ def test_a_perfect_result_is_correct_and_each_fault_is_named() -> None:
     assert not right_but_doubted.correct
     assert right_but_doubted.cause == "right but doubtful"
     assert right_but_doubted.summary()["doubts"] == ["view 00: x"]
+
+
+def test_each_part_off_target_is_named_with_its_error_in_the_models_own_sds() -> None:
+    truth = _truth()
+    result = _result(truth, turn_deg=0.8)
+    assert result.model is not None
+    parts = [
+        p.model_copy(update={"sd": PartSd(normal_deg=0.2, offset_m=0.01)})
+        if p.role == "body.front"
+        else p
+        for p in result.model.parts
+    ]
+    result = result.model_copy(update={"model": result.model.model_copy(update={"parts": parts})})
+    judged = evaluate(result, truth)
+    normals = judged.summary()["normals"]
+    assert isinstance(normals, dict)
+    assert normals["body.front"] == [pytest.approx(0.8, abs=1e-3), 0.2]
+    assert normals["body.back"] == [pytest.approx(0.0, abs=1e-3), None]  # no sd: not fixed
+    lines = format_evaluation(judged)
+    assert "    normal of body.front: 0.800 deg off; the model's sd 0.200 deg: 4.0 sd" in lines
+    assert not any("normal of body.back" in line for line in lines)  # within target
+
+
+def test_the_sds_honesty_is_measured_where_the_model_has_the_truths_form() -> None:
+    def row(cause: str, normals: dict[str, list[float | None]], cams: list[object]) -> Any:
+        figures = {"expected_object": True, "normals": normals, "cameras": cams}
+        return SceneOutcome(1, "gable", False, 2, "doubtful", False, cause, 1.0, figures)
+
+    cam = {"view": "01", "angle_deg": 0.06, "sd_deg": 0.04}
+    far = {"view": "02", "angle_deg": 40.0, "sd_deg": 0.5}  # a wrong pose: not noise
+    rows = [
+        row("normals", {"a": [0.9, 0.1], "b": [0.1, 0.2], "c": [0.2, None]}, [cam, far]),
+        row("right but doubtful", {"a": [0.05, 0.1]}, []),
+        row("specialisation", {"a": [30.0, 0.1]}, [{**cam, "angle_deg": 1.0}]),
+    ]
+    figures = sd_figures(rows)
+    assert figures["part_normals_judged"] == 3  # the wrong specialisation's part left out
+    assert figures["part_normal_error_over_sd_median"] == 0.5
+    assert figures["part_normals_within_2sd"] == pytest.approx(2 / 3, abs=1e-3)
+    assert figures["camera_error_over_sd_median"] == 1.5
 
 
 def test_a_scene_without_the_object_expects_nothing() -> None:
