@@ -16,7 +16,9 @@ group's redundancy — the sum of its rows' redundancy numbers ``1 - h_ii``, h t
 the measurements' rows alone (`redundancy_numbers`): the share of their own errors its
 residuals keep, by each row's leverage (variance-component estimation, Förstner's; a row
 alone on an edge keeps none, a direction no measurement reaches takes none). With fewer than
-MIN_REDUNDANCY more measurements than unknowns the noise models stand as they are. A
+MIN_REDUNDANCY more measurements than unknowns the noise models stand as they are. A model
+edge fitted in both images of a view is one edge seen twice (its two fits' errors correlate):
+the pair's rows keep the redundancy of one measurement, not two (`paired_redundancy`). A
 direction the evidence and the knowledge leave open (a part no factor reaches, a camera seeing
 one edge) has an infinite deviation.
 
@@ -50,6 +52,16 @@ own covariance fixes the parts a region measures to 0.02-0.1 deg (error over dev
 over 160 parts), but check (i) keeps the segments' deviations: with the image rounds', two wrong
 models of the dev sets (61525, 0.91 deg off; 61417, its floor 1.69 deg off) would pass every
 check but the cameras'.
+
+Session 20, the image rounds' covariance recomputed at the kept right models of every kept
+closing set (61400-61935, 66 cameras; 63000-63035, 9), error over deviation: with each edge's
+left and right fits counted as two independent rows the fits' variance factor was about half
+what their residuals show (`paired_redundancy`; on the dev sets median 0.83, 90th percentile
+1.62, 0.970 within two deviations, largest 2.82; 63000-63035 1.33, 3.08, 0.778, 3.11); with
+each pair's rows as one measurement 0.72, 1.35, 0.985, 2.36 and 1.07, 2.77, 0.778, 2.82. The
+fits' errors against the true edges (1,769 fits of those models) correlate between a view's
+left and right images by more than `aida_kb.interpret.multiview.STEREO_FIT_CORRELATION` says
+(mean offsets 0.91, whitened 0.82; slopes 0.62): the same edge, the same shading beside it.
 
 The deviations, one per part (its normal, degrees; its offset at its centre, metres) and
 one per camera of a view the adjustment moves (its rotation, degrees; its centre, metres),
@@ -354,18 +366,52 @@ def outlying_measurement(
     return None if worst is None else worst[1]
 
 
+def paired_redundancy(
+    red: FloatArray, pairs: npt.NDArray[np.intp], correlation: float
+) -> FloatArray:
+    """(m,) the redundancy numbers `red` (m,) with the rows `pairs` (k, 2) (indices into `red`)
+    taken as two measurements of one quantity whose errors correlate by `correlation` (rho),
+    each weighed as one of their mean (sigma widened by ``sqrt(1 + rho)``: `aida_kb.interpret.
+    multiview.STEREO_FIT_CORRELATION`). Such a pair's residuals keep, in expectation, the
+    share ``1 - h_a - h_b`` of their mean's error and ``(1 - rho) / (1 + rho)`` of their
+    difference's, not ``(1 - h_a) + (1 - h_b)``: counted as two independent rows, a pair
+    would claim a whole row's redundancy more than its residuals can show, and a group of
+    such pairs about half the variance factor it has (less where one edge alone places a
+    plane: its residuals keep nothing, the rows claim one). Each row of a pair gets half of
+    the pair's redundancy (never below zero)."""
+    out = red.copy()
+    if pairs.size == 0:
+        return out
+    a, b = pairs[:, 0], pairs[:, 1]
+    share = (1.0 - correlation) / (1.0 + correlation)
+    pair = np.maximum(red[a] + red[b] - 1.0 + share, 0.0)
+    out[a] = out[b] = 0.5 * pair
+    return out
+
+
 def variance_factors(
-    r: FloatArray, J: FloatArray, groups: npt.NDArray[np.str_], measured: npt.NDArray[np.bool_]
+    r: FloatArray,
+    J: FloatArray,
+    groups: npt.NDArray[np.str_],
+    measured: npt.NDArray[np.bool_],
+    pairs: npt.NDArray[np.intp] | None = None,
+    correlation: float = 0.0,
 ) -> dict[str, float]:
     """Each group of measurements' variance factor: its whitened residuals' sum of squares over
     its rows' redundancy numbers (`redundancy_numbers`; r (m,) and J (m, n) of every row,
     knowledge and priors too, `groups` (m,) each row's group, `measured` (m,) which rows are
-    measurements). 1 for every group when the measurements outnumber the unknowns by fewer
-    than MIN_REDUNDANCY; the fitted image edges' never under IMAGE_EDGE_MIN_FACTOR."""
+    measurements). The rows `pairs` (k, 2) (indices of measured rows, into r) are two
+    measurements of one quantity correlated by `correlation` (`paired_redundancy`). 1 for
+    every group when the measurements outnumber the unknowns by fewer than MIN_REDUNDANCY;
+    the fitted image edges' never under IMAGE_EDGE_MIN_FACTOR."""
     kinds = sorted(set(groups[measured].tolist()))
     if int(measured.sum()) - J.shape[1] < MIN_REDUNDANCY:
         return dict.fromkeys(kinds, 1.0)
-    red = redundancy_numbers(J[measured])
+    red_all = np.zeros(r.shape[0])
+    red_all[measured] = redundancy_numbers(J[measured])
+    if pairs is not None:
+        red_all = paired_redundancy(red_all, pairs, correlation)
+    red = red_all[measured]
     rm, gm = r[measured], groups[measured]
     factors = {}
     for kind in kinds:
@@ -375,6 +421,31 @@ def variance_factors(
         if kind == IMAGE_EDGE_LABEL:  # fitted around the model's own edges: see the constant
             factors[kind] = max(factors[kind], IMAGE_EDGE_MIN_FACTOR)
     return factors
+
+
+def stereo_fit_pairs(
+    problem: Problem, constraint_of_row: npt.NDArray[np.intp]
+) -> npt.NDArray[np.intp]:
+    """(k, 2) the residual rows (indices; `constraint_of_row` (m,) each row's constraint) of the
+    model edges fitted in both images of one view (`aida_kb.interpret.multiview.fitted_edges`),
+    row by row: the left image's fit's and the right image's (a camera derived from the
+    view's, `aida_kb.solve.problem.Problem.derived`), paired by edge and view."""
+    sides: dict[tuple[int, int, int], dict[bool, int]] = {}
+    for ci, c in enumerate(problem.constraints):
+        if measurement_group(c) != IMAGE_EDGE_LABEL or c.edge is None or len(c.parts) != 2:
+            continue
+        base = problem.base_camera(c.edge.camera)
+        a, b = c.parts
+        sides.setdefault((base, min(a, b), max(a, b)), {})[base != c.edge.camera] = ci
+    out = []
+    for both in sides.values():
+        if len(both) != 2:
+            continue
+        left = np.flatnonzero(constraint_of_row == both[False])
+        right = np.flatnonzero(constraint_of_row == both[True])
+        if left.size == right.size:
+            out.append(np.stack([left, right], axis=1))
+    return np.vstack(out) if out else np.zeros((0, 2), dtype=np.intp)
 
 
 def problem_uncertainty(
@@ -388,7 +459,12 @@ def problem_uncertainty(
     every part free (`names`, in order) and the cameras `free` (indices into `cameras`, the
     problem's first cameras; `views` their ids, which key `Uncertainty.cameras`). None when a
     residual or derivative is not finite or the problem cannot be evaluated."""
-    from aida_kb.interpret.multiview import JOINT_EDGE_SIGMA_PX, JOINT_F_SCALE, JOINT_LOSS
+    from aida_kb.interpret.multiview import (
+        JOINT_EDGE_SIGMA_PX,
+        JOINT_F_SCALE,
+        JOINT_LOSS,
+        STEREO_FIT_CORRELATION,
+    )
     from aida_kb.solve import Evaluation
 
     P = len(names)
@@ -409,7 +485,8 @@ def problem_uncertainty(
     measured = np.array([c.measurement for c in rows], dtype=bool)
     kinds = np.array([measurement_group(c) for c in rows])
     m, n = int(measured.sum()), ev.n_params
-    factors = variance_factors(r, J, kinds, measured)
+    pairs = stereo_fit_pairs(problem, np.asarray(ev.constraint_of_row, dtype=np.intp))
+    factors = variance_factors(r, J, kinds, measured, pairs, STEREO_FIT_CORRELATION)
     info = J[~measured].T @ J[~measured]
     for kind, fk in factors.items():
         sel = kinds == kind

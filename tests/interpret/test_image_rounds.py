@@ -20,6 +20,7 @@ from aida_kb.interpret.uncertainty import (
     IMAGE_EDGE_MIN_FACTOR,
     adjustment_uncertainty,
     problem_uncertainty,
+    stereo_fit_pairs,
 )
 from aida_kb.interpret.verdict import camera_doubts, judge, with_verdict
 from aida_kb.io.evidence import Evidence, read_evidence
@@ -35,6 +36,7 @@ from aida_kb.register import (
     vertical_axis,
 )
 from aida_kb.register.evidence import ViewMeasurements
+from aida_kb.solve import Evaluation
 from aida_kb.testing.segments import simulated_segments
 from tests.register.test_register import _box
 
@@ -280,6 +282,25 @@ def test_an_edge_fitted_in_both_images_weighs_as_one_edge_seen_twice() -> None:
     assert len(alone) == len(paired) == fits.size
     widen = math.sqrt(1.0 + mv.STEREO_FIT_CORRELATION)
     assert np.allclose(np.array(alone) / np.array(paired), widen)
+    # the variance factor counts each such pair's residual rows as one edge's
+    # (`uncertainty.paired_redundancy`): every fit's two rows against its right twin's
+    inputs = mv.JointInputs(fitted=[None, fits], fitted_right=[None, (rig, fits)])
+    problem = mv.joint_problem(model, [ref, cam], views, [1], inputs)
+    ev = Evaluation(problem, np.arange(len(model.names), dtype=np.intp), free_cameras=np.array([1]))
+    of_row = np.asarray(ev.constraint_of_row, dtype=np.intp)
+    pairs = stereo_fit_pairs(problem, of_row)
+    assert pairs.shape == (2 * fits.size, 2)
+    for a, b in zip(of_row[pairs[:, 0]], of_row[pairs[:, 1]], strict=True):
+        ca, cb = problem.constraints[int(a)], problem.constraints[int(b)]
+        assert ca.edge is not None
+        assert cb.edge is not None
+        assert (ca.edge.camera, cb.edge.camera) == (1, 2)  # the view's, its right image's
+        assert sorted(ca.parts) == sorted(cb.parts)
+    alone_problem = mv.joint_problem(
+        model, [ref, cam], views, [1], mv.JointInputs(fitted=[None, fits])
+    )
+    ev1 = Evaluation(alone_problem, np.arange(len(model.names), dtype=np.intp))
+    assert stereo_fit_pairs(alone_problem, np.asarray(ev1.constraint_of_row)).shape == (0, 2)
 
 
 def test_a_view_whose_adjustment_breaks_the_size_ranges_is_named(
