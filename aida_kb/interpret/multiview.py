@@ -53,7 +53,7 @@ from aida_kb.geometry.rig import Rig
 from aida_kb.interpret.closure import check_concurrent
 from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
 from aida_kb.interpret.party import touching_ties
-from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.run import interpret
 from aida_kb.interpret.transfer import ImageTransfer
 from aida_kb.interpret.uncertainty import IMAGE_EDGE_LABEL
@@ -83,10 +83,12 @@ from aida_kb.register import (
 from aida_kb.register.evidence import (
     ViewMeasurements,
     measurements_of,
+    region_outlines,
     register_evidence_view,
     right_segments,
     undistorted_image,
 )
+from aida_kb.register.extents import reached_offsets
 from aida_kb.register.pose import point_sigma
 from aida_kb.solve import ResidualReport, build_problem, constraints_from_kb, solve
 from aida_kb.solve.problem import Loss, Problem
@@ -341,6 +343,32 @@ def _unconfirmed(
             f"projection {least}"
         ), False
     return "", False
+
+
+def _reached(
+    rigid: RigidModel, movable: frozenset[str], camera: PinholeCamera, view: ViewEvidence
+) -> tuple[RigidModel, list[FloatArray], str] | None:
+    """The model with the parts the knowledge placed (`movable`, role paths) moved out to
+    where the registered view's regions reach on their neighbours
+    (`aida_kb.register.extents.reached_offsets`), its polygons and a note naming them; None
+    when nothing moves or the moved planes close no solid."""
+    mask = np.array([name in movable for name in rigid.names], dtype=bool)
+    if not mask.any():
+        return None
+    regions = measurements_of(view).regions
+    offsets, moved = reached_offsets(rigid, camera, regions, region_outlines(view), mask)
+    if not moved:
+        return None
+    try:
+        out, polygons = _rebuilt(rigid, rigid.normals, offsets)
+    except GeometryError:
+        return None
+    ids = [r.id for r in view.regions]
+    note = ", ".join(
+        f"{rigid.names[m.part]} {m.moved_m:.2f} m out (region {view.id}/{ids[m.region]})"
+        for m in moved
+    )
+    return out, polygons, note
 
 
 def _model_camera(
@@ -1440,7 +1468,9 @@ def reconstruct_from_first(
     their ``.kb`` lines, each view's segments and regions, the first shape's angles). A view
     that cannot be registered is left out of the model (no camera), and the message names it
     and says why; so is a view with which the adjusted model leaves the knowledge's size
-    ranges that it met before (`_newly_broken`). A registered pose the views' own stereo does
+    ranges that it met before (`_newly_broken`), unless adjusted again from the model with
+    the parts the knowledge placed moved out to where the view's regions reach (`_reached`)
+    it keeps them. A registered pose the views' own stereo does
     not confirm (`REGISTERED_EXPLAINED_MIN`) is registered again about its rival turns
     (`aida_kb.register.rival_turns`); with none confirmed it stays if only its own view is
     unexplained, and the view is left out if it bent the model off an earlier view; such a
@@ -1474,6 +1504,8 @@ def reconstruct_from_first(
         )
     angles = meeting_angles(rigid)
     internal = kb_constraints(kb, interp, rigid.names)
+    # the parts no region of the first view shows: later views' regions may place them
+    movable = frozenset(i.role for i in interp.instances if INSERTED in i.bindings)
     views = [measurements_of(v) for v in known]
     ids = [v.id for v in known]
     shown = list(known)  # the evidence of the views the model has a camera for
@@ -1549,21 +1581,41 @@ def reconstruct_from_first(
             # view: the first shape and the second pose), the views before it held where they are
             inputs = JointInputs(angles, internal, pairs)
             step = _adjusted(rigid, cams, views, [len(cams) - 1], inputs)
-            # a pose the adjustment cannot take is judged where the registration put it, on
-            # the model as it was: it must be confirmed all the same (dev 61902: views 92 and
-            # 177 deg off stayed, unjudged, where both adjustments failed)
-            after = (rigid, polygons, cams) if isinstance(step, str) else step[:3]
             broken = (
                 []
                 if isinstance(step, str)
                 else _newly_broken(kb, interp, evidence, step[:2], (rigid, polygons))
             )
+            reach = None
+            if broken:
+                # the pose may be right and the parts the knowledge placed too near: adjusted
+                # again from where the view's regions reach (`_reached`), the view stays if
+                # the model then keeps the ranges (its segments, matched within 25 px, cannot
+                # pull a back metres away: s19's 63015, 63017 left the depth range)
+                reach = _reached(rigid, movable, reg.camera, v)
+                farther = (
+                    "nothing moved"
+                    if reach is None
+                    else _adjusted(reach[0], cams, views, [len(cams) - 1], inputs)
+                )
+                if isinstance(farther, str) or _newly_broken(
+                    kb, interp, evidence, farther[:2], (rigid, polygons)
+                ):
+                    reach = None
+                else:
+                    step, broken = farther, []
+            # a pose the adjustment cannot take is judged where the registration put it, on
+            # the model as it was: it must be confirmed all the same (dev 61902: views 92 and
+            # 177 deg off stayed, unjudged, where both adjustments failed)
+            after = (rigid, polygons, cams) if isinstance(step, str) else step[:3]
             why, bent = _unconfirmed(model0, (rigid, polygons, cams[:-1]), after, shown, ids)
             if not (broken or why):
                 if isinstance(step, str):
                     notes.append(f"joint adjustment with view {v.id} skipped: {step}")
                 else:
                     rigid, polygons, cams, report = step
+                    if reach is not None:
+                        notes.append(f"view {v.id}'s regions reach further: {reach[2]}")
                 trusted.append(len(cams) - 1)
                 break
             for kept in (cams, views, ids, pairs, shown):

@@ -35,6 +35,7 @@ __all__ = [
     "ViewMeasurements",
     "camera_of",
     "measurements_of",
+    "region_outlines",
     "register_evidence_view",
     "right_segments",
 ]
@@ -105,6 +106,24 @@ def measurements_of(
         sigma,
         ~inside,
     )
+
+
+def region_outlines(view: ViewEvidence) -> list[FloatArray | None]:
+    """Per region of the view (the order of its ``regions``, as `measurements_of`'s), its
+    outer outline (K, 2) in the pinhole camera's (undistorted) pixels, or None where the
+    evidence holds none (its contours' holes are not outlines)."""
+    K = np.array(view.left.K, dtype=np.float64)
+    D = np.array(view.left.D, dtype=np.float64)
+    outer = {c.region: c.points for c in view.contours if not c.hole}
+    out: list[FloatArray | None] = []
+    for r in view.regions:
+        pts = outer.get(r.id)
+        out.append(
+            None
+            if pts is None
+            else undistort_pixels(np.array(pts, dtype=np.float64).reshape(-1, 2), K, D)
+        )
+    return out
 
 
 def right_segments(scene: Scene, view_id: str) -> StereoSegments:

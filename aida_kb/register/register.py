@@ -84,6 +84,7 @@ __all__ = [
     "polish",
     "realigned",
     "refine",
+    "region_parts",
     "register_view",
     "rival_turns",
     "symmetry_order",
@@ -276,6 +277,30 @@ def _symmetric_gap(a_deg: float, b_deg: float, order: int) -> float:
     return min(d, step - d)
 
 
+def region_parts(
+    model: RigidModel,
+    camera: PinholeCamera,
+    regions: RegionMeasurements,
+) -> tuple[npt.NDArray[np.bool_], IntArray]:
+    """Which of the view's regions lie on a part at `camera`'s pose, and on which.
+
+    A region lies on the part whose normal is within 20 degrees of its own and whose plane is
+    nearest its centre (within 15 % of the model's size). Returns keep : (R,) whether a part
+    was found; part : (R,) its index (meaningless where not kept).
+    """
+    R = camera.R_cam_world
+    nw = regions.normal_cam @ R
+    X = regions.centre_cam @ R + camera.centre
+    agree = nw @ model.normals.T  # (R, P)
+    dist = np.abs(X @ model.normals.T - model.offsets)
+    limit = 0.15 * model.size
+    ok = (agree > math.cos(math.radians(20.0))) & (dist < limit)
+    score = np.where(ok, dist, np.inf)
+    part = np.argmin(score, axis=1).astype(np.intp)
+    keep = np.isfinite(score[np.arange(regions.size), part])
+    return keep, part
+
+
 def match_regions(
     model: RigidModel,
     camera: PinholeCamera,
@@ -292,16 +317,7 @@ def match_regions(
     """
     if regions.size == 0:
         return None
-    R = camera.R_cam_world
-    nw = regions.normal_cam @ R
-    X = regions.centre_cam @ R + camera.centre
-    agree = nw @ model.normals.T  # (R, P)
-    dist = np.abs(X @ model.normals.T - model.offsets)
-    limit = 0.15 * model.size
-    ok = (agree > math.cos(math.radians(20.0))) & (dist < limit)
-    score = np.where(ok, dist, np.inf)
-    part = np.argmin(score, axis=1)
-    keep = np.isfinite(score[np.arange(regions.size), part])
+    keep, part = region_parts(model, camera, regions)
     if not np.any(keep):
         return None
     sigma_m = np.maximum(regions.rms_m[keep], opts.region_sigma_rel * model.size)
