@@ -27,9 +27,10 @@ from aida_kb.interpret.alternative import Level, verify_alternative
 from aida_kb.interpret.assign import forced_by, framings, ranked_fronts, vertical
 from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, Context
 from aida_kb.interpret.generate import BodyHypothesis, body_hypotheses
-from aida_kb.interpret.hypotheses import Frame
+from aida_kb.interpret.ground import GROUND_LEVEL_DEG
+from aida_kb.interpret.hypotheses import FloatArray, Frame
 from aida_kb.interpret.knowledge import Knowledge, join
-from aida_kb.interpret.observe import EvidenceView, RegionView
+from aida_kb.interpret.observe import EvidenceView, RegionView, slope_deg
 from aida_kb.interpret.plausibility import UNEXPLAINED_PENALTY, unexplained
 from aida_kb.interpret.result import INSERTED, Instance
 from aida_kb.interpret.search import best_first
@@ -81,9 +82,10 @@ class Pending:
     # what optional parts may still explain of the evidence it leaves unbound (the penalty
     # for the free significant walls, where the body's concept has optional parts)
     optional: float = 0.0
-    # those free walls (region ids): a segment between one and the body is where a part
+    # the free significant regions an optional part may bind, walls and pitched roof planes
+    # (region ids; `junction_regions`): a segment between one and the body is where a part
     # meets it, not an unexplained segment of the body (`adjust.adjust`, ``verified``)
-    walls: frozenset[str] = frozenset()
+    junctions: frozenset[str] = frozenset()
     # its parts that would be inserted facing the camera (`unseen.initial_planes`): verified
     # only where segments show them (`alternative.unseen_by_edges`); a rejection for want of
     # them does not count against `MAX_BODY_VERIFICATIONS`, as it did not when such bodies
@@ -227,7 +229,7 @@ class Interpreter:
                 Pending(
                     h,
                     UNEXPLAINED_PENALTY * sum(ctx.share(r) for r in walls),
-                    frozenset(r.id for r in walls),
+                    junction_regions(free, h.frame.frame.up),
                     facing,
                 )
             )
@@ -279,7 +281,7 @@ class Interpreter:
             forced={},
             bindings=[h.binding],
             offered=h.offered,
-            junctions=pending.walls,
+            junctions=pending.junctions,
             label=label,
             seen_by_edges=FACING_INSERTED,
         )
@@ -502,6 +504,18 @@ def _makes_choices(made: tuple[tuple[str, str], ...], wanted: tuple[tuple[str, s
     """True if the is-a choices `made` include every one of `wanted`."""
     own = dict(made)
     return all(own.get(role) == concept for role, concept in wanted)
+
+
+def junction_regions(free: list[RegionView], up: FloatArray) -> frozenset[str]:
+    """The ids of the regions of `free` an optional part may bind where it meets the body:
+    all but the level ones (`ground.GROUND_LEVEL_DEG` of `up`, (3,) unit, world frame: the
+    ground, whose border with a wall is the body's own foot). A wing's walls and its roof's
+    slopes alike: its roof runs into the body's roof along a segment that neither level's
+    edges declare; charged to the body as loose (the wing, verified after it, is not charged
+    for its segments to verified regions) it made the arm taken for the body pay its
+    junction with the other's roof, and the 135-degree L-shape's arms came out swapped (dev
+    63001: 16 px of roof junction, 0.10 of the true body's cost)."""
+    return frozenset(r.id for r in free if slope_deg(r.normal, up) > GROUND_LEVEL_DEG)
 
 
 def _makes(h: BodyHypothesis, wanted: tuple[tuple[str, str], ...]) -> bool:

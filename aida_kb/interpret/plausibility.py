@@ -24,7 +24,7 @@ import numpy.typing as npt
 from aida_kb.diagnostics.core import Span
 from aida_kb.interpret.closure import ClosingFace, close, inside_face
 from aida_kb.interpret.context import Context
-from aida_kb.interpret.ground import GROUND_LEVEL_DEG, elevation, ground_height
+from aida_kb.interpret.ground import GROUND_LEVEL_DEG, elevation, ground_plane
 from aida_kb.interpret.hypotheses import Frame
 from aida_kb.interpret.knowledge import Structure, join
 from aida_kb.interpret.observe import RegionView
@@ -282,11 +282,12 @@ def attribute_violation(
     closed face (K, 3), metres. ``height`` is the extent of the instance's faces along up,
     ``width`` along its frame's right, ``depth`` along its front; ``distance(a, b)`` is the
     distance of a point of plane b from plane a; ``elevation`` the height of the part's lowest
-    point above the ground the reference view shows (`aida_kb.interpret.ground`; not taken
-    where it shows none), the object's own regions (`on_object`; `binding`: region id ->
-    role path) left out of it. ``whole``: for a smaller part, the verified levels' planes,
-    closed faces and bound regions: they are the object's too (an oriel's ground is not the
-    body's flat roof where the view shows no ground).
+    point above the plane of the ground the reference view shows, under it
+    (`aida_kb.interpret.ground`; not taken where it shows none), the object's own regions
+    (`on_object`; `binding`: region id -> role path) left out of it. ``whole``: for a
+    smaller part, the verified levels' planes, closed faces and bound regions: they are the
+    object's too (an oriel's ground is not the body's flat roof where the view shows no
+    ground).
     """
     if not ctx.evidence.metric:  # lengths in unknown units: a range in metres does not apply
         return None
@@ -297,7 +298,7 @@ def attribute_violation(
         own = on_object(ctx, mine, {**fixed, **planes}, {**fixed_faces, **polygons}, frame.up)
     else:
         own = on_object(ctx, binding or {}, planes, polygons, frame.up)
-    ground = ground_height(ctx.regions, frame.up, own)
+    ground = ground_plane(ctx.regions, frame.up, own)
     for node in structure.nodes:
         for attribute in ctx.knowledge.concept(node.concept).attributes.values():
             if attribute.measure not in LENGTH_MEASURES or not attribute.measure_args:

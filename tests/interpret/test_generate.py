@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from aida_kb.interpret.alternative import Level
+from aida_kb.interpret.assign import vertical
 from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, Context
 from aida_kb.interpret.generate import (
     MAX_BINDINGS,
@@ -224,9 +225,12 @@ def test_a_pending_body_expects_optional_parts_to_explain_the_free_walls(
     for p in pending:
         assert 0.0 <= p.optional <= p.hypothesis.estimate + 1e-12
         assert p.estimate == pytest.approx(p.hypothesis.estimate - p.optional)
-        # the free walls whose segments along the body are where a part meets it
-        assert not p.walls & set(p.hypothesis.binding)
-        share = sum(it.context.share(it.evidence.regions[r]) for r in p.walls)
+        # the free regions whose segments along the body are where a part meets it: the
+        # walls the estimate leaves to the optional parts among them
+        assert not p.junctions & set(p.hypothesis.binding)
+        free = [it.evidence.regions[r] for r in p.junctions]
+        walls = vertical(free, p.hypothesis.frame.frame.up)
+        share = sum(it.context.share(r) for r in walls)
         assert p.optional == pytest.approx(UNEXPLAINED_PENALTY * share)
     estimates = [p.estimate for p in pending]
     assert estimates == sorted(estimates)

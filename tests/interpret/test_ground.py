@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, object_reference_weight
-from aida_kb.interpret.ground import GROUND_MIN_SHARE, elevation, ground_height, ground_region
+from aida_kb.interpret.ground import GROUND_MIN_SHARE, elevation, ground_plane, ground_region
 from aida_kb.interpret.observe import RegionView
 from aida_kb.interpret.run import interpret
 from aida_kb.kb import compile_text
@@ -41,10 +41,17 @@ def test_the_ground_is_the_lowest_large_level_region() -> None:
     ]
     total = sum(r.area_px for r in regions)
     assert GROUND_MIN_SHARE * total > 100  # the patch is too small to be ground
-    assert ground_height(regions, UP) == -1.5
-    assert ground_height(regions[1:2] + regions[3:], UP) == 3.0  # no ground: the roof is lowest
-    assert ground_height([regions[3]], UP) is None  # no level region: no ground
-    assert ground_height([], UP) is None
+    assert ground_region(regions, UP) is regions[0]
+    # no ground: the roof is lowest
+    assert ground_region(regions[1:2] + regions[3:], UP) is regions[1]
+    assert ground_region([regions[3]], UP) is None  # no level region: no ground
+    assert ground_region([], UP) is None
+    # its plane, the normal facing up: the ground 1.5 m below the camera
+    plane = ground_plane(regions, UP)
+    assert plane is not None
+    np.testing.assert_allclose(plane[0], UP)
+    assert plane[1] == pytest.approx(-1.5)
+    assert ground_plane([regions[3]], UP) is None
 
 
 def test_a_regions_significance_is_judged_without_the_ground() -> None:
@@ -81,8 +88,30 @@ def test_a_regions_significance_is_judged_without_the_ground() -> None:
 def test_elevation_is_the_lowest_point_above_the_ground() -> None:
     # heights along up -1, 2 and -0.5 m
     points = np.array([[0.0, 1.0, 20.0], [1.0, -2.0, 20.0], [0.0, 0.5, 21.0]])
-    assert math.isclose(elevation(points, UP, -1.5), 0.5)
-    assert math.isclose(elevation(points, UP, 0.0), -1.0)
+    assert math.isclose(elevation(points, UP, (UP, -1.5)), 0.5)
+    assert math.isclose(elevation(points, UP, (UP, 0.0)), -1.0)
+
+
+def test_elevation_is_taken_above_the_ground_plane_under_the_part() -> None:
+    """The vertical estimated from the walls 1.85 degrees off the ground's normal (dev seed
+    63013): the ground's centre, 14 m before the house, lies 0.45 m lower along that vertical
+    than the ground under the house's floor, and the floor, on the ground, measured 0.45 m
+    above it. Above the ground's plane under it, the floor is on the ground."""
+    tilt = math.radians(1.85)
+    normal = np.array([0.0, -math.cos(tilt), -math.sin(tilt)])  # the ground's, facing up
+    centre = np.array([0.0, 1.5, 51.0])  # the ground region's centre, 1.5 m below the camera
+    ground = _region("00/1", list(normal), list(centre), 50000)
+    # the house's foot on the ground's plane, 14 m farther along it
+    along = np.cross(normal, [1.0, 0.0, 0.0])
+    along = along if along[2] > 0 else -along
+    foot = centre + 14.0 * along
+    floor = foot + np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    plane = ground_plane([ground], UP)
+    assert plane is not None
+    assert elevation(floor, UP, plane) == pytest.approx(0.0, abs=1e-9)
+    # the height of the ground's centre along the vertical: 14 m x sin(1.85 deg) off
+    assert float((floor @ UP).min() - centre @ UP) == pytest.approx(14.0 * math.sin(tilt))
+    assert 14.0 * math.sin(tilt) > 0.45
 
 
 def _lifted_ground(synthetic: ModuleType, drop_m: float) -> Any:
@@ -159,10 +188,10 @@ def test_the_objects_own_top_is_no_ground() -> None:
     # unbound, the roof's region lies on the top face: the object's
     own = on_object(ctx, {"00/2": "body.front"}, planes, polygons, UP)
     assert own == {"00/2", "00/6"}
-    assert ground_height([front, roof], UP) == 6.15  # the roof taken for the ground
-    assert ground_height([front, roof], UP, own) is None  # no ground: not measured
+    assert ground_region([front, roof], UP) is roof  # the roof taken for the ground
+    assert ground_region([front, roof], UP, own) is None  # no ground: not measured
     # the ground below the floor is not the object's: it stays the ground
-    assert ground_height([front, roof, ground], UP, own) == -2.1
+    assert ground_region([front, roof, ground], UP, own) is ground
     bound = on_object(ctx, {"00/2": "body.front", "00/6": "body.roof.top"}, planes, polygons, UP)
     assert bound == {"00/2", "00/6"}
     # a level region beside the box, at its top's height, is not on its face
