@@ -218,6 +218,20 @@ and cameras on the dev robustness seeds correlate by 0.47). Counted as independe
 one edge would weigh as two edges; their common error is kept by widening each one's sigma by
 ``sqrt(1 + rho)`` (the mean of two measurements correlated by rho has ``(1 + rho) / 2`` of one's
 variance)."""
+IMAGE_SCATTER_BIAS = 1.0
+"""In the image rounds a fitted edge's mean offset is known no better than this share of its
+points' scatter across its line (b of `aida_kb.register.pose.point_sigma`; the registration's
+`aida_kb.register.pose.SCATTER_BIAS` is 0.5): the scatter is the texture and shading beside
+the edge, the same all along it, so it does not average out over the edge's length. Against the
+true edges (fits at the kept right models of the closing sets 61400-61935, 1,568 fits), whitened
+with b = 0.5 the squared mean offsets grow with the points' scatter s (median 0.12, 0.27, 0.26,
+0.42 and mean 1.4, 2.8, 4.5, 5.7 for s in 0-0.1, 0.1-0.2, 0.2-0.3, 0.3-0.6 px): the scattered
+fits were weighed as too good against the clean ones, and the variance factor the clean ones
+set (`aida_kb.interpret.uncertainty.variance_factors`) made them look better still. With b = 1:
+median 0.06, 0.09, 0.08, 0.11, mean 0.74, 0.96, 1.30, 1.53 — one noise model for all of them.
+The cameras' deviations recomputed at those models (error over deviation: median, 90th
+percentile, within 2 sd, max): dev 61400-61935 (66 cameras) 0.72, 1.35, 0.985, 2.36 -> 0.65,
+1.31, 0.985, 2.37; 63000-63035 (9) 1.07, 2.77, 0.778, 2.82 -> 0.94, 1.94, 0.889, 2.02."""
 JOINT_RIGHT_IMAGES = False
 """Whether the joint adjustments also use the segments of each view's right image (through a camera
 that follows the view's by the stereo calibration; registration always does). Off: measured with
@@ -666,11 +680,12 @@ def _fitted_edge_factors(
     twice: set[tuple[int, int]] | frozenset[tuple[int, int]] = frozenset(),
 ) -> list[Constraint]:
     """Edge factors of model edges fitted to the image of camera ``index`` (they know their
-    edge: no matching), each whitened with its own fit's point sigma (`point_sigma`); their
-    labels start with `IMAGE_EDGE_LABEL` (their own variance factor in the covariance). The
-    edges `twice` names (part indices, ascending) are fitted in both images of the view: their
-    sigma is widened by ``sqrt(1 + STEREO_FIT_CORRELATION)`` (`STEREO_FIT_CORRELATION`)."""
-    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX)
+    edge: no matching), each whitened with its own fit's point sigma (`point_sigma`,
+    `IMAGE_SCATTER_BIAS`); their labels start with `IMAGE_EDGE_LABEL` (their own variance
+    factor in the covariance). The edges `twice` names (part indices, ascending) are fitted in
+    both images of the view: their sigma is widened by ``sqrt(1 + STEREO_FIT_CORRELATION)``
+    (`STEREO_FIT_CORRELATION`)."""
+    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX, IMAGE_SCATTER_BIAS)
     out = []
     widen = math.sqrt(1.0 + STEREO_FIT_CORRELATION)
     for k in range(edges.size):
@@ -1097,8 +1112,8 @@ def fit_residuals(
     projection at `camera`, in its own sigmas (the end points' residuals (r1, r2) across the
     projected edge, pixels, whitened as `_fitted_edge_factors` does: ``(r1 + r2) / 2`` over
     ``sigma / sqrt(n)`` and ``(r1 - r2) / 2`` over ``sigma·sqrt(3/n)``, sigma the fit's
-    `point_sigma`, n its length in pixels); NaN for a fit of no edge of the model or of an
-    edge with an end on or behind the camera's focal plane."""
+    `point_sigma` with `IMAGE_SCATTER_BIAS`, n its length in pixels); NaN for a fit of no
+    edge of the model or of an edge with an end on or behind the camera's focal plane."""
     if edges.size == 0:
         return np.zeros(0), np.zeros(0)
     pair = {(int(min(a, b)), int(max(a, b))): i for i, (a, b) in enumerate(model.edge_faces)}
@@ -1117,7 +1132,7 @@ def fit_residuals(
     r1 = np.einsum("ij,ij->i", edges.p1 - ends[:, 0], normal)
     r2 = np.einsum("ij,ij->i", edges.p2 - ends[:, 0], normal)
     length = np.maximum(np.linalg.norm(edges.p2 - edges.p1, axis=1), 1.0)
-    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX)
+    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX, IMAGE_SCATTER_BIAS)
     offset = np.where(known, (r1 + r2) / 2.0 / (sigma / np.sqrt(length)), np.nan)
     slope = np.where(known, (r1 - r2) / 2.0 / (sigma * np.sqrt(3.0 / length)), np.nan)
     return offset, slope

@@ -115,19 +115,22 @@ MIN_POINT_SIGMA_PX = 0.05
 scatter by less than the locator's own error)."""
 
 
-def point_sigma(edges: EdgeObservations, default_px: float) -> FloatArray:
+def point_sigma(
+    edges: EdgeObservations, default_px: float, scatter_bias: float | None = None
+) -> FloatArray:
     """(M,) the edge-point sigma of each matched segment's factor, pixels.
 
     Without per-segment sigmas every segment gets ``default_px``. With them, a segment of n
     pixels gets ``sqrt(s² + n (f² + (b s)²))`` (s its own sigma, at least `MIN_POINT_SIGMA_PX`;
-    f `SEGMENT_FLOOR_PX`; b `SCATTER_BIAS`): its mean offset's standard deviation is then
-    ``sqrt(s²/n + f² + (b s)²)``.
+    f `SEGMENT_FLOOR_PX`; b `scatter_bias`, by default `SCATTER_BIAS`): its mean offset's
+    standard deviation is then ``sqrt(s²/n + f² + (b s)²)``.
     """
+    b = SCATTER_BIAS if scatter_bias is None else scatter_bias
     if edges.sigma_px is None:
         return np.full(edges.size, float(default_px))
     n = np.maximum(np.linalg.norm(edges.p2 - edges.p1, axis=1), 1.0)
     s = np.maximum(edges.sigma_px, MIN_POINT_SIGMA_PX)
-    out: FloatArray = np.sqrt(s * s + n * (SEGMENT_FLOOR_PX**2 + (SCATTER_BIAS * s) ** 2))
+    out: FloatArray = np.sqrt(s * s + n * (SEGMENT_FLOOR_PX**2 + (b * s) ** 2))
     return out
 
 

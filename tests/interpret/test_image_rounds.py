@@ -36,6 +36,7 @@ from aida_kb.register import (
     vertical_axis,
 )
 from aida_kb.register.evidence import ViewMeasurements
+from aida_kb.register.pose import point_sigma
 from aida_kb.solve import Evaluation
 from aida_kb.testing.segments import simulated_segments
 from tests.register.test_register import _box
@@ -301,6 +302,24 @@ def test_an_edge_fitted_in_both_images_weighs_as_one_edge_seen_twice() -> None:
     )
     ev1 = Evaluation(alone_problem, np.arange(len(model.names), dtype=np.intp))
     assert stereo_fit_pairs(alone_problem, np.asarray(ev1.constraint_of_row)).shape == (0, 2)
+
+
+def test_a_fitted_edge_is_known_to_its_points_scatter_across_it() -> None:
+    """A fit of 100 px whose points scatter by 0.2 px: its mean offset is good to
+    sqrt(0.2²/100 + 0.05² + (b 0.2)²) px, b = IMAGE_SCATTER_BIAS (1) in the image rounds, the
+    registration's 0.5 elsewhere; the image rounds' factor and their outlier test whiten by it."""
+    fits = EdgeObservations(
+        faces=np.array([[0, 1]]),
+        p1=np.array([[100.0, 200.0]]),
+        p2=np.array([[200.0, 200.0]]),
+        sigma_px=np.array([0.2]),
+    )
+    assert mv.IMAGE_SCATTER_BIAS == 1.0
+    assert point_sigma(fits, 4.0, mv.IMAGE_SCATTER_BIAS)[0] == pytest.approx(2.0712, abs=1e-4)
+    assert point_sigma(fits, 4.0)[0] == pytest.approx(1.1358, abs=1e-4)
+    (factor,) = mv._fitted_edge_factors(_box(), 1, fits, "01")
+    sd_mean = 0.5 / float(np.asarray(factor.sqrt_information)[0, 0])  # (r1 + r2) / 2's sd
+    assert sd_mean == pytest.approx(0.20712, abs=1e-4)
 
 
 def test_a_view_whose_adjustment_breaks_the_size_ranges_is_named(
