@@ -365,10 +365,9 @@ def test_an_adjustment_step_is_not_taken_only_when_it_breaks_ranges_the_model_me
 
 def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> None:
     # the box's visible edges at the true camera as exact fits of 0.1 px points: no residual;
-    # moved 0.5 px across their edge, the offset is 0.5 px over sigma/sqrt(n); turned about
-    # their middle by 0.2 px at the ends, the slope is 0.2 px over sigma*sqrt(3/n)
-    from aida_kb.register.pose import point_sigma
-
+    # moved 1 px across their edge, the offset is 1 px over sigma/sqrt(n); turned about
+    # their middle by 0.2 px at the ends, the slope is 0.2 px over sigma*sqrt(3/n) (sigma the
+    # image rounds' point sigma, `IMAGE_SCATTER_BIAS`)
     model = _box()
     _, cam = _cameras(model)
     vis = model.visible_edges(cam, min_length_px=20.0)
@@ -382,10 +381,10 @@ def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> Non
     d = ends[:, 1] - ends[:, 0]
     across = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1, keepdims=True)
     n = np.linalg.norm(vis.b - vis.a, axis=1)
-    sigma = point_sigma(exact, mv.JOINT_EDGE_SIGMA_PX)
-    moved = EdgeObservations(faces, vis.a + 0.5 * across, vis.b + 0.5 * across, exact.sigma_px)
+    sigma = point_sigma(exact, mv.JOINT_EDGE_SIGMA_PX, mv.IMAGE_SCATTER_BIAS)
+    moved = EdgeObservations(faces, vis.a + 1.0 * across, vis.b + 1.0 * across, exact.sigma_px)
     offset, slope = mv.fit_residuals(model, cam, moved)
-    assert np.allclose(offset, 0.5 / (sigma / np.sqrt(n)), rtol=1e-6)
+    assert np.allclose(offset, 1.0 / (sigma / np.sqrt(n)), rtol=1e-6)
     assert np.allclose(slope, 0.0, atol=1e-6)
     assert float(offset.min()) > 6.0  # far beyond IMAGE_REJECT_SIGMAS: left out
     assert mv.consistent_edges(model, cam, moved, mv.IMAGE_REJECT_SIGMAS).size == 0
