@@ -277,6 +277,15 @@ def _symmetric_gap(a_deg: float, b_deg: float, order: int) -> float:
     return min(d, step - d)
 
 
+REGION_PART_MAX_DEG = 20.0
+"""A region lies on a part only if their normals are within this angle at the pose: a region's
+plane fit and the pose it is judged at (from the coarse search, before refinement) may each
+be degrees off."""
+REGION_PART_MAX_REL = 0.15
+"""A region lies on a part only if its centre lies within this fraction of the model's size of
+the part's plane (a pose's error in depth, and a region reaching past its face's edge)."""
+
+
 def region_parts(
     model: RigidModel,
     camera: PinholeCamera,
@@ -284,17 +293,18 @@ def region_parts(
 ) -> tuple[npt.NDArray[np.bool_], IntArray]:
     """Which of the view's regions lie on a part at `camera`'s pose, and on which.
 
-    A region lies on the part whose normal is within 20 degrees of its own and whose plane is
-    nearest its centre (within 15 % of the model's size). Returns keep : (R,) whether a part
-    was found; part : (R,) its index (meaningless where not kept).
+    A region lies on the part whose normal is within `REGION_PART_MAX_DEG` of its own and
+    whose plane is nearest its centre (within `REGION_PART_MAX_REL` of the model's size).
+    Returns keep : (R,) whether a part was found; part : (R,) its index (meaningless where
+    not kept).
     """
     R = camera.R_cam_world
     nw = regions.normal_cam @ R
     X = regions.centre_cam @ R + camera.centre
     agree = nw @ model.normals.T  # (R, P)
     dist = np.abs(X @ model.normals.T - model.offsets)
-    limit = 0.15 * model.size
-    ok = (agree > math.cos(math.radians(20.0))) & (dist < limit)
+    limit = REGION_PART_MAX_REL * model.size
+    ok = (agree > math.cos(math.radians(REGION_PART_MAX_DEG))) & (dist < limit)
     score = np.where(ok, dist, np.inf)
     part = np.argmin(score, axis=1).astype(np.intp)
     keep = np.isfinite(score[np.arange(regions.size), part])
