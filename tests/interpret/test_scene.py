@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pytest
 
 from aida_kb.errors import GeometryError
+from aida_kb.interpret.interpreter import State
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.result import Interpretation, SceneObject
 from aida_kb.interpret.run import check_goal, interpret
 from aida_kb.interpret.scene import evaluate_scene, members
+from aida_kb.interpret.scene.rounds import preferred
 from aida_kb.io.evidence import Evidence
 from aida_kb.kb.compiler import compile_path
 from aida_kb.kb.model import KnowledgeBase
@@ -534,3 +538,40 @@ def test_a_part_moves_with_its_frame() -> None:
     back = moved_part(moved, R.T, -R.T @ t)
     assert np.allclose(back.normal, part.normal)
     assert back.offset_m == pytest.approx(-10.0)
+
+
+def _level(choices: dict[str, str], own: list[str], fixed: tuple[str, ...] = ()) -> Any:
+    """A verified level as `scene.rounds.preferred` reads it: its choices, bindings, frame and
+    the planes of its verification (its own, and those it holds fixed)."""
+    planes = tuple(SimpleNamespace(role=r, fixed=False) for r in own)
+    planes += tuple(SimpleNamespace(role=r, fixed=True) for r in fixed)
+    return SimpleNamespace(
+        structure=SimpleNamespace(choices=tuple(choices.items())),
+        binding={"00/1": "body.front"},
+        frame=SimpleNamespace(front=np.array([0.0, 0.0, 1.0]), up=np.array([0.0, 1.0, 0.0])),
+        verification=SimpleNamespace(planes=planes),
+    )
+
+
+def test_a_tied_body_replaces_the_accepted_one_only_under_the_planes_its_later_levels_hold() -> (
+    None
+):
+    flat = _level({"body.roof": "FlatRoof"}, ["body.front", "body.roof.top"])
+    gable = _level({"body.roof": "GableRoof"}, ["body.front", "body.roof.front", "body.roof.back"])
+    interpreter: Any = SimpleNamespace(
+        ties=lambda state: ["body.roof=GableRoof"], bodies=[(flat, 1.0), (gable, 1.0 + 1e-3)]
+    )
+    wanted = frozenset({"body.roof=GableRoof"})
+    alone = preferred(interpreter, State((flat,), True, 1.0), wanted)
+    assert alone is not None
+    assert alone[0].levels == (gable,)
+    assert alone[1] == ("body.roof=FlatRoof",)
+    # a wing fitted under the walls only: the gable body takes the flat one's place
+    under_walls = _level({}, ["body.wings[0].front"], ("body.front",))
+    swapped = preferred(interpreter, State((flat, under_walls), True, 2.0), wanted)
+    assert swapped is not None
+    assert swapped[0].levels == (gable, under_walls)
+    # a wing fitted under the flat roof's top: the gable has no such plane (held-out street
+    # 64103 stopped in verify_levels), so the accepted body stays
+    under_roof = _level({}, ["body.wings[0].front"], ("body.front", "body.roof.top"))
+    assert preferred(interpreter, State((flat, under_roof), True, 2.0), wanted) is None

@@ -373,10 +373,19 @@ def preferred(
     """The accepted `state` with its body replaced by the cheapest tied body making the
     choices `wanted` (a body `Interpreter.ties` names: the same regions bound in the same
     frame, its cost within `interpreter.TIE_MARGIN`), and the choices given up for them; None
-    when no tied body makes them (the evidence of the interpreted view decides against)."""
+    when no tied body makes them (the evidence of the interpreted view decides against).
+
+    The later levels (wings, oriels) were verified against the accepted body and hold its
+    planes fixed: a tied body that lacks one of them (a gable roof for the flat roof a wing
+    was fitted under) cannot take its place under them (held-out street 64103, session 20:
+    the joined state named a fixed ``body.roof.top`` no level had, and the scene stopped)."""
     if not state.levels or not wanted <= set(interpreter.ties(state)):
         return None
     body = state.levels[0]
+    later_own = {p.role for lv in state.levels[1:] for p in lv.verification.planes if not p.fixed}
+    held = {
+        p.role for lv in state.levels[1:] for p in lv.verification.planes if p.fixed
+    } - later_own
     own = next((c for lv, c in interpreter.bodies if lv is body), None)
     if own is None:
         return None
@@ -386,6 +395,8 @@ def preferred(
         if level is body or cost > own + TIE_MARGIN or not wanted <= made:
             continue
         if set(level.binding) != set(body.binding):
+            continue
+        if not held <= {p.role for p in level.verification.planes if not p.fixed}:
             continue
         fronts, ups = level.frame.front @ body.frame.front, level.frame.up @ body.frame.up
         if min(float(fronts), float(ups)) < SAME_FRAME_COS:
