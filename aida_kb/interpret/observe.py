@@ -41,10 +41,18 @@ import numpy.typing as npt
 from aida_kb.errors import InterpretError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.io.evidence import Evidence
-from aida_kb.vision.rectify import undistort_pixels
+from aida_kb.vision.rectify import distort_pixels, undistort_pixels
 from aida_kb.vision.vanishing import vertical_direction
 
 FloatArray = npt.NDArray[np.float64]
+
+# an outline vertex or segment end within this of the image's edge (pixels) is where the image
+# ends, not where its surface does: no support of the surface's extent. A wall's region that
+# leaks through textureless background to the image's edge (dev 63030: a gable wall seen at a
+# grazing angle, 20 of its 74 outline vertices on the edge) put its far end, back-projected
+# onto its plane, 7 m behind the house, and with it the inserted back wall and back slope
+# (the ridge 1.95 m out: its segments, 30-50 px away, never matched)
+IMAGE_EDGE_PX = 1.0
 
 
 @dataclass(frozen=True)
@@ -58,6 +66,9 @@ class CameraView:
     width_px: int
     height_px: int
     baseline_m: float = 0.0  # distance to the stereo partner's centre (0: unknown)
+    # the original image's lens distortion (OpenCV's k1 k2 p1 p2 [k3 ...]; empty: none): K
+    # describes the undistorted image, whose edge is the original's, moved by D
+    D: FloatArray = field(default_factory=lambda: np.zeros(0))
 
     @cached_property
     def pinhole(self) -> PinholeCamera:
@@ -79,6 +90,22 @@ class CameraView:
     def rays_world(self, pixels: FloatArray) -> FloatArray:
         """Unit viewing directions in the world frame, (N, 3), of pixels (N, 2)."""
         return self.pinhole.unproject(np.asarray(pixels, dtype=np.float64).reshape(-1, 2))[1]
+
+    def on_image_edge(self, pixels: FloatArray) -> npt.NDArray[np.bool_]:
+        """Which pixels (N, 2) of the undistorted image lie within `IMAGE_EDGE_PX` of the
+        original image's edge, (N,) bool.
+
+        The test is made in the original (distorted) image, where the edge is the rectangle
+        of its pixels: undistorted, that edge bends (barrel distortion moves it out of the
+        pinhole image by pixels, pincushion moves it in). Pixels beyond the original image
+        by more than `IMAGE_EDGE_PX` (synthetic evidence's true corners) are not on its edge.
+        """
+        raw = distort_pixels(np.asarray(pixels, dtype=np.float64).reshape(-1, 2), self.K, self.D)
+        last = np.array([self.width_px - 1.0, self.height_px - 1.0])
+        near: npt.NDArray[np.bool_] = np.any(
+            (np.abs(raw) <= IMAGE_EDGE_PX) | (np.abs(raw - last) <= IMAGE_EDGE_PX), axis=1
+        )
+        return near
 
 
 @dataclass(frozen=True)
@@ -178,7 +205,8 @@ class EvidenceView:
         The segments' end points and the vertices of the region's outline polygons (where the
         evidence gives them) are back-projected onto the region's plane. Returns (N, 3)
         world points, metres. Points whose rays miss the plane (parallel or behind the
-        camera) are left out.
+        camera) are left out, and so are those within `IMAGE_EDGE_PX` of the original image's
+        edge (`CameraView.on_image_edge`): there the image ends, not the surface.
         """
         region = self.regions[region_id]
         pts = [region.centroid_m[None, :]]
@@ -187,6 +215,7 @@ class EvidenceView:
         pixels = [s.ends_px for s in segs] + list(self.outlines.get(region_id, ()))
         if pixels:
             pix = np.concatenate(pixels)
+            pix = pix[~cam.on_image_edge(pix)]
             pts.append(intersect_rays_plane(cam.centre_m, cam.rays_world(pix), region))
         out = np.concatenate(pts)
         keep: FloatArray = out[np.all(np.isfinite(out), axis=1)]
@@ -613,6 +642,7 @@ def view_of(evidence: Evidence, source: str = "") -> EvidenceView:
             v.image_width,
             v.image_height,
             float(np.linalg.norm(np.array(v.right.cahv.C) - np.array(v.left.cahv.C))),
+            np.array(v.left.D, dtype=np.float64).ravel(),
         )
         for r in v.regions:
             rid = f"{v.id}/{r.id}"

@@ -31,6 +31,7 @@ import numpy.typing as npt
 
 from aida_kb.errors import GeometryError
 from aida_kb.interpret.context import Context
+from aida_kb.interpret.observe import CameraView
 from aida_kb.register.match import match_segments
 from aida_kb.register.model import RigidModel
 
@@ -142,7 +143,8 @@ def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArr
     area (reference image) farther than `OVERFLOW_MARGIN_PX` outside its face's projection
     (``polygons``: role path -> (K, 3), metres, world) beyond `OVERFLOW_FREE`, times its
     weight; summed. Regions
-    without an outline, or whose face is not wholly in front of the camera, count 0.
+    without an outline, or whose face is not wholly in front of the camera, count 0. The
+    pieces outside the face that reach the image's edge do not count (`_reaching_edge`).
     """
     camera = ctx.evidence.camera
     pinhole = camera.pinhole
@@ -170,6 +172,34 @@ def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArr
         face_mask = np.zeros_like(mask)
         cv2.fillPoly(face_mask, [np.round(face_px * scale).astype(np.int32)], 1)
         near = cv2.dilate(face_mask, kernel) > 0
-        outside = int(np.count_nonzero((mask > 0) & ~near))
+        beyond = ((mask > 0) & ~near).astype(np.uint8)
+        outside = int(np.count_nonzero(beyond)) - _reaching_edge(beyond, outlines, camera, scale)
         total += region.weight * max(0.0, outside / area - OVERFLOW_FREE)
     return total
+
+
+def _reaching_edge(
+    beyond: npt.NDArray[np.uint8],
+    outlines: tuple[FloatArray, ...],
+    camera: CameraView,
+    scale: float,
+) -> int:
+    """How many raster pixels of ``beyond`` (H, W; a region's area outside its face) lie in
+    pieces that reach the image's edge: pieces holding one of the region's outline vertices
+    (pixels, undistorted) on the original image's edge (`observe.CameraView.on_image_edge`).
+
+    There the image ends, not the surface: a region that leaks through textureless
+    background to the image's edge (dev 64033: a wall's region in strips out to the left
+    edge) says nothing of where its surface ends, and the faces are placed without those
+    vertices (`observe.EvidenceView.points_on`); nor does a wall the image cuts off.
+    """
+    vertices = np.concatenate(outlines)
+    on_edge = vertices[camera.on_image_edge(vertices)]
+    if len(on_edge) == 0 or not beyond.any():
+        return 0
+    _, pieces = cv2.connectedComponents(beyond, connectivity=8)
+    height, width = beyond.shape
+    at = np.clip(np.round(on_edge * scale).astype(np.intp), 0, [width - 1, height - 1])
+    touched = np.unique(pieces[at[:, 1], at[:, 0]])
+    touched = touched[touched > 0]
+    return int(np.isin(pieces, touched).sum()) if len(touched) else 0

@@ -19,8 +19,16 @@ from aida_kb.interpret.hypotheses import (
     predicted_normal,
     support_offset,
 )
-from aida_kb.interpret.observe import EvidenceView, estimate_up, slope_deg, view_of
+from aida_kb.interpret.observe import (
+    CameraView,
+    EvidenceView,
+    estimate_up,
+    intersect_rays_plane,
+    slope_deg,
+    view_of,
+)
 from aida_kb.synth import buildings as bld
+from aida_kb.vision.rectify import undistort_pixels
 
 TARGET = np.array([0.0, 5.0, 0.0])
 
@@ -310,3 +318,60 @@ def test_a_vertical_that_makes_the_heaviest_wall_overhang_is_rejected() -> None:
     truth = np.array([0.0, -0.99826488, 0.05888324])
     up = estimate_up(regions, camera)
     assert math.degrees(math.acos(float(up @ truth))) < 1.0
+
+
+def test_the_image_edge_is_no_support_of_a_surface(synthetic: ModuleType) -> None:
+    """A wall's region leaking through textureless background to the image's edge (dev
+    63030: a gable wall seen at a grazing angle) would put its far end, back-projected onto
+    the wall's plane, metres behind the house, and the inserted back wall with it. Its
+    vertices on the image's edge are where the image ends: no support of the surface."""
+    view, world = _house_view(synthetic)
+    left = next(
+        rid
+        for rid, r in view.regions.items()
+        if float(r.normal @ _truth_normal(world, "body.left")) > 0.999
+    )
+    # the region's outline: the wall's true face in the image
+    outline = view.camera.pinhole.project(np.asarray(world.face("body.left").polygon))  # type: ignore[attr-defined]
+    assert float(outline[:, 0].min()) > 20.0  # the wall lies inside the image
+    x_in, y = float(outline[:, 0].min()), float(np.median(outline[:, 1]))
+    # a strip from the region's leftmost point to the image's left edge
+    leak = np.array([[x_in, y], [0.0, y], [0.0, y + 2.0], [x_in, y + 2.0]])
+    clean_view = replace(view, outlines={**view.outlines, left: (outline,)})
+    leaky = replace(view, outlines={**view.outlines, left: (outline, leak)})
+    n = _truth_normal(world, "body.back")
+    clean = support_offset(n, clean_view.points_on(left))
+    # the strip's inner end lies by the wall's outline: the support moves by millimetres
+    assert support_offset(n, leaky.points_on(left)) == pytest.approx(clean, abs=0.01)
+    # the edge's pixels, back-projected onto the wall's plane, lie far behind the house
+    cam = view.camera
+    edge = intersect_rays_plane(cam.centre_m, cam.rays_world(leak[1:3]), view.regions[left])
+    assert float(np.max(edge @ n)) > clean + 5.0
+
+
+@pytest.mark.parametrize("k1", [-0.11, 0.04])
+def test_the_image_edge_is_found_in_the_original_distorted_image(k1: float) -> None:
+    """Undistorted, the original image's edge bends: barrel distortion (k1 < 0, dev 64013:
+    -0.11) moves it 3-5 px out of the pinhole image, pincushion (k1 > 0) 1-2 px into it. The
+    edge is found where it is a rectangle, in the original image."""
+    K = np.array([[694.2, 0.0, 239.5], [0.0, 694.2, 179.5], [0.0, 0.0, 1.0]])
+    D = np.array([k1, 0.0, 0.0, 0.0, 0.0])
+    camera = CameraView("00", K, np.eye(3), np.zeros(3), 480, 360, 0.0, D)
+    along = np.linspace(0.0, 1.0, 9)
+    border = np.concatenate(
+        [
+            np.stack([along * 479.0, np.zeros(9)], axis=1),
+            np.stack([along * 479.0, np.full(9, 359.0)], axis=1),
+            np.stack([np.zeros(9), along * 359.0], axis=1),
+            np.stack([np.full(9, 479.0), along * 359.0], axis=1),
+        ]
+    )
+    inner = np.clip(border, 3.0, [476.0, 356.0])  # 3 px inside the original image's edge
+    on_edge, inside = undistort_pixels(border, K, D), undistort_pixels(inner, K, D)
+    # in the pinhole image the corners lie more than a pixel off the rectangle of its pixels
+    off = np.minimum(np.abs(on_edge), np.abs(on_edge - [479.0, 359.0])).min(axis=1)
+    assert float(off.max()) > 1.2
+    assert camera.on_image_edge(on_edge).all()
+    assert not camera.on_image_edge(inside).any()
+    # beyond the original image (synthetic evidence's true corners): not its edge
+    assert not camera.on_image_edge(undistort_pixels(np.array([[-30.0, 100.0]]), K, D)).any()

@@ -133,3 +133,28 @@ def _area(polygon: Any) -> float:
     """Shoelace area of a polygon (N, 2), pixels²."""
     x, y = polygon[:, 0], polygon[:, 1]
     return 0.5 * abs(float(x @ np.roll(y, -1) - y @ np.roll(x, -1)))
+
+
+def test_a_region_leaking_to_the_image_edge_is_not_charged_for_it(dark_roof: Interpreter) -> None:
+    """A region's piece outside its face that reaches the image's edge (a wall's region
+    leaking through textureless background to the edge, dev 64033) says nothing of where the
+    surface ends: the image ends there. The same piece stopping short of the edge is charged."""
+    state = dark_roof.state  # type: ignore[attr-defined]
+    body = state.levels[0]
+    ctx = dark_roof.context
+    rid = "00/1"
+    face_px = ctx.evidence.camera.pinhole.project(body.polygons[body.binding[rid]])
+    centre = face_px.mean(axis=0)
+    inner = centre + 0.8 * (face_px - centre)
+    x0 = float(inner[:, 0].min()) + 5.0  # the strip starts inside the outline
+    y0, y1 = np.percentile(inner[:, 1], [30, 70])
+    assert x0 > 40.0  # the face lies well inside the image
+
+    def charged(x_end: float) -> float:
+        strip = np.array([[x0, y0], [x_end, y0], [x_end, y1], [x0, y1]])
+        view = replace(ctx.evidence, outlines={rid: (inner, strip)})
+        return overflow(replace(ctx, evidence=view), {rid: body.binding[rid]}, body.polygons)
+
+    short = charged(12.0)
+    assert short > 0.0  # the strip is a share of the region beyond OVERFLOW_FREE
+    assert charged(0.0) == 0.0
