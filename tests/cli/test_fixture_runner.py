@@ -79,7 +79,7 @@ def test_a_wrong_verdict_a_part_called_inserted_and_a_rejection_that_did_not_hap
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = _copy(tmp_path, "house_correct")
-    text = path.read_text(encoding="utf-8").replace("verdict verified", "verdict doubtful")
+    text = path.read_text(encoding="utf-8").replace("verdict doubtful", "verdict verified")
     # the back roof half called inserted, and the accepted roof expected rejected
     text = text.replace(
         'region = "00/4"', '"inserted from the knowledge base: no view shows this part"'
@@ -88,8 +88,10 @@ def test_a_wrong_verdict_a_part_called_inserted_and_a_rejection_that_did_not_hap
     path.write_text(text, encoding="utf-8")
     assert main(["test", str(path), "--import-path", KB_DIR]) == 1
     out = capsys.readouterr().out
-    verdict = _line(path, "verdict doubtful")
-    assert f"{path}:{verdict}: expected verdict doubtful, got verified: House verified" in out
+    verdict = _line(path, "verdict verified")
+    assert (
+        f"{path}:{verdict}: expected verdict verified, got doubtful: body.left: its normal" in out
+    )
     back = _line(path, "instance body_roof_back")
     assert (
         f"{path}:{back}: expected body.roof.back inserted (no view shows it), "
@@ -108,17 +110,17 @@ def test_update_rewrites_the_expectation_from_the_result_keeping_its_annotations
     monkeypatch.delenv("CI", raising=False)
     path = _copy(tmp_path, "house_correct")
     good = path.read_text(encoding="utf-8")
-    wrong = good.replace("verdict verified", "verdict doubtful").replace(
+    wrong = good.replace("verdict doubtful", "verdict verified").replace(
         "depth = 10 m", "depth = 12 m"
     )
     path.write_text(wrong, encoding="utf-8")
     assert main(["test", str(path), "--import-path", KB_DIR, "--update"]) == 0
     out = capsys.readouterr().out
     assert f"{path}: UPDATED (" in out
-    assert "expected verdict doubtful, got verified" in out
+    assert "expected verdict verified, got doubtful" in out
     assert "expected body.depth = 12 m +- 0.35 m, got 9.888 m" in out
     new = path.read_text(encoding="utf-8")
-    assert "// expect: verdict verified\n" in new
+    assert "// expect: verdict doubtful\n" in new
     assert "    depth = 9.888 m\n" in new  # the result's value, for review
     # the author's comments and the annotations stay: the tolerance line, and a value's
     # tolerance after its new value

@@ -121,12 +121,16 @@ def test_a_missing_instance_and_an_unexpected_one_are_named(
     interpreted: Any, buildings_kb: Any
 ) -> None:
     from aida_kb.interpret.result import Instance
+    from aida_kb.interpret.verdict import judge, with_verdict
+    from aida_kb.io.evidence import read_evidence
 
     path = ROOT / "tests" / "fixtures" / "house_correct.expected.kb"
     result = compile_path(path, search_paths=[KB_DIR])
     assert result.kb is not None
     tree = expected_tree(result.kb, result.kb.files[0], path.read_text(encoding="utf-8"))
-    interp = interpreted("house_correct.json")
+    raw = interpreted("house_correct.json")
+    evidence = read_evidence(ROOT / "tests" / "fixtures" / "house_correct.json")
+    interp = with_verdict(raw, judge(buildings_kb, raw, evidence))  # judged, as the runner does
     assert compare(buildings_kb, tree, interp) == []
     gone = [i for i in interp.instances if not i.role.startswith("body.roof.back")]
     wing = Instance(

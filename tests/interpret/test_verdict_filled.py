@@ -134,7 +134,9 @@ def _shrunk(contour: Contour, factor: float) -> Contour:
 
 
 def test_judge_runs_the_check_on_the_outlines(
-    buildings_kb: KnowledgeBase, interpreted: Callable[[str], Interpretation]
+    buildings_kb: KnowledgeBase,
+    interpreted: Callable[[str], Interpretation],
+    unbiased: None,
 ) -> None:
     interp = interpreted("house_correct.json")
     evidence = read_evidence(FIXTURES / "house_correct.json")
