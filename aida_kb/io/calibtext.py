@@ -1,7 +1,7 @@
 """Stereo calibrations in the common text forms, read into a `StereoCalib` (`aida-kb scene init`).
 
 - **OpenCV FileStorage** (``.yaml``/``.yml``/``.xml``/``.json`` with K1 D1 K2 D2 R T
-  image_width image_height): the scene format's own calib.yaml (`aida_kb.io.scene.read_calib`).
+  image_width image_height): the scene format's own calib.yaml (`aida_kb.io.calib.read_calib`).
 - **Middlebury** ``calib.txt`` (the 2014 stereo datasets): ``cam0=[f 0 cx; 0 f cy; 0 0 1]``,
   ``cam1=[...]``, ``baseline=`` in millimetres, ``width=``, ``height=``, ``ndisp=`` ... The images
   are rectified: R = I and the right camera sits `baseline` to the right (T = (-b, 0, 0)).
@@ -24,8 +24,9 @@ from typing import Literal
 import numpy as np
 
 from aida_kb.errors import FormatError
+from aida_kb.io.jsonio import read_text_file
 from aida_kb.io.scene import FloatArray, StereoCalib, read_calib
-from aida_kb.limits import MAX_CALIB_BYTES, read_limited
+from aida_kb.limits import MAX_CALIB_BYTES
 
 CalibForm = Literal["opencv", "middlebury", "projection"]
 
@@ -62,14 +63,7 @@ class TextCalib:
 
 
 def _text(file: Path) -> list[str]:
-    try:
-        return read_limited(file, MAX_CALIB_BYTES).decode("utf-8").splitlines()
-    except FileNotFoundError:
-        raise FormatError(f"{file}: no such file") from None
-    except OSError as exc:
-        raise FormatError(f"{file}: cannot be read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError as exc:
-        raise FormatError(f"{file}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    return read_text_file(file, MAX_CALIB_BYTES).splitlines()
 
 
 def _entries(file: Path) -> dict[str, tuple[int, str]]:

@@ -76,11 +76,12 @@ def validate_model(model: type[ModelT], data: object, source: str) -> ModelT:
         _NESTING.reset(token)
 
 
-def read_text_file(path: str | os.PathLike[str]) -> str:
-    """The UTF-8 text of a file; FormatError naming it when missing or unreadable."""
+def read_text_file(path: str | os.PathLike[str], limit: int = MAX_JSON_BYTES) -> str:
+    """The UTF-8 text of a regular file of at most `limit` bytes; FormatError naming it when
+    missing, unreadable, too large or not UTF-8."""
     file = Path(path)
     try:
-        return read_limited(file, MAX_JSON_BYTES).decode("utf-8")
+        return read_limited(file, limit).decode("utf-8")
     except FileNotFoundError:
         raise FormatError(f"{file}: no such file") from None
     except OSError as exc:

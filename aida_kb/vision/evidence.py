@@ -679,7 +679,7 @@ def _line_kinds(
 
 
 def working_rig(calib: StereoCalib) -> StereoCalib:
-    """`calib` itself, or for images above WORKING_MAX_PIXELS (aida_kb.io.scene) the same rig
+    """`calib` itself, or for images above WORKING_MAX_PIXELS (aida_kb.io.calib) the same rig
     at the working resolution: the pair is matched, segmented and fitted there, the evidence is
     given in the full images' pixels."""
     size = working_size(*calib.image_size)

@@ -215,9 +215,9 @@ def test_a_large_pair_is_matched_at_the_working_resolution(
     """With a working resolution of 400x300 the 640x480 house is matched there, and its
     evidence is given in the full image: cameras, sizes, boxes and lines of 640x480 pixels,
     the large faces' normals still within 3 degrees, the products at full size."""
-    import aida_kb.io.scene as scene_io
+    import aida_kb.io.calib as calib_io
 
-    monkeypatch.setattr(scene_io, "WORKING_MAX_PIXELS", 120_000)
+    monkeypatch.setattr(calib_io, "WORKING_MAX_PIXELS", 120_000)
     scene = read_scene(house_640)
     evidence, products = scene_evidence(scene, views=["00"])
     view = evidence.views[0]
