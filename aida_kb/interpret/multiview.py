@@ -104,8 +104,10 @@ __all__ = [
     "JointInputs",
     "consistent_edges",
     "corroborated",
+    "fit_point_sigma",
     "fit_residuals",
     "fitted_edges",
+    "foot_grazing_deg",
     "joint_adjustment",
     "joint_problem",
     "kb_constraints",
@@ -232,6 +234,25 @@ median 0.06, 0.09, 0.08, 0.11, mean 0.74, 0.96, 1.30, 1.53 — one noise model f
 The cameras' deviations recomputed at those models (error over deviation: median, 90th
 percentile, within 2 sd, max): dev 61400-61935 (66 cameras) 0.72, 1.35, 0.985, 2.36 -> 0.65,
 1.31, 0.985, 2.37; 63000-63035 (9) 1.07, 2.77, 0.778, 2.82 -> 0.94, 1.94, 0.889, 2.02."""
+FOOT_SHARE = 0.02
+"""A model edge lies on the model's foot (where it stands on the ground) when both its ends lie
+within this share of the model's height (along its vertical, `ReconstructedModel.up`) of its
+lowest vertex (`foot_grazing_deg`)."""
+GRAZING_DEG = 3.0
+"""A camera sees the ground at a grazing angle when the ray to a foot edge's middle meets the
+horizontal plane at less than this, degrees: the ground's texture beside the foot is squeezed
+into a few pixels, and the foot's fitted line is pulled into it (`FOOT_BIAS_PX`). Measured at
+the TRUE models and cameras of dev 64000-64035 and 63000-63035 (wall feet fitted in each view's
+images, 321 fits): below 1 deg the fits' squared whitened mean offsets average 21.7 (18 % beyond
+3 sigma), at 1-2 deg 17.8 (83 %), at 4-40 deg 0.12-0.21 (none); none lay at 2-4 deg. The other
+edges average 0.44-0.52. The fits lie below the true foot, 0.7-1.7 px in the scenes they are
+off in (64033, 64035, 63032, 63035)."""
+FOOT_BIAS_PX = 0.7
+"""The mean offset of a foot edge's fit seen at a grazing angle (`GRAZING_DEG`) is known no
+better than this, pixels (added in quadrature to its fit's own: `fit_point_sigma`). Chosen on the
+fits of dev 64000-64035 below 3 deg (73 fits, 15 scenes): squared whitened mean offsets average
+0.69, none beyond 3 sigma (0.5 px: 1.29 and 1.4 %); checked on 63000-63035 (65 fits, 9 scenes):
+0.63, none beyond 3 sigma (0.5 px: 1.17 and 3.1 %)."""
 JOINT_RIGHT_IMAGES = False
 """Whether the joint adjustments also use the segments of each view's right image (through a camera
 that follows the view's by the stereo calibration; registration always does). Off: measured with
@@ -429,6 +450,8 @@ class JointInputs:
     fitted_right : per view, its rig and the model's edges fitted to its right image, or None:
         their factors look through a camera that follows the view's, as `stereo`'s do; an edge
         fitted in both images of a view is one edge seen twice (`STEREO_FIT_CORRELATION`).
+    up : the model's vertical (unit, world frame, pointing up) or None (unknown): the fits of
+        its foot's edges seen at a grazing angle get `FOOT_BIAS_PX` (`fit_point_sigma`).
     """
 
     angles: Mapping[tuple[int, int], float] | None = None
@@ -436,6 +459,7 @@ class JointInputs:
     stereo: Sequence[StereoSegments | None] = ()
     fitted: Sequence[EdgeObservations | None] = ()
     fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = ()
+    up: tuple[float, float, float] | None = None
 
 
 def joint_adjustment(
@@ -511,7 +535,7 @@ def joint_problem(
         if own is None:
             cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view)
         else:
-            cons += _fitted_edge_factors(model, ci, own, m.view, twice)
+            cons += _fitted_edge_factors(model, cam, ci, own, m.view, twice, inputs.up)
             if IMAGE_KEEP_SEGMENTS:  # the segments of the edges no clean fit measures
                 done = _edge_keys(own.faces)
                 cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view, skip=done)
@@ -519,7 +543,9 @@ def joint_problem(
             right = len(all_cameras)
             all_cameras.append(second[0].right_of(cam))
             derived.append((right, ci, second[0]))
-            cons += _fitted_edge_factors(model, right, second[1], f"{m.view} (right)", twice)
+            cons += _fitted_edge_factors(
+                model, all_cameras[right], right, second[1], f"{m.view} (right)", twice, inputs.up
+            )
         pair = stereo[ci] if ci < len(stereo) else None
         if pair is not None:  # the right image: a camera that follows this view's
             right = len(all_cameras)
@@ -672,20 +698,71 @@ def _edge_keys(faces: npt.NDArray[np.integer]) -> set[tuple[int, int]]:
     return {(int(min(a, b)), int(max(a, b))) for a, b in faces}
 
 
+def foot_grazing_deg(
+    model: RigidModel,
+    camera: PinholeCamera,
+    edges: EdgeObservations,
+    up: tuple[float, float, float] | None,
+) -> FloatArray:
+    """(F,) for each fitted edge on the model's foot (`FOOT_SHARE`), the angle at which the
+    ray from `camera`'s centre to the edge's middle meets the horizontal plane (normal `up`,
+    world frame), degrees; NaN for the other edges, or all of them when `up` is None."""
+    out = np.full(edges.size, np.nan)
+    if up is None or edges.size == 0 or model.edge_ends.size == 0:
+        return out
+    u = np.asarray(up, dtype=np.float64)
+    u = u / np.linalg.norm(u)
+    height = model.edge_ends @ u  # (E, 2), metres along the vertical
+    low, span = float(height.min()), float(np.ptp(height))
+    foot = np.all(height - low <= FOOT_SHARE * span, axis=1)  # (E,)
+    pair = {(int(min(a, b)), int(max(a, b))): i for i, (a, b) in enumerate(model.edge_faces)}
+    index = np.array([pair.get((int(min(a, b)), int(max(a, b))), -1) for a, b in edges.faces])
+    on_foot = (index >= 0) & foot[np.maximum(index, 0)]
+    if not on_foot.any():
+        return out
+    middle = model.edge_ends[index[on_foot]].mean(axis=1)  # (K, 3), world
+    ray = camera.centre[None, :] - middle
+    sine = np.abs(ray @ u) / np.maximum(np.linalg.norm(ray, axis=1), 1e-12)
+    out[on_foot] = np.degrees(np.arcsin(np.clip(sine, 0.0, 1.0)))
+    return out
+
+
+def fit_point_sigma(
+    model: RigidModel,
+    camera: PinholeCamera,
+    edges: EdgeObservations,
+    up: tuple[float, float, float] | None,
+) -> FloatArray:
+    """(F,) the edge-point sigma of each fitted edge seen by `camera`, pixels: its own fit's
+    (`point_sigma` with `IMAGE_SCATTER_BIAS`), and for a foot edge seen at a grazing angle
+    (`foot_grazing_deg` below `GRAZING_DEG`) with `FOOT_BIAS_PX` added to its mean offset's
+    standard deviation in quadrature (a segment of n pixels: ``sqrt(s² + n·bias²)``)."""
+    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX, IMAGE_SCATTER_BIAS)
+    grazing = foot_grazing_deg(model, camera, edges, up)
+    squeezed = np.nan_to_num(grazing, nan=90.0) < GRAZING_DEG
+    if squeezed.any():
+        n = np.maximum(np.linalg.norm(edges.p2 - edges.p1, axis=1), 1.0)
+        sigma = np.where(squeezed, np.sqrt(sigma * sigma + n * FOOT_BIAS_PX**2), sigma)
+    return sigma
+
+
 def _fitted_edge_factors(
     model: RigidModel,
+    camera: PinholeCamera,
     index: int,
     edges: EdgeObservations,
     view: str,
     twice: set[tuple[int, int]] | frozenset[tuple[int, int]] = frozenset(),
+    up: tuple[float, float, float] | None = None,
 ) -> list[Constraint]:
-    """Edge factors of model edges fitted to the image of camera ``index`` (they know their
-    edge: no matching), each whitened with its own fit's point sigma (`point_sigma`,
-    `IMAGE_SCATTER_BIAS`); their labels start with `IMAGE_EDGE_LABEL` (their own variance
-    factor in the covariance). The edges `twice` names (part indices, ascending) are fitted in
-    both images of the view: their sigma is widened by ``sqrt(1 + STEREO_FIT_CORRELATION)``
-    (`STEREO_FIT_CORRELATION`)."""
-    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX, IMAGE_SCATTER_BIAS)
+    """Edge factors of model edges fitted to the image of `camera` (index ``index`` of the
+    problem; they know their edge: no matching), each whitened with its own fit's point sigma
+    (`fit_point_sigma`: `IMAGE_SCATTER_BIAS`, and `FOOT_BIAS_PX` for a foot edge seen at a
+    grazing angle, `up` the model's vertical); their labels start with `IMAGE_EDGE_LABEL` (their
+    own variance factor in the covariance). The edges `twice` names (part indices, ascending)
+    are fitted in both images of the view: their sigma is widened by
+    ``sqrt(1 + STEREO_FIT_CORRELATION)`` (`STEREO_FIT_CORRELATION`)."""
+    sigma = fit_point_sigma(model, camera, edges, up)
     out = []
     widen = math.sqrt(1.0 + STEREO_FIT_CORRELATION)
     for k in range(edges.size):
@@ -971,11 +1048,13 @@ def fitted_edges(
     right: Sequence[tuple[Rig, npt.NDArray[np.uint8]] | None],
     reject_sigmas: float | None = None,
     views: Sequence[ViewMeasurements] | None = None,
+    up: tuple[float, float, float] | None = None,
 ) -> tuple[list[EdgeObservations | None], list[tuple[Rig, EdgeObservations] | None]]:
     """The model's visible edges fitted to each view's left image (`view_images`) and right
     image (`right_images`) at its camera (`aida_kb.register.image_edges`): the ``fitted`` and
     ``fitted_right`` of `joint_problem`. With `reject_sigmas`, fits whose whitened offset or
-    slope from the model's projected edge exceeds it are left out (`consistent_edges`). With
+    slope from the model's projected edge exceeds it are left out (`consistent_edges`, whitened
+    with the model's vertical `up` as the adjustments whiten them). With
     the `views`' segments (found in the images without the model), a left-image fit is kept
     only where they do not contradict it (`corroborated`) and a right-image fit only where its
     edge's left-image fit is kept."""
@@ -985,7 +1064,7 @@ def fitted_edges(
         return (
             found
             if reject_sigmas is None
-            else consistent_edges(model, camera, found, reject_sigmas)
+            else consistent_edges(model, camera, found, reject_sigmas, up)
         )
 
     fl: list[EdgeObservations | None] = [
@@ -1093,26 +1172,33 @@ def _clean(edges: EdgeObservations) -> EdgeObservations:
 
 
 def consistent_edges(
-    model: RigidModel, camera: PinholeCamera, edges: EdgeObservations, limit: float
+    model: RigidModel,
+    camera: PinholeCamera,
+    edges: EdgeObservations,
+    limit: float,
+    up: tuple[float, float, float] | None = None,
 ) -> EdgeObservations:
     """The fitted edges whose mean offset and slope from their model edge's projection at
-    `camera` (whitened as `_fitted_edge_factors` does, `fit_residuals`) are both within
-    `limit` sigmas."""
+    `camera` (whitened as `_fitted_edge_factors` does, `fit_residuals`; `up` the model's
+    vertical) are both within `limit` sigmas."""
     if edges.size == 0:
         return edges
-    offset, slope = fit_residuals(model, camera, edges)
+    offset, slope = fit_residuals(model, camera, edges, up)
     keep: npt.NDArray[np.bool_] = (np.abs(offset) <= limit) & (np.abs(slope) <= limit)
     return _subset(edges, keep)
 
 
 def fit_residuals(
-    model: RigidModel, camera: PinholeCamera, edges: EdgeObservations
+    model: RigidModel,
+    camera: PinholeCamera,
+    edges: EdgeObservations,
+    up: tuple[float, float, float] | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """(F,), (F,): each fitted edge's signed mean offset and slope from its model edge's
     projection at `camera`, in its own sigmas (the end points' residuals (r1, r2) across the
     projected edge, pixels, whitened as `_fitted_edge_factors` does: ``(r1 + r2) / 2`` over
     ``sigma / sqrt(n)`` and ``(r1 - r2) / 2`` over ``sigma·sqrt(3/n)``, sigma the fit's
-    `point_sigma` with `IMAGE_SCATTER_BIAS`, n its length in pixels); NaN for a fit of no
+    `fit_point_sigma` with the model's vertical `up`, n its length in pixels); NaN for a fit of no
     edge of the model or of an edge with an end on or behind the camera's focal plane."""
     if edges.size == 0:
         return np.zeros(0), np.zeros(0)
@@ -1132,7 +1218,7 @@ def fit_residuals(
     r1 = np.einsum("ij,ij->i", edges.p1 - ends[:, 0], normal)
     r2 = np.einsum("ij,ij->i", edges.p2 - ends[:, 0], normal)
     length = np.maximum(np.linalg.norm(edges.p2 - edges.p1, axis=1), 1.0)
-    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX, IMAGE_SCATTER_BIAS)
+    sigma = fit_point_sigma(model, camera, edges, up)
     offset = np.where(known, (r1 + r2) / 2.0 / (sigma / np.sqrt(length)), np.nan)
     slope = np.where(known, (r1 - r2) / 2.0 / (sigma * np.sqrt(3.0 / length)), np.nan)
     return offset, slope
@@ -1719,12 +1805,12 @@ def reconstruct_from_first(
         # the first round's fits are at the segments' pose; later rounds drop those the model
         # no longer explains (a corner's line tilted by what lies beside it)
         limit = IMAGE_REJECT_SIGMAS if round_ else None
-        fitted, fitted_right = fitted_edges(rigid, cams, greys, rights, limit, views)
+        fitted, fitted_right = fitted_edges(rigid, cams, greys, rights, limit, views, model0.up)
         free = list(range(n_known, len(cams)))
         broken = []
         for snoop in range(IMAGE_SNOOPS + 1):
             fitted, fitted_right = _without_fits(fitted, fitted_right, outliers)
-            inputs = JointInputs(angles, internal, pairs, fitted, fitted_right)
+            inputs = JointInputs(angles, internal, pairs, fitted, fitted_right, model0.up)
             step = _adjusted(rigid, cams, views, free, inputs)
             if isinstance(step, str):
                 break

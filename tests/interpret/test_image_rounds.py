@@ -317,7 +317,8 @@ def test_a_fitted_edge_is_known_to_its_points_scatter_across_it() -> None:
     assert mv.IMAGE_SCATTER_BIAS == 1.0
     assert point_sigma(fits, 4.0, mv.IMAGE_SCATTER_BIAS)[0] == pytest.approx(2.0712, abs=1e-4)
     assert point_sigma(fits, 4.0)[0] == pytest.approx(1.1358, abs=1e-4)
-    (factor,) = mv._fitted_edge_factors(_box(), 1, fits, "01")
+    model = _box()
+    (factor,) = mv._fitted_edge_factors(model, _cameras(model)[1], 1, fits, "01")
     sd_mean = 0.5 / float(np.asarray(factor.sqrt_information)[0, 0])  # (r1 + r2) / 2's sd
     assert sd_mean == pytest.approx(0.20712, abs=1e-4)
 
@@ -413,4 +414,60 @@ def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> Non
     assert np.all(np.isfinite(offset[ahead]))
     assert mv.consistent_edges(model, within, exact, mv.IMAGE_REJECT_SIGMAS).size <= int(
         ahead.sum()
+    )
+
+
+def _every_edge_fitted(model: RigidModel, camera: PinholeCamera) -> EdgeObservations:
+    """Every edge of `model` as an exact fit at `camera`, its points scattered by 0.1 px."""
+    ends = camera.project(model.edge_ends.reshape(-1, 3)).reshape(-1, 2, 2)
+    n = len(model.edge_faces)
+    return EdgeObservations(model.edge_faces, ends[:, 0], ends[:, 1], np.full(n, 0.1))
+
+
+def test_foot_edges_seen_at_a_grazing_angle_are_known_no_better_than_the_foot_bias() -> None:
+    # the box stands at y = 0.425 m in a y-down world; a camera at the origin sees its foot
+    # from 0.425 m above (the front foot's middle at 1.25 m: asin(0.425 / 1.320) = 18.78 deg),
+    # one at y = 0.41 m from 15 mm above (asin(0.015 / 1.2501) = 0.688 deg: grazing)
+    model = _box()
+    up = (0.0, -1.0, 0.0)
+    high = PinholeCamera(K, np.eye(3), np.zeros(3), 640, 480)
+    low = PinholeCamera(K, np.eye(3), np.array([0.0, -0.41, 0.0]), 640, 480)
+    fits = _every_edge_fitted(model, high)
+    names = [tuple(sorted((model.names[a], model.names[b]))) for a, b in fits.faces]
+    foot = np.array(["bottom" in pair for pair in names])
+    front = names.index(("bottom", "front"))
+    seen_high = mv.foot_grazing_deg(model, high, fits, up)
+    assert int(foot.sum()) == 4
+    assert np.all(np.isfinite(seen_high[foot]))
+    assert np.all(np.isnan(seen_high[~foot]))
+    assert seen_high[front] == pytest.approx(18.78, abs=0.01)
+    assert mv.foot_grazing_deg(model, low, fits, up)[front] == pytest.approx(0.688, abs=0.001)
+    assert np.all(np.isnan(mv.foot_grazing_deg(model, low, fits, None)))
+    # seen from high above, every fit keeps its own sigma; seen grazing, the foot's fits get
+    # the foot bias in quadrature on their mean offset: sqrt(s² + n·bias²)
+    own = point_sigma(fits, mv.JOINT_EDGE_SIGMA_PX, mv.IMAGE_SCATTER_BIAS)
+    assert np.array_equal(mv.fit_point_sigma(model, high, fits, up), own)
+    assert np.array_equal(mv.fit_point_sigma(model, low, fits, None), own)
+    grazing = mv.fit_point_sigma(model, low, fits, up)
+    n = np.maximum(np.linalg.norm(fits.p2 - fits.p1, axis=1), 1.0)
+    assert np.array_equal(grazing[~foot], own[~foot])
+    assert np.allclose(grazing[foot], np.sqrt(own[foot] ** 2 + n[foot] * mv.FOOT_BIAS_PX**2))
+    # the front foot's mean offset is known to 0.71 px, not 0.11: a fit 1 px below it (as the
+    # ground squeezed beside a foot puts it) is 1.4 of its sigmas off, not 8.9, and stays
+    at_low = _every_edge_fitted(model, low)
+    sd_mean = grazing[front] / math.sqrt(n[front])
+    assert mv.FOOT_BIAS_PX <= sd_mean < mv.FOOT_BIAS_PX + 0.01
+    below = EdgeObservations(
+        at_low.faces[[front]],
+        at_low.p1[[front]] + [0.0, 1.0],
+        at_low.p2[[front]] + [0.0, 1.0],
+        at_low.sigma_px[[front]],  # type: ignore[index]
+    )
+    assert abs(float(mv.fit_residuals(model, low, below)[0][0])) > mv.IMAGE_REJECT_SIGMAS
+    assert abs(float(mv.fit_residuals(model, low, below, up)[0][0])) < 1.5
+    assert mv.consistent_edges(model, low, below, mv.IMAGE_REJECT_SIGMAS, up).size == 1
+    # the image rounds' factor whitens the fit by the same sigma
+    (factor,) = mv._fitted_edge_factors(model, low, 0, below, "00", up=up)
+    assert 0.5 / float(np.asarray(factor.sqrt_information)[0, 0]) == pytest.approx(
+        sd_mean, rel=1e-9
     )
