@@ -25,19 +25,19 @@ def main() -> None:
     rig = spec.rig
     R, t = np.eye(3), np.zeros(3)
     start = time.perf_counter()
-    render(surfs, rig.K1, R, t, rig.size, light, seed=0)  # first call builds the textures
+    render(surfs, rig.K1, R, t, rig.image_size, light, seed=0)  # first call builds the textures
     first = time.perf_counter() - start
     best = np.inf
     for _ in range(3):
         start = time.perf_counter()
-        render(surfs, rig.K1, R, t, rig.size, light, seed=0, exposure=Exposure())
-        render(surfs, rig.K2, rig.R @ R, rig.R @ t + rig.T, rig.size, light, seed=0)
+        render(surfs, rig.K1, R, t, rig.image_size, light, seed=0, exposure=Exposure())
+        render(surfs, rig.K2, rig.R @ R, rig.R @ t + rig.T, rig.image_size, light, seed=0)
         best = min(best, time.perf_counter() - start)
     print(
         json.dumps(
             {
-                "width": rig.size[0],
-                "height": rig.size[1],
+                "width": rig.image_size[0],
+                "height": rig.image_size[1],
                 "supersample": 2,
                 "stereo_pair_s": round(best, 3),
                 "first_view_with_texture_build_s": round(first, 3),

@@ -28,9 +28,10 @@ import numpy as np
 import numpy.typing as npt
 
 from aida_kb.errors import GeometryError
+from aida_kb.io.scene import StereoCalib
 from aida_kb.synth import buildings as bld
 from aida_kb.synth.render import rasterise, surfaces
-from aida_kb.synth.scenes import MAX_SEED, ROOF_CONCEPTS, Rig, SceneSpec, look_at, make_rig
+from aida_kb.synth.scenes import MAX_SEED, ROOF_CONCEPTS, SceneSpec, look_at, make_rig
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -347,14 +348,16 @@ def _corners(model: bld.Model) -> FloatArray:
     return np.vstack(polys) if polys else np.zeros((0, 3))
 
 
-def framed(corners: FloatArray, poses: list[tuple[FloatArray, FloatArray]], rig: Rig) -> bool:
+def framed(
+    corners: FloatArray, poses: list[tuple[FloatArray, FloatArray]], rig: StereoCalib
+) -> bool:
     """True if every corner (N, 3; metres, site frame) lies in front of both cameras of every
     view (left poses R, t site frame -> camera; the right camera by the rig's R, T) and at
     least FRAME_MARGIN of the image's width and height inside its border (pinhole; the lens
     distortion of these scenes moves a corner by less than the margin)."""
     if len(corners) == 0:
         return True
-    width, height = rig.size
+    width, height = rig.image_size
     lo = FRAME_MARGIN * np.array([width, height])
     hi = np.array([width, height]) - lo
     for R, t in poses:
@@ -485,7 +488,7 @@ def random_scene(
         candidate = bld.Model("occluders", tuple(solids))
         if (
             not model.solids
-            or _coverage(model, candidate, R0, t0, rig.K1, rig.size) <= MAX_OCCLUSION
+            or _coverage(model, candidate, R0, t0, rig.K1, rig.image_size) <= MAX_OCCLUSION
         ):
             occluders = candidate
             break

@@ -74,23 +74,6 @@ def rot_y(angle_rad: float) -> FloatArray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
-@dataclass(frozen=True)
-class Rig:
-    """Stereo rig: intrinsics, distortion and left-to-right transform (x_r = R·x_l + T)."""
-
-    K1: FloatArray
-    D1: FloatArray
-    K2: FloatArray
-    D2: FloatArray
-    R: FloatArray
-    T: FloatArray
-    size: tuple[int, int]
-
-    def calib(self) -> StereoCalib:
-        """The rig as a StereoCalib for calib.yaml."""
-        return StereoCalib(self.K1, self.D1, self.K2, self.D2, self.R, self.T, self.size)
-
-
 def make_rig(
     width: int = 640,
     height: int = 480,
@@ -98,7 +81,7 @@ def make_rig(
     baseline_m: float = 0.4,
     toe_in_deg: float = 0.5,
     k1: float = 0.0,
-) -> Rig:
+) -> StereoCalib:
     """A horizontal stereo rig; the right camera sits `baseline_m` to the right, turned inwards.
 
     focal_px 800 at 640x480 is a 8 mm lens on a 1/2" sensor (43.6 degrees horizontal field).
@@ -112,7 +95,7 @@ def make_rig(
     R = rot_y(-math.radians(toe_in_deg)) @ _rot_x(math.radians(0.15))
     C_right = np.array([baseline_m, 0.0, 0.0])
     T = -R @ C_right
-    return Rig(K1, D.copy(), K2, D.copy(), R, T, (width, height))
+    return StereoCalib(K1, D.copy(), K2, D.copy(), R, T, (width, height))
 
 
 def _rot_x(a: float) -> FloatArray:
@@ -126,7 +109,7 @@ class SceneSpec:
 
     name: str
     model: bld.Model
-    rig: Rig
+    rig: StereoCalib
     views_site: list[tuple[FloatArray, FloatArray]]  # left-camera poses R, t in the site frame
     sun_site: FloatArray
     ground: str | None = "ground"
@@ -208,7 +191,7 @@ def _float(params: Mapping[str, str | float], key: str, default: float) -> float
     return number
 
 
-def _rig_from(params: Mapping[str, str | float], baseline: float) -> Rig:
+def _rig_from(params: Mapping[str, str | float], baseline: float) -> StereoCalib:
     return make_rig(
         width=int(_float(params, "image_width", 640)),
         height=int(_float(params, "image_height", 480)),
@@ -507,7 +490,7 @@ def render_scene(
             rig.K1,
             R,
             t,
-            rig.size,
+            rig.image_size,
             light,
             D=rig.D1,
             supersample=supersample,
@@ -520,7 +503,7 @@ def render_scene(
             rig.K2,
             Rr,
             tr,
-            rig.size,
+            rig.image_size,
             light,
             D=rig.D2,
             supersample=supersample,
@@ -566,7 +549,7 @@ def render_scene(
         parameters={**spec.model.parameters, "seed": spec.seed, "preset": spec.name},
         concepts=dict(spec.truth_concepts),
     )
-    return write_scene(directory, rig.calib(), views, truth=truth, name=spec.name)
+    return write_scene(directory, rig, views, truth=truth, name=spec.name)
 
 
 def _v3(v: FloatArray) -> tuple[float, float, float]:

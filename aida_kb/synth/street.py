@@ -180,7 +180,7 @@ def street_spec(
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     centre = (lo + hi) / 2
     rig = _rig_from({**IMAGE, **p}, BASELINE_M)
-    fov = 2 * math.atan(rig.size[0] / 2 / float(rig.K1[0, 0]))
+    fov = 2 * math.atan(rig.image_size[0] / 2 / float(rig.K1[0, 0]))
     extent = float(hi[0] - lo[0])
     fit = extent / 2 / math.tan(FILL * fov / 2) + float(hi[2])
     dist = _float(p, "distance", max(fit, 25.0)) * _float(p, "distance_factor", 1.0)

@@ -65,7 +65,7 @@ def test_occluders_cover_at_most_the_limit() -> None:
         if spec.occluders is None or not spec.model.solids:
             continue
         R0, t0 = spec.views_site[0]
-        cover = _coverage(spec.model, spec.occluders, R0, t0, spec.rig.K1, spec.rig.size)
+        cover = _coverage(spec.model, spec.occluders, R0, t0, spec.rig.K1, spec.rig.image_size)
         assert cover <= MAX_OCCLUSION
 
 

@@ -43,7 +43,7 @@ def test_bad_parameter_is_a_geometry_error(name: str, key: str, value: str, mess
 
 def test_good_parameters_are_used() -> None:
     spec = preset("house", params={"width": "18", "floors": "2", "image_width": "320"})
-    assert spec.rig.size == (320, 480)
+    assert spec.rig.image_size == (320, 480)
     floor = spec.model.face("body.floor").polygon
     assert floor[:, 0].max() - floor[:, 0].min() == pytest.approx(18.0)
     assert len(preset("turntable", params={"angles": "0,90"}).views_site) == 2
