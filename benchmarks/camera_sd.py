@@ -158,16 +158,17 @@ def synthetic_calibration(draws: int = 30) -> tuple[FloatArray, FloatArray, Floa
     (`synthetic_views`, seeds 0..draws-1), and each draw's variance factor of the segments:
     (2·draws,), (2·draws,), (draws,)."""
     import aida_kb.interpret.multiview as mv
+    from aida_kb.interpret import joint
     from aida_kb.interpret.uncertainty import problem_uncertainty
 
     model, cams = synthetic_box()
-    inputs = mv.JointInputs(mv.meeting_angles(model))
+    inputs = joint.JointInputs(joint.meeting_angles(model))
     errors, sds, factors = [], [], []
     for seed in range(draws):
         views = synthetic_views(model, cams, seed)
-        n, d, adjusted, _ = mv.joint_adjustment(model, cams, views, [1, 2], inputs)
+        n, d, adjusted, _ = joint.joint_adjustment(model, cams, views, [1, 2], inputs)
         rigid, _ = mv._rebuilt(model, n, d)
-        problem = mv.joint_problem(rigid, list(adjusted), views, [1, 2], inputs)
+        problem = joint.joint_problem(rigid, list(adjusted), views, [1, 2], inputs)
         unc = problem_uncertainty(problem, rigid.names, list(adjusted), [1, 2], ["01", "02"])
         if unc is None:
             raise RuntimeError(f"draw {seed}: no covariance")
@@ -216,8 +217,8 @@ def region_calibration(keeps: list[Path]) -> tuple[FloatArray, FloatArray, Float
     region lying on a true face (`REGION_MATCH_DEG`, `REGION_MATCH_SIZE`, at the true camera of
     its view): its normal's error against that face, degrees; its plane fit's own 1-σ tilt
     (`aida_kb.interpret.observe.fit_sigma_rad`), degrees; the joint adjustments' 1-σ of it
-    (`aida_kb.interpret.multiview.region_normal_sigma_rad`), degrees: three (R,) arrays."""
-    from aida_kb.interpret.multiview import region_normal_sigma_rad
+    (`aida_kb.interpret.joint.region_normal_sigma_rad`), degrees: three (R,) arrays."""
+    from aida_kb.interpret.joint import region_normal_sigma_rad
     from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
     from aida_kb.register import RegionMeasurements
 
@@ -298,12 +299,12 @@ def fit_calibration(keeps: list[Path]) -> tuple[FloatArray, FloatArray, FloatArr
     ``out-SEED/evidence.json``) the TRUE model's visible edges fitted to each view's left
     image at its TRUE camera (`aida_kb.register.image_edges`, as the image rounds fit them
     before any fit is left out): each fit's edge-point scatter (pixels) and its mean offset and
-    slope from the true edge in its own sigmas (`aida_kb.interpret.multiview.fit_residuals`,
+    slope from the true edge in its own sigmas (`aida_kb.interpret.imagefit.fit_residuals`,
     the noise model of the image rounds' edge factors): three (F,) arrays. Honest sigmas give
     a median |w| of 0.674 and a 90th percentile of 1.645 (a standard normal)."""
     from aida_kb.errors import AidaError
     from aida_kb.geometry.camera import PinholeCamera
-    from aida_kb.interpret.multiview import fit_residuals, view_images
+    from aida_kb.interpret.imagefit import fit_residuals, view_images
     from aida_kb.io.evidence import read_evidence
     from aida_kb.io.scene import read_scene
     from aida_kb.register import RigidModel, image_edges
@@ -407,7 +408,7 @@ def main(argv: list[str] | None = None) -> None:
             )
         )
         if parsed.fits:
-            from aida_kb.interpret.multiview import IMAGE_MAX_POINT_SIGMA_PX
+            from aida_kb.interpret.imagefit import IMAGE_MAX_POINT_SIGMA_PX
 
             scatter, offset, slope = fit_calibration(parsed.keep)
             clean = scatter <= IMAGE_MAX_POINT_SIGMA_PX

@@ -36,27 +36,35 @@ without labels 1.03 deg / 2.3 % instead of 0.46 deg / 0.93 %).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.constraints import CameraPositionData, Constraint, EdgeData, Origin
-from aida_kb.constraints.kernels import meeting_angle
-from aida_kb.constraints.kinds.edge import segment_sqrt_information
 from aida_kb.errors import GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.polyhedron import Polyhedron
-from aida_kb.geometry.rig import Rig
 from aida_kb.interpret.closure import check_concurrent
-from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
-from aida_kb.interpret.party import touching_ties
+from aida_kb.interpret.imagefit import (
+    FitKey,
+    fitted_edges,
+    outlying_fit,
+    right_images,
+    view_images,
+    without_fits,
+)
+from aida_kb.interpret.joint import (
+    JointInputs,
+    joint_adjustment,
+    joint_problem,
+    kb_constraints,
+    meeting_angles,
+    region_normal_sigma_rad,
+)
 from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.run import interpret
 from aida_kb.interpret.transfer import ImageTransfer
-from aida_kb.interpret.uncertainty import IMAGE_EDGE_LABEL
 from aida_kb.io.evidence import Evidence, ViewEvidence
 from aida_kb.io.model import (
     Cahv,
@@ -67,17 +75,10 @@ from aida_kb.io.model import (
     moved_part,
 )
 from aida_kb.io.scene import Scene
-from aida_kb.kb.paths import RolePath
 from aida_kb.register import (
-    EdgeObservations,
-    RegionMeasurements,
     Registration,
-    RegistrationOptions,
     RigidModel,
     StereoSegments,
-    image_edges,
-    match_regions,
-    match_segments,
     rival_turns,
 )
 from aida_kb.register.evidence import (
@@ -86,12 +87,9 @@ from aida_kb.register.evidence import (
     region_outlines,
     register_evidence_view,
     right_segments,
-    undistorted_image,
 )
 from aida_kb.register.extents import reached_offsets
-from aida_kb.register.pose import point_sigma
-from aida_kb.solve import ResidualReport, build_problem, constraints_from_kb, solve
-from aida_kb.solve.problem import Loss, Problem
+from aida_kb.solve import ResidualReport
 
 if TYPE_CHECKING:
     from aida_kb.interpret.scene import Preference
@@ -100,73 +98,32 @@ if TYPE_CHECKING:
 FloatArray = npt.NDArray[np.float64]
 
 __all__ = [
-    "JOINT_EDGE_SIGMA_PX",
-    "JointInputs",
-    "consistent_edges",
-    "corroborated",
-    "fit_point_sigma",
-    "fit_residuals",
-    "fitted_edges",
-    "foot_grazing_deg",
-    "joint_adjustment",
-    "joint_problem",
-    "kb_constraints",
-    "meeting_angles",
+    "FINAL_ROUNDS",
+    "IMAGE_REJECT_SIGMAS",
+    "IMAGE_ROUNDS",
+    "IMAGE_SNOOPS",
+    "JOINT_RIGHT_IMAGES",
+    "NOTE_WORDS",
+    "ORIGIN_TOLERANCE",
+    "REGISTERED_EXPLAINED_MIN",
+    "AdjustedStep",
+    "ModelState",
+    "confirmed_by_others",
+    "explained_shares",
+    "first_view_swapped",
+    "in_frame_of_first",
+    "model_sizes_broken",
+    "reconstruct_from_first",
     "reconstruct_views",
-    "right_images",
-    "view_images",
+    "single_object",
 ]
 
-JOINT_EDGE_SIGMA_PX = 4.0
-"""Edge constraints of the joint adjustment: an edge point's standard deviation across its
-edge, pixels (loose: a model edge is not exactly an image edge — eaves, shading, texture); a
-segment's mean end-point residual gets ``sigma / sqrt(length)``, their half difference
-``sigma·sqrt(3/length)`` (`segment_sqrt_information`)."""
-REGION_FIT_SCALE = 1.25
-"""A region's normal is known to its plane fit's own 1-σ tilt
-(`aida_kb.interpret.observe.fit_sigma_rad`: the fit's RMS over the root of its independent
-points — neighbouring disparities share their NCC window, so one pixel per window,
-`FIT_CORRELATED_PX`, counts — and the region's spread) times this, with `REGION_BIAS_DEG` added
-in quadrature (`region_normal_sigma_rad`); the scale and the floor stand for what no fit
-statistic shows (the disparity refinement's bias, a region's rim on a neighbouring face).
-Measured on the regions of dev seeds 60000-60023 and 61100-61123 against their TRUE faces and
-cameras (347 regions, `benchmarks/camera_sd.py --keep`): the normal's error over the fit's
-tilt has a median of 1.16 and a 90th percentile of 3.4 (1.25 and 3.0 for fits under 0.1 deg);
-an honest 1-σ per axis gives 1.18 and 2.15 (a 2-D error). With the scale and the floor: 0.93
-and 2.8 over all, 0.90 and 2.2 for the fits of 0.02-0.3 deg; 10 % of the regions (small,
-unlabelled, straddling a crease) lie beyond 3 of their sigmas, which the robust loss
-(`JOINT_LOSS`) takes. Before: every region 2 deg
-(`aida_kb.register.RegistrationOptions.region_sigma_deg`), 5-100 times its fit's, and a large
-wall weighed as a sliver."""
-REGION_BIAS_DEG = 0.02
-"""... and a region's normal is not known better than this, degrees (see `REGION_FIT_SCALE`:
-the largest fits, 0.01-0.05 deg, were off by 1.25 of their sigma in the median)."""
-JOINT_REGION_LOOSENESS = 8.0
-"""In the adjustments a region's normal takes that sigma times this: the regions are weighed
-against the segments as their honest noise models weigh them, and the segments' is loose
-(`JOINT_EDGE_SIGMA_PX`, 4 px, eight times the 0.4-0.5 px they scatter by: their variance factor
-0.010-0.016 on dev seeds and in the synthetic calibration). The deviations
-(`aida_kb.interpret.uncertainty`) rescale each kind of measurement by its own variance factor,
-so the regions' deviations follow their scatter. Weighed at their honest sigma against the
-loose segments, the regions pulled the models off what the edges fix: dev 61108 normals 0.06
--> 0.13 deg, cameras 0.04 / 0.05 -> 0.08 / 0.16 deg; the 135-degree L-shape's view 01 0.06 ->
-0.19 m (tests/interpret/test_multiview.py: at most 0.15); with this, 0.06 deg and 0.05 / 0.06
-deg, the L-shape within the test's 0.15 m again."""
-JOINT_ANGLE_SIGMA_DEG = 0.3
-"""The first shape's angles between adjacent parts, kept to this standard deviation."""
-PRIOR_ANGLE_SIGMA_DEG = 2.0
-"""... or to this one, where the knowledge base's own constraints are in the adjustment."""
-JOINT_LOSS: Loss = "soft_l1"
-"""The robust loss of the joint adjustments' measurements (segments and regions) ..."""
-JOINT_F_SCALE = 2.0
-"""... acting beyond this many standard deviations of a factor's whitened block."""
-JOINT_MATCH_PX = 3.0
-"""Segments within this distance of a projected model edge are its evidence."""
 FINAL_ROUNDS = 2
 """Adjustments of the model and every later pose at the end (each re-matches the segments at
 the adjusted poses). Still needed with the regions measured in their camera's frame: house
 seed 1 of `benchmarks/reconstruct.py` gives 0.52 deg / 0.70 % with none, 0.18 deg / 0.29 % with
 one, 0.17 deg / 0.26 % with two."""
+
 IMAGE_ROUNDS = 2
 """Adjustments of the model and every later pose after `FINAL_ROUNDS`, where the scene's images
 are at hand, whose edge measurements are the model's visible edges fitted to each view's left and
@@ -195,64 +152,13 @@ and tower normals too). Before the fits were checked against the segments, a fit
 locked onto a texture line beside a corner the model placed 18 px off confirmed that pose (dev
 seed 58012), and with the fits' variance factor floored at 1 a camera 0.007 deg off (58006) was
 fixed only to 0.068 deg: the rounds stayed off."""
+
 IMAGE_REJECT_SIGMAS = 6.0
 """In the image rounds after the first, a fitted edge whose mean offset or slope lies more than
 this many of its sigmas off the model's edge is left out (as `aida_kb.register.REJECT_SIGMAS`
 in the pose fits): on the demo house the front-left corner's fitted line is tilted 10 sigmas
 against the true edge in every image."""
-IMAGE_MAX_POINT_SIGMA_PX = 0.5
-"""In the image rounds, a fitted edge whose points scatter about its line by more than this,
-pixels, is no measurement: a clean edge's points scatter by hundredths to a tenth or two, a
-textured wall bottom or a corner beside a shadow by a pixel and more, and such a fit follows
-whatever lies within the search of the model's line. On the L-shape preset (seed 0) the fits
-the TRUE model and cameras contradict most (2-4 of their sigmas) all scattered by 0.8-1.3 px
-(the body's front wall bottom, 3 px off at its far end), while every fit under 0.3 px agreed
-with the truth to one sigma."""
-IMAGE_KEEP_SEGMENTS = True
-"""In the image rounds, a model edge without a clean fit in a view is measured by that view's
-line-detector segments, as in the rounds before (`JOINT_EDGE_SIGMA_PX`): without them the
-parts such edges alone place drift (L-shape preset normals 0.35 -> 1.07 deg, house seed 1
-0.15 -> 0.67) — with them 0.23 and 0.12 deg."""
-STEREO_FIT_CORRELATION = 0.47
-"""The correlation of an edge's fits in a view's left and right images: the same edge, the same
-texture and shading beside it, seen from 0.1-0.3 m apart (the fits' errors against the true model
-and cameras on the dev robustness seeds correlate by 0.47). Counted as independent, two fits of
-one edge would weigh as two edges; their common error is kept by widening each one's sigma by
-``sqrt(1 + rho)`` (the mean of two measurements correlated by rho has ``(1 + rho) / 2`` of one's
-variance)."""
-IMAGE_SCATTER_BIAS = 1.0
-"""In the image rounds a fitted edge's mean offset is known no better than this share of its
-points' scatter across its line (b of `aida_kb.register.pose.point_sigma`; the registration's
-`aida_kb.register.pose.SCATTER_BIAS` is 0.5): the scatter is the texture and shading beside
-the edge, the same all along it, so it does not average out over the edge's length. Against the
-true edges (fits at the kept right models of the closing sets 61400-61935, 1,568 fits), whitened
-with b = 0.5 the squared mean offsets grow with the points' scatter s (median 0.12, 0.27, 0.26,
-0.42 and mean 1.4, 2.8, 4.5, 5.7 for s in 0-0.1, 0.1-0.2, 0.2-0.3, 0.3-0.6 px): the scattered
-fits were weighed as too good against the clean ones, and the variance factor the clean ones
-set (`aida_kb.interpret.uncertainty.variance_factors`) made them look better still. With b = 1:
-median 0.06, 0.09, 0.08, 0.11, mean 0.74, 0.96, 1.30, 1.53 — one noise model for all of them.
-The cameras' deviations recomputed at those models (error over deviation: median, 90th
-percentile, within 2 sd, max): dev 61400-61935 (66 cameras) 0.72, 1.35, 0.985, 2.36 -> 0.65,
-1.31, 0.985, 2.37; 63000-63035 (9) 1.07, 2.77, 0.778, 2.82 -> 0.94, 1.94, 0.889, 2.02."""
-FOOT_SHARE = 0.02
-"""A model edge lies on the model's foot (where it stands on the ground) when both its ends lie
-within this share of the model's height (along its vertical, `ReconstructedModel.up`) of its
-lowest vertex (`foot_grazing_deg`)."""
-GRAZING_DEG = 3.0
-"""A camera sees the ground at a grazing angle when the ray to a foot edge's middle meets the
-horizontal plane at less than this, degrees: the ground's texture beside the foot is squeezed
-into a few pixels, and the foot's fitted line is pulled into it (`FOOT_BIAS_PX`). Measured at
-the TRUE models and cameras of dev 64000-64035 and 63000-63035 (wall feet fitted in each view's
-images, 321 fits): below 1 deg the fits' squared whitened mean offsets average 21.7 (18 % beyond
-3 sigma), at 1-2 deg 17.8 (83 %), at 4-40 deg 0.12-0.21 (none); none lay at 2-4 deg. The other
-edges average 0.44-0.52. The fits lie below the true foot, 0.7-1.7 px in the scenes they are
-off in (64033, 64035, 63032, 63035)."""
-FOOT_BIAS_PX = 0.7
-"""The mean offset of a foot edge's fit seen at a grazing angle (`GRAZING_DEG`) is known no
-better than this, pixels (added in quadrature to its fit's own: `fit_point_sigma`). Chosen on the
-fits of dev 64000-64035 below 3 deg (73 fits, 15 scenes): squared whitened mean offsets average
-0.69, none beyond 3 sigma (0.5 px: 1.29 and 1.4 %); checked on 63000-63035 (65 fits, 9 scenes):
-0.63, none beyond 3 sigma (0.5 px: 1.17 and 3.1 %)."""
+
 JOINT_RIGHT_IMAGES = False
 """Whether the joint adjustments also use the segments of each view's right image (through a camera
 that follows the view's by the stereo calibration; registration always does). Off: measured with
@@ -269,7 +175,6 @@ priors (walls at 90 deg to the ground, sigma 1 deg, as in the interpreter) lower
 angle errors (houses 0-2: 0.34 deg max instead of 0.42; L-shape 0.27 instead of 0.29) but raise
 house 0's vertex error from 0.60 % to 0.63 %, and with the right images and segments under 20 px
 dropped they give 0.17 deg but 0.68 %."""
-
 
 REGISTERED_EXPLAINED_MIN = 0.5
 """A later view's registered pose is confirmed by the views' own stereo when, adjusted with it,
@@ -435,414 +340,6 @@ def _model_camera(
     )
 
 
-@dataclass(frozen=True)
-class JointInputs:
-    """What a joint adjustment measures besides each view's segments and regions.
-
-    angles : the first shape's meeting angles of adjacent parts, rad, by the pair of part
-        indices (a, b), a < b; None: the model's own (`meeting_angles`).
-    internal : the knowledge base's constraints among the parts (`kb_constraints`); with them
-        the first shape's angles are kept only loosely (`PRIOR_ANGLE_SIGMA_DEG`).
-    stereo : per view, the segments of its right image and its rig (or None): their edge
-        factors look through a camera that follows the view's (a derived key of the solve).
-    fitted : per view, the model's edges fitted to its image (`aida_kb.register.image_edges`)
-        or None: where given, they are the view's edge measurements instead of its segments.
-    fitted_right : per view, its rig and the model's edges fitted to its right image, or None:
-        their factors look through a camera that follows the view's, as `stereo`'s do; an edge
-        fitted in both images of a view is one edge seen twice (`STEREO_FIT_CORRELATION`).
-    up : the model's vertical (unit, world frame, pointing up) or None (unknown): the fits of
-        its foot's edges seen at a grazing angle get `FOOT_BIAS_PX` (`fit_point_sigma`).
-    """
-
-    angles: Mapping[tuple[int, int], float] | None = None
-    internal: Sequence[Constraint] = ()
-    stereo: Sequence[StereoSegments | None] = ()
-    fitted: Sequence[EdgeObservations | None] = ()
-    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None] = ()
-    up: tuple[float, float, float] | None = None
-
-
-def joint_adjustment(
-    model: RigidModel,
-    cameras: Sequence[PinholeCamera],
-    views: Sequence[ViewMeasurements],
-    free_cameras: Sequence[int],
-    inputs: JointInputs = JointInputs(),
-) -> tuple[FloatArray, FloatArray, tuple[PinholeCamera, ...], ResidualReport]:
-    """Adjust the model's planes and the free cameras' poses to all views at once: the
-    problem of `joint_problem` (same parameters), solved with JOINT_LOSS / JOINT_F_SCALE.
-
-    Returns
-    -------
-    normals (P, 3), offsets (P,), the cameras at their adjusted poses and the residual report
-    of every factor of the adjustment (with its origin).
-
-    Raises
-    ------
-    SolveError
-        A degenerate problem.
-    """
-    problem = joint_problem(model, cameras, views, free_cameras, inputs)
-    result = solve(problem, loss=JOINT_LOSS, f_scale=JOINT_F_SCALE)
-    return result.normals, result.offsets, result.cameras[: len(cameras)], result.report
-
-
-def joint_problem(
-    model: RigidModel,
-    cameras: Sequence[PinholeCamera],
-    views: Sequence[ViewMeasurements],
-    free_cameras: Sequence[int],
-    inputs: JointInputs = JointInputs(),
-) -> Problem:
-    """The problem of adjusting the model's planes and the free cameras' poses to all views.
-
-    Parameters
-    ----------
-    model : the current model (world frame); its adjacent parts' meeting angles (or
-        ``inputs.angles``) are kept as soft constraints.
-    cameras : one per view (world frame); views : their measurements.
-    free_cameras : indices of the cameras whose poses are unknowns (the others fix the frame).
-    inputs : the further measurements (`JointInputs`).
-
-    Each view's regions are measured in its own camera frame (``camera_position`` factors):
-    they follow the view's pose while it is adjusted.
-
-    Returns
-    -------
-    The problem (`aida_kb.solve.Problem`): every part free, the cameras of the views (and
-    of their right images) with `free_cameras` free.
-
-    Raises
-    ------
-    SolveError
-        A degenerate problem.
-    """
-    angles, internal, stereo = inputs.angles, inputs.internal, inputs.stereo
-    fitted, fitted_right = inputs.fitted, inputs.fitted_right
-    opts = RegistrationOptions()
-    cons: list[Constraint] = []
-    all_cameras = list(cameras)
-    derived: list[tuple[int, int, Rig]] = []
-    for ci, (cam, m) in enumerate(zip(cameras, views, strict=True)):
-        own = fitted[ci] if ci < len(fitted) else None
-        second = fitted_right[ci] if ci < len(fitted_right) else None
-        # an edge fitted in both images of the view: its two fits' errors are correlated
-        twice = (
-            set()
-            if own is None or second is None
-            else _edge_keys(own.faces) & _edge_keys(second[1].faces)
-        )
-        if own is None:
-            cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view)
-        else:
-            cons += _fitted_edge_factors(model, cam, ci, own, m.view, twice, inputs.up)
-            if IMAGE_KEEP_SEGMENTS:  # the segments of the edges no clean fit measures
-                done = _edge_keys(own.faces)
-                cons += _edge_factors(model, cam, ci, m.p1, m.p2, m.view, skip=done)
-        if second is not None:  # the right image's fitted edges: a camera following this one
-            right = len(all_cameras)
-            all_cameras.append(second[0].right_of(cam))
-            derived.append((right, ci, second[0]))
-            cons += _fitted_edge_factors(
-                model, all_cameras[right], right, second[1], f"{m.view} (right)", twice, inputs.up
-            )
-        pair = stereo[ci] if ci < len(stereo) else None
-        if pair is not None:  # the right image: a camera that follows this view's
-            right = len(all_cameras)
-            all_cameras.append(pair.rig.right_of(cam))
-            derived.append((right, ci, pair.rig))
-            cons += _edge_factors(
-                model, all_cameras[right], right, pair.p1, pair.p2, f"{m.view} (right)"
-            )
-        obs = (
-            match_regions(model, cam, m.regions, opts, _joint_region_sigma_rad(m.regions))
-            if m.regions.size
-            else None
-        )
-        if obs is None:
-            continue
-        for k in range(obs.size):
-            part = int(obs.part[k])
-            inv_m, inv_rad = 1.0 / float(obs.sigma_m[k]), 1.0 / float(obs.sigma_rad[k])
-            n, c = obs.normal_cam[k], obs.centre_cam[k]
-            cons.append(
-                Constraint(
-                    kind="camera_position",
-                    parts=(part,),
-                    measurement=True,
-                    label=f"position({model.names[part]})@{m.view}",
-                    camera_position=CameraPositionData(
-                        ci,
-                        (float(n[0]), float(n[1]), float(n[2])),
-                        (float(c[0]), float(c[1]), float(c[2])),
-                    ),
-                    sqrt_information=((inv_m, 0.0, 0.0), (0.0, inv_rad, 0.0), (0.0, 0.0, inv_rad)),
-                    origin=Origin(f"position({model.names[part]})@{m.view}", "evidence"),
-                )
-            )
-    if angles is None:
-        angles = meeting_angles(model)
-    cons.extend(internal)
-    sigma_deg = PRIOR_ANGLE_SIGMA_DEG if internal else JOINT_ANGLE_SIGMA_DEG
-    for (a, b), phi in angles.items():
-        cons.append(
-            Constraint(
-                kind="angle",
-                parts=(int(a), int(b)),
-                value=float(phi),
-                sigma=math.radians(sigma_deg),
-                unit="rad",
-                label=f"first-shape angle({model.names[a]}, {model.names[b]})",
-                origin=Origin(f"first-shape angle({model.names[a]}, {model.names[b]})", "prior"),
-            )
-        )
-    return build_problem(
-        model.normals,
-        model.offsets,
-        cons,
-        centres=part_centres(model),
-        names=model.names,
-        cameras=all_cameras,
-        free_cameras=free_cameras,
-        derived=derived,
-    )
-
-
-def part_centres(model: RigidModel) -> FloatArray | None:
-    """(P, 3) each part's polygon's centroid, metres, world frame: the point its plane turns
-    about in an adjustment (`aida_kb.geometry.frames.PartFrames`); None when the model has no
-    polygons (the planes then turn about their feet from the world's origin).
-
-    About the foot from the origin — the first camera, tens of metres away — a plane nothing
-    measures but the knowledge's angles swings with them: a floor turned 1.5 degrees by its
-    walls rose 1.2 m at the house (dev seed 61309, and the ground rule then rejected the
-    house). About its own centre it stays where the knowledge put it."""
-    if not model.polygons or len(model.polygons) != len(model.names):
-        return None
-    return np.array([np.asarray(p, dtype=np.float64).mean(axis=0) for p in model.polygons])
-
-
-def region_normal_sigma_rad(regions: RegionMeasurements) -> FloatArray | None:
-    """(R,) each region's normal's honest 1-σ, radians: its plane fit's own tilt
-    (`REGION_FIT_SCALE`, `REGION_BIAS_DEG`); the registration's uniform sigma
-    (`aida_kb.register.RegistrationOptions.region_sigma_deg`) where a fit's inliers or area are
-    unknown (evidence without them); None when no region's are known. The adjustments weigh
-    them `JOINT_REGION_LOOSENESS` times looser."""
-    if regions.inliers is None or regions.area_m2 is None:
-        return None
-    inliers, area = regions.inliers, regions.area_m2
-    known = (inliers > 0.0) & (area > 0.0)
-    if not np.any(known):
-        return None
-    samples = np.maximum(inliers / FIT_CORRELATED_PX, 1.0)
-    fit = fit_sigma_rad(regions.rms_m, samples, np.where(known, area, 1.0))
-    own = REGION_FIT_SCALE * np.hypot(fit, math.radians(REGION_BIAS_DEG))
-    uniform = math.radians(RegistrationOptions().region_sigma_deg) / JOINT_REGION_LOOSENESS
-    out: FloatArray = np.where(known, own, uniform)
-    return out
-
-
-def _joint_region_sigma_rad(regions: RegionMeasurements) -> FloatArray | None:
-    """(R,) the sigmas the joint adjustments give the regions' normals, radians
-    (`region_normal_sigma_rad` times `JOINT_REGION_LOOSENESS`; None: the registration's)."""
-    honest = region_normal_sigma_rad(regions)
-    return None if honest is None else JOINT_REGION_LOOSENESS * honest
-
-
-def _edge_factors(
-    model: RigidModel,
-    camera: PinholeCamera,
-    index: int,
-    p1: FloatArray,
-    p2: FloatArray,
-    view: str,
-    skip: set[tuple[int, int]] | None = None,
-) -> list[Constraint]:
-    """Edge factors of the segments (S, 2) px that match the model's edges seen by ``camera``
-    (camera ``index`` of the problem): each whitened as a line fitted to one edge point per
-    pixel with `JOINT_EDGE_SIGMA_PX` (`segment_sqrt_information`). Segments on the edges
-    `skip` names (their two parts' indices, ascending) are left out."""
-    vis = model.visible_edges(camera)
-    mt = match_segments(
-        vis.a,
-        vis.b,
-        p1,
-        p2,
-        max_distance_px=JOINT_MATCH_PX,
-        max_angle_rad=math.radians(RegistrationOptions().max_angle_deg),
-    )
-    faces = model.edge_faces[vis.index[mt.edge]]
-    out = []
-    for (a, b), p, q in zip(faces, p1[mt.segment], p2[mt.segment], strict=True):
-        if skip and (int(min(a, b)), int(max(a, b))) in skip:
-            continue
-        e1, e2 = (float(p[0]), float(p[1])), (float(q[0]), float(q[1]))
-        label = f"edge({model.names[a]}, {model.names[b]})@{view}"
-        out.append(
-            Constraint(
-                kind="edge",
-                parts=(int(a), int(b)),
-                unit="px",
-                measurement=True,
-                label=label,
-                edge=EdgeData(index, e1, e2),
-                sqrt_information=segment_sqrt_information(e1, e2, JOINT_EDGE_SIGMA_PX),
-                origin=Origin(label, "evidence"),
-            )
-        )
-    return out
-
-
-def _edge_keys(faces: npt.NDArray[np.integer]) -> set[tuple[int, int]]:
-    """The edges (E, 2) part indices as pairs (low, high)."""
-    return {(int(min(a, b)), int(max(a, b))) for a, b in faces}
-
-
-def foot_grazing_deg(
-    model: RigidModel,
-    camera: PinholeCamera,
-    edges: EdgeObservations,
-    up: tuple[float, float, float] | None,
-) -> FloatArray:
-    """(F,) for each fitted edge on the model's foot (`FOOT_SHARE`), the angle at which the
-    ray from `camera`'s centre to the edge's middle meets the horizontal plane (normal `up`,
-    world frame), degrees; NaN for the other edges, or all of them when `up` is None."""
-    out = np.full(edges.size, np.nan)
-    if up is None or edges.size == 0 or model.edge_ends.size == 0:
-        return out
-    u = np.asarray(up, dtype=np.float64)
-    u = u / np.linalg.norm(u)
-    height = model.edge_ends @ u  # (E, 2), metres along the vertical
-    low, span = float(height.min()), float(np.ptp(height))
-    foot = np.all(height - low <= FOOT_SHARE * span, axis=1)  # (E,)
-    pair = {(int(min(a, b)), int(max(a, b))): i for i, (a, b) in enumerate(model.edge_faces)}
-    index = np.array([pair.get((int(min(a, b)), int(max(a, b))), -1) for a, b in edges.faces])
-    on_foot = (index >= 0) & foot[np.maximum(index, 0)]
-    if not on_foot.any():
-        return out
-    middle = model.edge_ends[index[on_foot]].mean(axis=1)  # (K, 3), world
-    ray = camera.centre[None, :] - middle
-    sine = np.abs(ray @ u) / np.maximum(np.linalg.norm(ray, axis=1), 1e-12)
-    out[on_foot] = np.degrees(np.arcsin(np.clip(sine, 0.0, 1.0)))
-    return out
-
-
-def fit_point_sigma(
-    model: RigidModel,
-    camera: PinholeCamera,
-    edges: EdgeObservations,
-    up: tuple[float, float, float] | None,
-) -> FloatArray:
-    """(F,) the edge-point sigma of each fitted edge seen by `camera`, pixels: its own fit's
-    (`point_sigma` with `IMAGE_SCATTER_BIAS`), and for a foot edge seen at a grazing angle
-    (`foot_grazing_deg` below `GRAZING_DEG`) with `FOOT_BIAS_PX` added to its mean offset's
-    standard deviation in quadrature (a segment of n pixels: ``sqrt(s² + n·bias²)``)."""
-    sigma = point_sigma(edges, JOINT_EDGE_SIGMA_PX, IMAGE_SCATTER_BIAS)
-    grazing = foot_grazing_deg(model, camera, edges, up)
-    squeezed = np.nan_to_num(grazing, nan=90.0) < GRAZING_DEG
-    if squeezed.any():
-        n = np.maximum(np.linalg.norm(edges.p2 - edges.p1, axis=1), 1.0)
-        sigma = np.where(squeezed, np.sqrt(sigma * sigma + n * FOOT_BIAS_PX**2), sigma)
-    return sigma
-
-
-def _fitted_edge_factors(
-    model: RigidModel,
-    camera: PinholeCamera,
-    index: int,
-    edges: EdgeObservations,
-    view: str,
-    twice: set[tuple[int, int]] | frozenset[tuple[int, int]] = frozenset(),
-    up: tuple[float, float, float] | None = None,
-) -> list[Constraint]:
-    """Edge factors of model edges fitted to the image of `camera` (index ``index`` of the
-    problem; they know their edge: no matching), each whitened with its own fit's point sigma
-    (`fit_point_sigma`: `IMAGE_SCATTER_BIAS`, and `FOOT_BIAS_PX` for a foot edge seen at a
-    grazing angle, `up` the model's vertical); their labels start with `IMAGE_EDGE_LABEL` (their
-    own variance factor in the covariance). The edges `twice` names (part indices, ascending)
-    are fitted in both images of the view: their sigma is widened by
-    ``sqrt(1 + STEREO_FIT_CORRELATION)`` (`STEREO_FIT_CORRELATION`)."""
-    sigma = fit_point_sigma(model, camera, edges, up)
-    out = []
-    widen = math.sqrt(1.0 + STEREO_FIT_CORRELATION)
-    for k in range(edges.size):
-        a, b = int(edges.faces[k, 0]), int(edges.faces[k, 1])
-        if (min(a, b), max(a, b)) in twice:
-            sigma[k] *= widen
-        e1 = (float(edges.p1[k, 0]), float(edges.p1[k, 1]))
-        e2 = (float(edges.p2[k, 0]), float(edges.p2[k, 1]))
-        label = f"{IMAGE_EDGE_LABEL}({model.names[a]}, {model.names[b]})@{view}"
-        out.append(
-            Constraint(
-                kind="edge",
-                parts=(a, b),
-                unit="px",
-                measurement=True,
-                label=label,
-                edge=EdgeData(index, e1, e2),
-                sqrt_information=segment_sqrt_information(e1, e2, float(sigma[k])),
-                origin=Origin(label, "evidence"),
-            )
-        )
-    return out
-
-
-def kb_constraints(
-    kb: KnowledgeBase, interp: Interpretation, names: Sequence[str]
-) -> list[Constraint]:
-    """The knowledge base's internal constraints (no measurements) among the model's parts.
-
-    For each object the interpretation found (an instance right under the goal, e.g. ``body``:
-    ``HouseBody``), `aida_kb.solve.constraints_from_kb` with the parts under it and the
-    concepts the interpretation chose for its roles (e.g. ``roof``: ``GableRoof``). Part
-    indices are positions in `names`. Objects whose constraints cannot be built are skipped.
-    Where a scene's objects touch, their shared faces are tied to one plane
-    (`party.touching_ties`).
-    """
-    out: list[Constraint] = []
-    index = {path: i for i, n in enumerate(names) if (path := _role_path(n)) is not None}
-    roles = [(path, inst.concept) for inst in interp.instances if (path := _role_path(inst.role))]
-    # the objects of a scene of several (interpret.scene) are one level down: houses[0].body
-    objects = {RolePath.parse(o.role) for o in interp.objects}
-    for top, concept in roles:
-        if len(top) != 1 and not (len(top) == 2 and top.parent in objects):
-            continue
-        assignment = {
-            p.relative_to(top): i for p, i in index.items() if p.is_under(top) and p != top
-        }
-        fillers = {p.relative_to(top): c for p, c in roles if p.is_under(top) and p != top}
-        if not assignment:
-            continue
-        try:
-            found = constraints_from_kb(kb, concept, assignment, fillers=fillers)
-        except SolveError:
-            continue
-        for c in found.constraints:
-            if c.measurement:
-                continue
-            o = c.source
-            out.append(replace(c, origin=replace(o, owner=top.join(o.owner))))
-    if interp.model is not None:  # touching objects' shared walls: one plane each
-        out += touching_ties(interp.model, [o.role for o in interp.objects], names)
-    return out
-
-
-def _role_path(text: str) -> RolePath | None:
-    """The role path a part or instance name spells, None for a name that is none."""
-    try:
-        return RolePath.parse(text)
-    except ValueError:
-        return None
-
-
-def meeting_angles(model: RigidModel) -> dict[tuple[int, int], float]:
-    """The angle (rad) at which each pair of adjacent parts (a, b), a < b, meets."""
-    a = np.minimum(model.edge_faces[:, 0], model.edge_faces[:, 1])
-    b = np.maximum(model.edge_faces[:, 0], model.edge_faces[:, 1])
-    phi = meeting_angle(model.normals[a], model.normals[b])[0]
-    return {(int(i), int(j)): float(p) for i, j, p in zip(a, b, phi, strict=True)}
-
-
 def _rebuilt(
     model: RigidModel, normals: FloatArray, offsets: FloatArray
 ) -> tuple[RigidModel, list[FloatArray]]:
@@ -930,298 +427,12 @@ def _camera_deviations(
     return out
 
 
-FitKey = tuple[int, bool, tuple[int, int]]
-"""A model edge's fit in one image: the view's index, whether the right image, the edge's two
-part indices (ascending)."""
 IMAGE_SNOOPS = 2
 """In each image round, at most this many fits are found outlying and left out, one at a time,
-each followed by the round's adjustment again (`_outlying_fit`); a fit found outlying stays
+each followed by the round's adjustment again (`outlying_fit`); a fit found outlying stays
 out in the later rounds, which fit the edges again. A fit on the wrong image line pulls the
 model and the cameras the more, the fewer the edges: dev street 62402's house, one ridge fit
 off, its view 01 camera 0.101 deg off at a deviation of 0.032 deg."""
-
-
-def _outlying_fit(
-    model: RigidModel,
-    cameras: Sequence[PinholeCamera],
-    views: Sequence[ViewMeasurements],
-    free: Sequence[int],
-    inputs: JointInputs,
-) -> FitKey | None:
-    """The fitted image edge the adjustment at `model` and `cameras` explains worst, if it is
-    an outlier among the fits (`aida_kb.interpret.uncertainty.outlying_measurement`), as the
-    view (index), image and edge it measures; None if no fit is."""
-    from aida_kb.interpret.uncertainty import outlying_measurement
-
-    try:
-        problem = joint_problem(model, cameras, views, free, inputs)
-    except SolveError:
-        return None
-    worst = outlying_measurement(problem, model.names, cameras, free, IMAGE_EDGE_LABEL)
-    if worst is None:
-        return None
-    c = problem.constraints[worst]
-    if c.edge is None or len(c.parts) != 2:
-        return None
-    view = problem.base_camera(c.edge.camera)
-    a, b = c.parts
-    return view, view != c.edge.camera, (min(a, b), max(a, b))
-
-
-def _without_fits(
-    fitted: Sequence[EdgeObservations | None],
-    fitted_right: Sequence[tuple[Rig, EdgeObservations] | None],
-    outliers: set[FitKey],
-) -> tuple[list[EdgeObservations | None], list[tuple[Rig, EdgeObservations] | None]]:
-    """`fitted` and `fitted_right` (per view, as `fitted_edges` gives them) without the fits
-    `outliers` names."""
-
-    def kept(edges: EdgeObservations, view: int, right: bool) -> EdgeObservations:
-        gone = {key for v, r, key in outliers if v == view and r == right}
-        if not gone:
-            return edges
-        keys = [(int(min(a, b)), int(max(a, b))) for a, b in edges.faces]
-        return _subset(edges, np.array([k not in gone for k in keys], dtype=bool))
-
-    left = [None if f is None else kept(f, k, False) for k, f in enumerate(fitted)]
-    right = [None if f is None else (f[0], kept(f[1], k, True)) for k, f in enumerate(fitted_right)]
-    return left, right
-
-
-def view_images(
-    scene: Scene, evidence: Evidence, views: Sequence[ViewMeasurements]
-) -> list[npt.NDArray[np.uint8] | None]:
-    """Each view's left image (8-bit grey, undistorted to the pinhole camera its measurements
-    are in, as registration takes it); None for a view whose image cannot be read or is not
-    the size its evidence was measured at."""
-    from aida_kb.errors import AidaError
-    from aida_kb.io.scene import read_image
-
-    by_id = {v.id: v for v in evidence.views}
-    out: list[npt.NDArray[np.uint8] | None] = []
-    for m in views:
-        try:
-            grey = read_image(scene.view(m.view).left, grey=True)
-        except (AidaError, OSError, KeyError):
-            out.append(None)
-            continue
-        if grey.shape != (m.height, m.width) or m.view not in by_id:
-            out.append(None)
-            continue
-        D = np.asarray(by_id[m.view].left.D, dtype=np.float64).ravel()
-        out.append(undistorted_image(grey, m.K, D))
-    return out
-
-
-def right_images(
-    scene: Scene, ids: Sequence[str]
-) -> list[tuple[Rig, npt.NDArray[np.uint8]] | None]:
-    """Each view's rig and right image (8-bit grey, undistorted with D2), by `ids`; None for a
-    view whose right image cannot be read or is not the calibration's size."""
-    from aida_kb.errors import AidaError
-    from aida_kb.io.scene import read_image
-
-    out: list[tuple[Rig, npt.NDArray[np.uint8]] | None] = []
-    for vid in ids:
-        try:
-            view = scene.view(vid)
-            grey = read_image(view.right, grey=True)
-        except (AidaError, OSError, KeyError):
-            out.append(None)
-            continue
-        calib = view.rig
-        w, h = calib.image_size
-        if grey.shape != (h, w):
-            out.append(None)
-            continue
-        K2 = np.asarray(calib.K2, dtype=np.float64)
-        D2 = np.asarray(calib.D2, dtype=np.float64).ravel()
-        rig = Rig(K2, np.asarray(calib.R, dtype=np.float64), np.asarray(calib.T).ravel(), w, h)
-        out.append((rig, undistorted_image(grey, K2, D2)))
-    return out
-
-
-def fitted_edges(
-    model: RigidModel,
-    cameras: Sequence[PinholeCamera],
-    left: Sequence[npt.NDArray[np.uint8] | None],
-    right: Sequence[tuple[Rig, npt.NDArray[np.uint8]] | None],
-    reject_sigmas: float | None = None,
-    views: Sequence[ViewMeasurements] | None = None,
-    up: tuple[float, float, float] | None = None,
-) -> tuple[list[EdgeObservations | None], list[tuple[Rig, EdgeObservations] | None]]:
-    """The model's visible edges fitted to each view's left image (`view_images`) and right
-    image (`right_images`) at its camera (`aida_kb.register.image_edges`): the ``fitted`` and
-    ``fitted_right`` of `joint_problem`. With `reject_sigmas`, fits whose whitened offset or
-    slope from the model's projected edge exceeds it are left out (`consistent_edges`, whitened
-    with the model's vertical `up` as the adjustments whiten them). With
-    the `views`' segments (found in the images without the model), a left-image fit is kept
-    only where they do not contradict it (`corroborated`) and a right-image fit only where its
-    edge's left-image fit is kept."""
-
-    def fit(camera: PinholeCamera, grey: npt.NDArray[np.uint8]) -> EdgeObservations:
-        found = _clean(image_edges(model, camera, grey))
-        return (
-            found
-            if reject_sigmas is None
-            else consistent_edges(model, camera, found, reject_sigmas, up)
-        )
-
-    fl: list[EdgeObservations | None] = [
-        None if g is None else fit(c, g) for g, c in zip(left, cameras, strict=True)
-    ]
-    if views is not None:
-        fl = [
-            None if f is None else _subset(f, corroborated(f, m))
-            for f, m in zip(fl, views, strict=True)
-        ]
-    fr: list[tuple[Rig, EdgeObservations] | None] = []
-    for k, (r, c) in enumerate(zip(right, cameras, strict=True)):
-        if r is None:
-            fr.append(None)
-            continue
-        found = fit(r[0].right_of(c), r[1])
-        own = fl[k]
-        if views is not None:  # the same edge as a kept left-image fit, or none
-            keys = set() if own is None else _edge_keys(own.faces)
-            seen = np.array([(int(min(a, b)), int(max(a, b))) in keys for a, b in found.faces])
-            found = _subset(found, seen.astype(bool).reshape(-1))
-        fr.append((r[0], found))
-    return fl, fr
-
-
-CORROBORATE_PX = 1.5
-"""A fitted edge is shown by a segment of the view's own (`corroborated`) whose both ends lie
-within this distance of its line, pixels (the line detector's segments lie within 0.5 px of a
-rendered edge in the median, `aida_kb.vision.lines.SEARCH_PX`) ..."""
-CORROBORATE_DEG = 3.0
-"""... that runs within this angle of it ..."""
-CORROBORATE_SHARE = 0.25
-"""... and such segments cover at least this share of its length."""
-CONTRADICT_PX = 25.0
-"""A fitted edge the view's segments do not show is contradicted by segments as `corroborated`
-takes them but within this distance of its line (`aida_kb.interpret.edges.MAX_DISTANCE_PX`,
-the interpreter's reach for an edge's segments): the line detector sees the edge elsewhere.
-A fit is looked for within `aida_kb.vision.lines.SEARCH_PX` of the model's projected edge:
-where the model is off by more, it finds whatever edge lies there and confirms the pose it was
-fitted at (dev seed 58012: view 01's front-right corner fitted 18 px from the true corner, in
-both images, along a clean line on the front wall). The line detector sees the images without
-the model; a texture line within one region is no region's border, so only segments that bound
-a region (`aida_kb.register.evidence.ViewMeasurements.bounding`) show an edge, and a fit on
-segments within one region lies on a texture line (58012's: two 20 px segments on its 145). A
-fit no segment shows or contradicts stays (against the true models and cameras of dev seeds
-58005-58023, 98 of 104 fits are shown by segments; 4 of the others lie on long eaves the line
-detector missed, within 0.01-0.08 px of the true edge; all 104 are kept)."""
-
-
-def corroborated(edges: EdgeObservations, view: ViewMeasurements) -> npt.NDArray[np.bool_]:
-    """(F,) which fitted edges (left image) the view's own segments do not contradict: shown
-    by segments bounding a region (all segments when that is not known) within
-    `CORROBORATE_PX` and `CORROBORATE_DEG` of the fitted line, covering `CORROBORATE_SHARE` of
-    its length; or neither on a texture line (segments within one region lying on it as
-    those would) nor with bounding segments within `CONTRADICT_PX` of it (the edge elsewhere)."""
-    F = edges.size
-    S = view.p1.shape[0]
-    if F == 0 or S == 0:
-        return np.ones(F, dtype=bool)
-    bounding = np.ones(S, dtype=bool) if view.bounding is None else view.bounding
-    d = edges.p2 - edges.p1
-    length = np.maximum(np.linalg.norm(d, axis=1), 1e-9)
-    u = d / length[:, None]  # (F, 2)
-    n = np.stack([-u[:, 1], u[:, 0]], axis=1)
-    r1 = view.p1[None, :, :] - edges.p1[:, None, :]  # (F, S, 2)
-    r2 = view.p2[None, :, :] - edges.p1[:, None, :]
-    off = np.maximum(np.abs(np.einsum("fsc,fc->fs", r1, n)), np.abs(np.einsum("fsc,fc->fs", r2, n)))
-    t1 = np.einsum("fsc,fc->fs", r1, u)
-    t2 = np.einsum("fsc,fc->fs", r2, u)
-    seg = view.p2 - view.p1
-    seg_len = np.maximum(np.linalg.norm(seg, axis=1), 1e-9)
-    parallel = np.abs(np.einsum("fc,sc->fs", n, seg)) / seg_len[None, :] <= math.sin(
-        math.radians(CORROBORATE_DEG)
-    )
-    lo = np.clip(np.minimum(t1, t2), 0.0, length[:, None])
-    hi = np.clip(np.maximum(t1, t2), 0.0, length[:, None])
-
-    def cover(reach: float, which: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
-        near = parallel & (off <= reach) & which[None, :]
-        out: npt.NDArray[np.bool_] = (
-            np.where(near, hi - lo, 0.0).sum(axis=1) >= CORROBORATE_SHARE * length
-        )
-        return out
-
-    shown = cover(CORROBORATE_PX, bounding)
-    texture = cover(CORROBORATE_PX, ~bounding)
-    elsewhere = cover(CONTRADICT_PX, bounding)
-    keep: npt.NDArray[np.bool_] = shown | ~(texture | elsewhere)
-    return keep
-
-
-def _subset(edges: EdgeObservations, keep: npt.NDArray[np.bool_]) -> EdgeObservations:
-    return EdgeObservations(
-        edges.faces[keep],
-        edges.p1[keep],
-        edges.p2[keep],
-        None if edges.sigma_px is None else edges.sigma_px[keep],
-    )
-
-
-def _clean(edges: EdgeObservations) -> EdgeObservations:
-    if edges.sigma_px is None:
-        return edges
-    return _subset(edges, edges.sigma_px <= IMAGE_MAX_POINT_SIGMA_PX)
-
-
-def consistent_edges(
-    model: RigidModel,
-    camera: PinholeCamera,
-    edges: EdgeObservations,
-    limit: float,
-    up: tuple[float, float, float] | None = None,
-) -> EdgeObservations:
-    """The fitted edges whose mean offset and slope from their model edge's projection at
-    `camera` (whitened as `_fitted_edge_factors` does, `fit_residuals`; `up` the model's
-    vertical) are both within `limit` sigmas."""
-    if edges.size == 0:
-        return edges
-    offset, slope = fit_residuals(model, camera, edges, up)
-    keep: npt.NDArray[np.bool_] = (np.abs(offset) <= limit) & (np.abs(slope) <= limit)
-    return _subset(edges, keep)
-
-
-def fit_residuals(
-    model: RigidModel,
-    camera: PinholeCamera,
-    edges: EdgeObservations,
-    up: tuple[float, float, float] | None = None,
-) -> tuple[FloatArray, FloatArray]:
-    """(F,), (F,): each fitted edge's signed mean offset and slope from its model edge's
-    projection at `camera`, in its own sigmas (the end points' residuals (r1, r2) across the
-    projected edge, pixels, whitened as `_fitted_edge_factors` does: ``(r1 + r2) / 2`` over
-    ``sigma / sqrt(n)`` and ``(r1 - r2) / 2`` over ``sigma·sqrt(3/n)``, sigma the fit's
-    `fit_point_sigma` with the model's vertical `up`, n its length in pixels); NaN for a fit of no
-    edge of the model or of an edge with an end on or behind the camera's focal plane."""
-    if edges.size == 0:
-        return np.zeros(0), np.zeros(0)
-    pair = {(int(min(a, b)), int(max(a, b))): i for i, (a, b) in enumerate(model.edge_faces)}
-    index = np.array([pair.get((int(min(a, b)), int(max(a, b))), -1) for a, b in edges.faces])
-    points = model.edge_ends[np.maximum(index, 0)]  # (F, 2, 3), world
-    # an edge reaching behind the camera has no line in the image (a wrong model's wall running
-    # past the camera: independent render 70901 stopped with a GeometryError here)
-    known = (index >= 0) & camera.in_front(points.reshape(-1, 3)).reshape(-1, 2).all(axis=1)
-    ends = np.zeros((len(index), 2, 2))
-    if known.any():
-        ends[known] = camera.project(points[known].reshape(-1, 3)).reshape(-1, 2, 2)
-    d = ends[:, 1] - ends[:, 0]
-    normal = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.maximum(
-        np.linalg.norm(d, axis=1, keepdims=True), 1e-9
-    )
-    r1 = np.einsum("ij,ij->i", edges.p1 - ends[:, 0], normal)
-    r2 = np.einsum("ij,ij->i", edges.p2 - ends[:, 0], normal)
-    length = np.maximum(np.linalg.norm(edges.p2 - edges.p1, axis=1), 1.0)
-    sigma = fit_point_sigma(model, camera, edges, up)
-    offset = np.where(known, (r1 + r2) / 2.0 / (sigma / np.sqrt(length)), np.nan)
-    slope = np.where(known, (r1 - r2) / 2.0 / (sigma * np.sqrt(3.0 / length)), np.nan)
-    return offset, slope
 
 
 def _parts(
@@ -1809,7 +1020,7 @@ def reconstruct_from_first(
         free = list(range(n_known, len(cams)))
         broken = []
         for snoop in range(IMAGE_SNOOPS + 1):
-            fitted, fitted_right = _without_fits(fitted, fitted_right, outliers)
+            fitted, fitted_right = without_fits(fitted, fitted_right, outliers)
             inputs = JointInputs(angles, internal, pairs, fitted, fitted_right, model0.up)
             step = _adjusted(rigid, cams, views, free, inputs)
             if isinstance(step, str):
@@ -1820,7 +1031,7 @@ def reconstruct_from_first(
                 break
             rigid, polygons, cams, report = step
             worst = (
-                None if snoop == IMAGE_SNOOPS else _outlying_fit(rigid, cams, views, free, inputs)
+                None if snoop == IMAGE_SNOOPS else outlying_fit(rigid, cams, views, free, inputs)
             )
             if worst is None:
                 break

@@ -401,7 +401,7 @@ def _stronger_rows(
     that `strong` asserts and `weak` does not, on the planes of `weak`'s model (not None);
     a solve error's text when those planes make no problem."""
     from aida_kb.errors import SolveError
-    from aida_kb.interpret.multiview import kb_constraints
+    from aida_kb.interpret.joint import kb_constraints
     from aida_kb.solve.problem import build_problem
     from aida_kb.solve.report import residual_report
 

@@ -1,7 +1,7 @@
 """How well the evidence fixes a model and its cameras: standard deviations from the adjustment.
 
 The model of a reconstruction is the solution of a least-squares adjustment of its planes
-and its later views' poses (`aida_kb.interpret.multiview.joint_problem`: every view's
+and its later views' poses (`aida_kb.interpret.joint.joint_problem`: every view's
 segments on the model's edges, its regions on the parts, the knowledge's constraints among
 the parts and the first shape's angles, loosely). At that solution, with J the Jacobian of
 the whitened (and robustly weighted) residuals, the covariance of the unknowns is
@@ -60,7 +60,7 @@ what their residuals show (`paired_redundancy`; on the dev sets median 0.83, 90t
 1.62, 0.970 within two deviations, largest 2.82; 63000-63035 1.33, 3.08, 0.778, 3.11); with
 each pair's rows as one measurement 0.72, 1.35, 0.985, 2.36 and 1.07, 2.77, 0.778, 2.82. The
 fits' errors against the true edges (1,769 fits of those models) correlate between a view's
-left and right images by more than `aida_kb.interpret.multiview.STEREO_FIT_CORRELATION` says
+left and right images by more than `aida_kb.interpret.joint.STEREO_FIT_CORRELATION` says
 (mean offsets 0.91, whitened 0.82; slopes 0.62): the same edge, the same shading beside it.
 
 Session 21: the parts' deviations were too small for a few parts placed by one or two edges
@@ -176,12 +176,7 @@ def adjustment_uncertainty(
     """The standard deviations of `interp`'s model and cameras (module docstring); None
     when there is no model, the first view has no camera or the problem cannot be built."""
     from aida_kb.geometry.camera import PinholeCamera
-    from aida_kb.interpret.multiview import (
-        JointInputs,
-        joint_problem,
-        kb_constraints,
-        meeting_angles,
-    )
+    from aida_kb.interpret.joint import JointInputs, joint_problem, kb_constraints, meeting_angles
     from aida_kb.register import RigidModel
     from aida_kb.register.evidence import measurements_of
 
@@ -256,8 +251,8 @@ a few pixels of the model's own projection, so the fits follow the model they ar
 their residuals from it understate their error. Against the TRUE model and cameras the dev
 seeds' fits scatter by 0.4-1.3 of their noise model (whitened RMS), at the adjusted model by
 0.1-0.5 (factors 0.01-0.3). With the fits the view's own segments contradict left out
-(`aida_kb.interpret.multiview.corroborated`) and an edge's left and right fits counted as one
-seen twice (`aida_kb.interpret.multiview.STEREO_FIT_CORRELATION`), the cameras' errors over
+(`aida_kb.interpret.imagefit.corroborated`) and an edge's left and right fits counted as one
+seen twice (`aida_kb.interpret.joint.STEREO_FIT_CORRELATION`), the cameras' errors over
 their deviations on 14 registered cameras of 10 dev scenes (58002-58023, image rounds on):
 floor 1e-4 (none): median 0.94, 12 of 14 within 2 sd; 0.1: 0.94, 13 of 14; 0.25: 0.75, 13 of
 14; 0.5: 0.67, 13 of 14; 1: 0.57, 13 of 14 (the one beyond: 58015's view 02, 0.48 deg off with
@@ -378,7 +373,7 @@ def paired_redundancy(
     """(m,) the redundancy numbers `red` (m,) with the rows `pairs` (k, 2) (indices into `red`)
     taken as two measurements of one quantity whose errors correlate by `correlation` (rho),
     each weighed as one of their mean (sigma widened by ``sqrt(1 + rho)``: `aida_kb.interpret.
-    multiview.STEREO_FIT_CORRELATION`). Such a pair's residuals keep, in expectation, the
+    joint.STEREO_FIT_CORRELATION`). Such a pair's residuals keep, in expectation, the
     share ``1 - h_a - h_b`` of their mean's error and ``(1 - rho) / (1 + rho)`` of their
     difference's, not ``(1 - h_a) + (1 - h_b)``: counted as two independent rows, a pair
     would claim a whole row's redundancy more than its residuals can show, and a group of
@@ -465,7 +460,7 @@ bias: recomputed at the same models (image rounds), the cameras' error over devi
 median of 0.78 and 0.929 within two deviations without it (56 dev cameras; 0.82 and 0.894 on
 47 checked), and 0.48 and 0.982 with it (0.41 and 0.979), every camera then doubted at two
 deviations: the image rounds' cameras are already as honest as they were calibrated to be
-(`aida_kb.interpret.multiview.IMAGE_SCATTER_BIAS`), and one bias seen alike in every view
+(`aida_kb.interpret.joint.IMAGE_SCATTER_BIAS`), and one bias seen alike in every view
 leaves the views' poses relative to one another as the edges fix them."""
 
 
@@ -545,7 +540,7 @@ def stereo_fit_pairs(
     problem: Problem, constraint_of_row: npt.NDArray[np.intp]
 ) -> npt.NDArray[np.intp]:
     """(k, 2) the residual rows (indices; `constraint_of_row` (m,) each row's constraint) of the
-    model edges fitted in both images of one view (`aida_kb.interpret.multiview.fitted_edges`),
+    model edges fitted in both images of one view (`aida_kb.interpret.imagefit.fitted_edges`),
     row by row: the left image's fit's and the right image's (a camera derived from the
     view's, `aida_kb.solve.problem.Problem.derived`), paired by edge and view."""
     sides: dict[tuple[int, int, int], dict[bool, int]] = {}
@@ -580,7 +575,7 @@ def problem_uncertainty(
     with each model edge's shared bias of `edge_bias_px` pixels (`edge_bias_information`;
     `EDGE_BIAS_PX` in the verdict), the cameras' without it (`EDGE_BIAS_PX` says why). None
     when a residual or derivative is not finite or the problem cannot be evaluated."""
-    from aida_kb.interpret.multiview import (
+    from aida_kb.interpret.joint import (
         JOINT_EDGE_SIGMA_PX,
         JOINT_F_SCALE,
         JOINT_LOSS,

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import aida_kb.interpret.multiview as mv
+from aida_kb.interpret import joint
 from aida_kb.interpret.uncertainty import (
     outlying_measurement,
     paired_redundancy,
@@ -63,10 +64,10 @@ def _outlying_segment(views: list[ViewMeasurements]) -> tuple[float, float] | No
     """The synthetic box adjusted to `views` (cameras 01 and 02 free): the first end point of
     the segment `outlying_measurement` finds outlying, pixels, or None."""
     model, cams = synthetic_box()
-    inputs = mv.JointInputs(mv.meeting_angles(model))
-    n, d, adjusted, _ = mv.joint_adjustment(model, cams, views, [1, 2], inputs)
+    inputs = joint.JointInputs(joint.meeting_angles(model))
+    n, d, adjusted, _ = joint.joint_adjustment(model, cams, views, [1, 2], inputs)
     rigid, _ = mv._rebuilt(model, n, d)
-    problem = mv.joint_problem(rigid, list(adjusted), views, [1, 2], inputs)
+    problem = joint.joint_problem(rigid, list(adjusted), views, [1, 2], inputs)
     worst = outlying_measurement(problem, rigid.names, list(adjusted), [1, 2], "edge")
     if worst is None:
         return None
@@ -103,7 +104,7 @@ def test_camera_deviations_match_the_scatter_of_their_errors() -> None:
     errors, sds, factors = synthetic_calibration(30)
     assert np.all(np.isfinite(sds))
     assert np.all(sds > 0)
-    truth = (SYNTHETIC_NOISE_PX / mv.JOINT_EDGE_SIGMA_PX) ** 2
+    truth = (SYNTHETIC_NOISE_PX / joint.JOINT_EDGE_SIGMA_PX) ** 2
     assert 0.5 * truth < float(np.median(factors)) < 2.0 * truth
     # 0.76: the exact priors' redundancy is not counted (aida_kb.interpret.uncertainty); a
     # deviation half or twice what the errors show would give 4 or 0.25
@@ -113,7 +114,7 @@ def test_camera_deviations_match_the_scatter_of_their_errors() -> None:
 
 def test_a_region_normal_is_weighed_by_its_own_plane_fit() -> None:
     """A region's normal's sigma is its fit's own tilt, scaled and floored
-    (multiview.REGION_FIT_SCALE, REGION_BIAS_DEG); where a fit's inliers or area are unknown
+    (joint.REGION_FIT_SCALE, REGION_BIAS_DEG); where a fit's inliers or area are unknown
     the adjustments keep the registration's uniform sigma (JOINT_REGION_LOOSENESS times
     looser than the honest ones, as every region there)."""
     import math
@@ -126,15 +127,15 @@ def test_a_region_normal_is_weighed_by_its_own_plane_fit() -> None:
     rms = np.array([0.05, 0.05, 0.05])
     inliers = np.array([40_000.0, 400.0, 0.0])  # a large wall, a small one, a fit unknown
     area = np.array([100.0, 4.0, 0.0])
-    sigma = mv.region_normal_sigma_rad(RegionMeasurements(n, c, rms, inliers, area))
+    sigma = joint.region_normal_sigma_rad(RegionMeasurements(n, c, rms, inliers, area))
     assert sigma is not None
     fit = fit_sigma_rad(rms[:2], inliers[:2] / FIT_CORRELATED_PX, area[:2])
-    want = mv.REGION_FIT_SCALE * np.hypot(fit, math.radians(mv.REGION_BIAS_DEG))
+    want = joint.REGION_FIT_SCALE * np.hypot(fit, math.radians(joint.REGION_BIAS_DEG))
     assert sigma[:2] == pytest.approx(want)
     assert math.degrees(sigma[0]) < 0.1 < 1.0 < math.degrees(sigma[1])  # 40,000 px vs 400
     uniform = math.radians(RegistrationOptions().region_sigma_deg)
-    assert mv.JOINT_REGION_LOOSENESS * sigma[2] == pytest.approx(uniform)
-    assert mv.region_normal_sigma_rad(RegionMeasurements(n, c, rms)) is None
+    assert joint.JOINT_REGION_LOOSENESS * sigma[2] == pytest.approx(uniform)
+    assert joint.region_normal_sigma_rad(RegionMeasurements(n, c, rms)) is None
 
 
 def test_loose_normals_name_the_parts_regions_measure() -> None:
@@ -173,10 +174,10 @@ def test_an_edges_shared_bias_is_not_averaged_away_by_its_segments() -> None:
         dataclasses.replace(v, p1=np.vstack([v.p1, v.p1]), p2=np.vstack([v.p2, v.p2]))
         for v in views
     ]
-    inputs = mv.JointInputs(mv.meeting_angles(model))
+    inputs = joint.JointInputs(joint.meeting_angles(model))
     sds = {}
     for name, vs in (("once", views), ("twice", twice)):
-        problem = mv.joint_problem(model, cams, vs, [1, 2], inputs)
+        problem = joint.joint_problem(model, cams, vs, [1, 2], inputs)
         for bias in (0.0, EDGE_BIAS_PX):
             unc = problem_uncertainty(problem, model.names, cams, [1, 2], ["01", "02"], bias)
             assert unc is not None

@@ -14,6 +14,7 @@ import pytest
 
 import aida_kb.interpret.multiview as mv
 from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.interpret import imagefit, joint
 from aida_kb.interpret.result import Interpretation
 from aida_kb.interpret.uncertainty import (
     IMAGE_EDGE_LABEL,
@@ -92,14 +93,14 @@ def test_fits_scattering_more_than_the_limit_are_left_out(
     every = image_edges(model, cam, grey)
     assert every.size >= 6
     assert every.sigma_px is not None
-    assert float(every.sigma_px.max()) < mv.IMAGE_MAX_POINT_SIGMA_PX  # clean rendered edges
-    fl, fr = mv.fitted_edges(model, [cam], [grey], [None])
+    assert float(every.sigma_px.max()) < imagefit.IMAGE_MAX_POINT_SIGMA_PX  # clean rendered edges
+    fl, fr = imagefit.fitted_edges(model, [cam], [grey], [None])
     assert fl[0] is not None
     assert fl[0].size == every.size
     assert fr == [None]
     limit = float(np.median(every.sigma_px))
-    monkeypatch.setattr(mv, "IMAGE_MAX_POINT_SIGMA_PX", limit)
-    fl, _ = mv.fitted_edges(model, [cam], [grey], [None])
+    monkeypatch.setattr(imagefit, "IMAGE_MAX_POINT_SIGMA_PX", limit)
+    fl, _ = imagefit.fitted_edges(model, [cam], [grey], [None])
     kept = fl[0]
     assert kept is not None
     assert kept.sigma_px is not None
@@ -120,9 +121,9 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
     fitted_pairs = {tuple(sorted(int(x) for x in f)) for f in two.faces}
 
     def seen(keep: bool) -> tuple[list[tuple[int, ...]], list[tuple[int, ...]]]:
-        monkeypatch.setattr(mv, "IMAGE_KEEP_SEGMENTS", keep)
-        problem = mv.joint_problem(
-            model, [ref, cam], views, [1], mv.JointInputs(fitted=[None, two])
+        monkeypatch.setattr(joint, "IMAGE_KEEP_SEGMENTS", keep)
+        problem = joint.joint_problem(
+            model, [ref, cam], views, [1], joint.JointInputs(fitted=[None, two])
         )
         edges = [c for c in problem.constraints if c.kind == "edge" and c.edge is not None]
         pairs = [tuple(sorted(c.parts)) for c in edges if c.edge is not None and c.edge.camera == 1]
@@ -143,8 +144,8 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
     third = turned(ref, vertical_axis(model, ref), model.centroid, math.radians(-30.0))
     views3 = [*views, _view("02", *simulated_segments(model, third, rng, clutter=0))]
     cams = [ref, cam, third]
-    problem = mv.joint_problem(
-        model, cams, views3, [1, 2], mv.JointInputs(fitted=[None, fits, None])
+    problem = joint.joint_problem(
+        model, cams, views3, [1, 2], joint.JointInputs(fitted=[None, fits, None])
     )
     unc = problem_uncertainty(problem, model.names, cams, [1, 2], ["01", "02"])
     assert unc is not None
@@ -233,24 +234,24 @@ def test_a_fit_the_views_own_segments_contradict_is_left_out() -> None:
     n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1, keepdims=True)
     p1, p2 = fits.p1 + 0.25 * d + 0.4 * n, fits.p1 + 0.75 * d + 0.4 * n
     on = _view("01", p1, p2)
-    assert mv.corroborated(fits, on).all()
+    assert imagefit.corroborated(fits, on).all()
     # on a texture line (the segment on it lies within one region): left out
     inside = replace(on, bounding=np.arange(fits.size) != 0)
-    assert mv.corroborated(fits, inside).tolist() == [False] + [True] * (fits.size - 1)
+    assert imagefit.corroborated(fits, inside).tolist() == [False] + [True] * (fits.size - 1)
     # the region's border 3 px beside the line and none on it: the edge is elsewhere
     beside = _view("01", p1 + 3.0 * n, p2 + 3.0 * n)
-    assert not mv.corroborated(fits, beside).any()
+    assert not imagefit.corroborated(fits, beside).any()
     # nothing shows the edge, nothing contradicts it (a tenth of its length seen, or no
     # segment at all): kept
     short = _view("01", fits.p1 + 0.45 * d, fits.p1 + 0.55 * d)
-    assert mv.corroborated(fits, short).all()
-    assert mv.corroborated(fits, _view("01", np.zeros((0, 2)), np.zeros((0, 2)))).all()
+    assert imagefit.corroborated(fits, short).all()
+    assert imagefit.corroborated(fits, _view("01", np.zeros((0, 2)), np.zeros((0, 2)))).all()
     # fitted_edges keeps the left fits not contradicted
     first = replace(on, bounding=np.arange(fits.size) >= 2)
     grey = _image(model, cam)
     rig = Rig(K, np.eye(3), np.array([-0.1, 0.0, 0.0]), 640, 480)
     right = (rig, _image(model, rig.right_of(cam)))
-    fl, fr = mv.fitted_edges(model, [cam], [grey], [right], views=[first])
+    fl, fr = imagefit.fitted_edges(model, [cam], [grey], [right], views=[first])
     assert fl[0] is not None
     kept = {tuple(sorted(int(x) for x in f)) for f in fl[0].faces}
     assert kept == {tuple(sorted(int(x) for x in f)) for f in fits.faces[2:]}
@@ -269,10 +270,10 @@ def test_an_edge_fitted_in_both_images_weighs_as_one_edge_seen_twice() -> None:
     rig = Rig(K, np.eye(3), np.array([-0.2, 0.0, 0.0]), 640, 480)
 
     def information(right: bool) -> list[float]:
-        inputs = mv.JointInputs(
+        inputs = joint.JointInputs(
             fitted=[None, fits], fitted_right=[None, (rig, fits) if right else None]
         )
-        problem = mv.joint_problem(model, [ref, cam], views, [1], inputs)
+        problem = joint.joint_problem(model, [ref, cam], views, [1], inputs)
         return [
             float(np.asarray(c.sqrt_information)[0, 0])
             for c in problem.constraints
@@ -281,12 +282,12 @@ def test_an_edge_fitted_in_both_images_weighs_as_one_edge_seen_twice() -> None:
 
     alone, paired = information(False), information(True)
     assert len(alone) == len(paired) == fits.size
-    widen = math.sqrt(1.0 + mv.STEREO_FIT_CORRELATION)
+    widen = math.sqrt(1.0 + joint.STEREO_FIT_CORRELATION)
     assert np.allclose(np.array(alone) / np.array(paired), widen)
     # the variance factor counts each such pair's residual rows as one edge's
     # (`uncertainty.paired_redundancy`): every fit's two rows against its right twin's
-    inputs = mv.JointInputs(fitted=[None, fits], fitted_right=[None, (rig, fits)])
-    problem = mv.joint_problem(model, [ref, cam], views, [1], inputs)
+    inputs = joint.JointInputs(fitted=[None, fits], fitted_right=[None, (rig, fits)])
+    problem = joint.joint_problem(model, [ref, cam], views, [1], inputs)
     ev = Evaluation(problem, np.arange(len(model.names), dtype=np.intp), free_cameras=np.array([1]))
     of_row = np.asarray(ev.constraint_of_row, dtype=np.intp)
     pairs = stereo_fit_pairs(problem, of_row)
@@ -297,8 +298,8 @@ def test_an_edge_fitted_in_both_images_weighs_as_one_edge_seen_twice() -> None:
         assert cb.edge is not None
         assert (ca.edge.camera, cb.edge.camera) == (1, 2)  # the view's, its right image's
         assert sorted(ca.parts) == sorted(cb.parts)
-    alone_problem = mv.joint_problem(
-        model, [ref, cam], views, [1], mv.JointInputs(fitted=[None, fits])
+    alone_problem = joint.joint_problem(
+        model, [ref, cam], views, [1], joint.JointInputs(fitted=[None, fits])
     )
     ev1 = Evaluation(alone_problem, np.arange(len(model.names), dtype=np.intp))
     assert stereo_fit_pairs(alone_problem, np.asarray(ev1.constraint_of_row)).shape == (0, 2)
@@ -314,11 +315,11 @@ def test_a_fitted_edge_is_known_to_its_points_scatter_across_it() -> None:
         p2=np.array([[200.0, 200.0]]),
         sigma_px=np.array([0.2]),
     )
-    assert mv.IMAGE_SCATTER_BIAS == 1.0
-    assert point_sigma(fits, 4.0, mv.IMAGE_SCATTER_BIAS)[0] == pytest.approx(2.0712, abs=1e-4)
+    assert joint.IMAGE_SCATTER_BIAS == 1.0
+    assert point_sigma(fits, 4.0, joint.IMAGE_SCATTER_BIAS)[0] == pytest.approx(2.0712, abs=1e-4)
     assert point_sigma(fits, 4.0)[0] == pytest.approx(1.1358, abs=1e-4)
     model = _box()
-    (factor,) = mv._fitted_edge_factors(model, _cameras(model)[1], 1, fits, "01")
+    (factor,) = joint._fitted_edge_factors(model, _cameras(model)[1], 1, fits, "01")
     sd_mean = 0.5 / float(np.asarray(factor.sqrt_information)[0, 0])  # (r1 + r2) / 2's sd
     assert sd_mean == pytest.approx(0.20712, abs=1e-4)
 
@@ -374,7 +375,7 @@ def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> Non
     vis = model.visible_edges(cam, min_length_px=20.0)
     faces = model.edge_faces[vis.index]
     exact = EdgeObservations(faces, vis.a, vis.b, np.full(len(faces), 0.1))
-    offset, slope = mv.fit_residuals(model, cam, exact)
+    offset, slope = imagefit.fit_residuals(model, cam, exact)
     assert len(faces) >= 6
     assert np.allclose(offset, 0.0, atol=1e-6)
     assert np.allclose(slope, 0.0, atol=1e-6)
@@ -382,20 +383,20 @@ def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> Non
     d = ends[:, 1] - ends[:, 0]
     across = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1, keepdims=True)
     n = np.linalg.norm(vis.b - vis.a, axis=1)
-    sigma = point_sigma(exact, mv.JOINT_EDGE_SIGMA_PX, mv.IMAGE_SCATTER_BIAS)
+    sigma = point_sigma(exact, joint.JOINT_EDGE_SIGMA_PX, joint.IMAGE_SCATTER_BIAS)
     moved = EdgeObservations(faces, vis.a + 1.0 * across, vis.b + 1.0 * across, exact.sigma_px)
-    offset, slope = mv.fit_residuals(model, cam, moved)
+    offset, slope = imagefit.fit_residuals(model, cam, moved)
     assert np.allclose(offset, 1.0 / (sigma / np.sqrt(n)), rtol=1e-6)
     assert np.allclose(slope, 0.0, atol=1e-6)
     assert float(offset.min()) > 6.0  # far beyond IMAGE_REJECT_SIGMAS: left out
-    assert mv.consistent_edges(model, cam, moved, mv.IMAGE_REJECT_SIGMAS).size == 0
+    assert imagefit.consistent_edges(model, cam, moved, mv.IMAGE_REJECT_SIGMAS).size == 0
     turned_ = EdgeObservations(faces, vis.a + 0.2 * across, vis.b - 0.2 * across, exact.sigma_px)
-    offset, slope = mv.fit_residuals(model, cam, turned_)
+    offset, slope = imagefit.fit_residuals(model, cam, turned_)
     assert np.allclose(offset, 0.0, atol=1e-6)
     assert np.allclose(slope, 0.2 / (sigma * np.sqrt(3.0 / n)), rtol=1e-6)
     # a fit of no edge of the model has no residual
     stray = EdgeObservations(np.array([[0, 0]]), vis.a[:1], vis.b[:1], np.array([0.1]))
-    offset, slope = mv.fit_residuals(model, cam, stray)
+    offset, slope = imagefit.fit_residuals(model, cam, stray)
     assert np.isnan(offset[0])
     assert np.isnan(slope[0])
     # an edge with an end behind the camera has no line in the image: no residual, no error
@@ -408,11 +409,11 @@ def test_fit_residuals_whiten_a_fit_s_offset_and_slope_by_its_own_sigma() -> Non
     ahead = within.in_front(model.edge_ends[vis.index].reshape(-1, 3)).reshape(-1, 2).all(axis=1)
     assert ahead.any()
     assert not ahead.all()
-    offset, slope = mv.fit_residuals(model, within, exact)
+    offset, slope = imagefit.fit_residuals(model, within, exact)
     assert np.all(np.isnan(offset[~ahead]))
     assert np.all(np.isnan(slope[~ahead]))
     assert np.all(np.isfinite(offset[ahead]))
-    assert mv.consistent_edges(model, within, exact, mv.IMAGE_REJECT_SIGMAS).size <= int(
+    assert imagefit.consistent_edges(model, within, exact, mv.IMAGE_REJECT_SIGMAS).size <= int(
         ahead.sum()
     )
 
@@ -436,38 +437,46 @@ def test_foot_edges_seen_at_a_grazing_angle_are_known_no_better_than_the_foot_bi
     names = [tuple(sorted((model.names[a], model.names[b]))) for a, b in fits.faces]
     foot = np.array(["bottom" in pair for pair in names])
     front = names.index(("bottom", "front"))
-    seen_high = mv.foot_grazing_deg(model, high, fits, up)
+    seen_high = joint.foot_grazing_deg(model, high, fits, up)
     assert int(foot.sum()) == 4
     assert np.all(np.isfinite(seen_high[foot]))
     assert np.all(np.isnan(seen_high[~foot]))
     assert seen_high[front] == pytest.approx(18.78, abs=0.01)
-    assert mv.foot_grazing_deg(model, low, fits, up)[front] == pytest.approx(0.688, abs=0.001)
-    assert np.all(np.isnan(mv.foot_grazing_deg(model, low, fits, None)))
+    assert joint.foot_grazing_deg(model, low, fits, up)[front] == pytest.approx(0.688, abs=0.001)
+    assert np.all(np.isnan(joint.foot_grazing_deg(model, low, fits, None)))
     # seen from high above, every fit keeps its own sigma; seen grazing, the foot's fits get
     # the foot bias in quadrature on their mean offset: sqrt(s² + n·bias²)
-    own = point_sigma(fits, mv.JOINT_EDGE_SIGMA_PX, mv.IMAGE_SCATTER_BIAS)
-    assert np.array_equal(mv.fit_point_sigma(model, high, fits, up), own)
-    assert np.array_equal(mv.fit_point_sigma(model, low, fits, None), own)
-    grazing = mv.fit_point_sigma(model, low, fits, up)
+    own = point_sigma(fits, joint.JOINT_EDGE_SIGMA_PX, joint.IMAGE_SCATTER_BIAS)
+    assert np.array_equal(joint.fit_point_sigma(model, high, fits, up), own)
+    assert np.array_equal(joint.fit_point_sigma(model, low, fits, None), own)
+    grazing = joint.fit_point_sigma(model, low, fits, up)
     n = np.maximum(np.linalg.norm(fits.p2 - fits.p1, axis=1), 1.0)
     assert np.array_equal(grazing[~foot], own[~foot])
-    assert np.allclose(grazing[foot], np.sqrt(own[foot] ** 2 + n[foot] * mv.FOOT_BIAS_PX**2))
+    assert np.allclose(grazing[foot], np.sqrt(own[foot] ** 2 + n[foot] * joint.FOOT_BIAS_PX**2))
     # the front foot's mean offset is known to 0.71 px, not 0.11: a fit 1 px below it (as the
     # ground squeezed beside a foot puts it) is 1.4 of its sigmas off, not 8.9, and stays
     at_low = _every_edge_fitted(model, low)
     sd_mean = grazing[front] / math.sqrt(n[front])
-    assert mv.FOOT_BIAS_PX <= sd_mean < mv.FOOT_BIAS_PX + 0.01
+    assert joint.FOOT_BIAS_PX <= sd_mean < joint.FOOT_BIAS_PX + 0.01
     below = EdgeObservations(
         at_low.faces[[front]],
         at_low.p1[[front]] + [0.0, 1.0],
         at_low.p2[[front]] + [0.0, 1.0],
         at_low.sigma_px[[front]],  # type: ignore[index]
     )
-    assert abs(float(mv.fit_residuals(model, low, below)[0][0])) > mv.IMAGE_REJECT_SIGMAS
-    assert abs(float(mv.fit_residuals(model, low, below, up)[0][0])) < 1.5
-    assert mv.consistent_edges(model, low, below, mv.IMAGE_REJECT_SIGMAS, up).size == 1
+    assert abs(float(imagefit.fit_residuals(model, low, below)[0][0])) > mv.IMAGE_REJECT_SIGMAS
+    assert abs(float(imagefit.fit_residuals(model, low, below, up)[0][0])) < 1.5
+    assert imagefit.consistent_edges(model, low, below, mv.IMAGE_REJECT_SIGMAS, up).size == 1
     # the image rounds' factor whitens the fit by the same sigma
-    (factor,) = mv._fitted_edge_factors(model, low, 0, below, "00", up=up)
+    (factor,) = joint._fitted_edge_factors(model, low, 0, below, "00", up=up)
     assert 0.5 / float(np.asarray(factor.sqrt_information)[0, 0]) == pytest.approx(
         sd_mean, rel=1e-9
     )
+
+
+def test_edge_rows_finds_each_edge_in_either_order() -> None:
+    model_faces = np.array([[0, 1], [1, 2], [3, 0], [2, 3]])
+    faces = np.array([[1, 0], [3, 2], [0, 3], [0, 2], [2, 1]])
+    assert joint.edge_rows(model_faces, faces).tolist() == [0, 3, 2, -1, 1]
+    assert joint.edge_rows(model_faces, np.zeros((0, 2), dtype=int)).tolist() == []
+    assert joint.edge_rows(np.zeros((0, 2), dtype=int), faces).tolist() == [-1] * 5

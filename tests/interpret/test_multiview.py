@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 
 from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.interpret import joint
 from aida_kb.interpret.evaluate import compare_with_truth
+from aida_kb.interpret.joint import kb_constraints
 from aida_kb.interpret.multiview import (
     REGISTERED_EXPLAINED_MIN,
     explained_shares,
-    kb_constraints,
     reconstruct_from_first,
     reconstruct_views,
 )
@@ -163,11 +164,11 @@ def test_joint_adjustment_can_take_the_right_images_through_rig_cameras(
 
     monkeypatch.setattr(mv, "JOINT_RIGHT_IMAGES", True)
     seen: list[int] = []
-    original = mv.joint_adjustment
+    original = joint.joint_adjustment
 
     def spy(*args: object, **kwargs: object) -> object:
         inputs = args[4]
-        assert isinstance(inputs, mv.JointInputs)
+        assert isinstance(inputs, joint.JointInputs)
         seen.append(sum(s is not None for s in inputs.stereo))
         return original(*args, **kwargs)  # type: ignore[arg-type]
 

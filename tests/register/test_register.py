@@ -481,12 +481,8 @@ def test_a_symmetric_twin_far_from_the_expected_turn_is_not_taken() -> None:
 
 
 def test_a_joint_adjustment_takes_the_model_edges_fitted_to_the_images() -> None:
-    from aida_kb.interpret.multiview import (
-        JointInputs,
-        consistent_edges,
-        fitted_edges,
-        joint_adjustment,
-    )
+    from aida_kb.interpret.imagefit import consistent_edges, fitted_edges
+    from aida_kb.interpret.joint import JointInputs, joint_adjustment
     from aida_kb.register import RegionMeasurements
     from aida_kb.register.evidence import ViewMeasurements
 
