@@ -26,20 +26,25 @@ the house floated 8.6 m below it (held-out 61713, nothing found).
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Collection, Sequence
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import ConvexHull, QhullError
 
 from aida_kb.interpret.observe import RegionView
 
 __all__ = [
+    "BENEATH_MARGIN",
     "GROUND_LEVEL_DEG",
     "GROUND_MIN_SHARE",
+    "OUTLINE_INLIER_SHARE",
+    "EvidenceGround",
     "GroundFit",
     "elevation",
     "ground_plane",
     "ground_region",
+    "lowest_beneath",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -53,6 +58,16 @@ GROUND_LEVEL_DEG = 10.0
 # patch of a few hundred pixels (a window sill, a car's roof far away) is no ground, while
 # the ground in front of a building fills a tenth of the image or more
 GROUND_MIN_SHARE = 0.05
+# a point is seen beneath a part when it lies this fraction of the part's footprint's size
+# (its diagonal) inside the footprint: the outlines of regions on the walls, back-projected
+# onto planes fitted to their edges, and a slight leak below a wall's foot lie on the
+# footprint's border, not under it (`plausibility.INSIDE_MARGIN`, the same reason); a tree's
+# trunk stands under its crown's middle, half the crown's width inside
+BENEATH_MARGIN = 0.05
+# a region's outline lies on its fitted plane only where the fit kept at least this share of
+# its pixels (`verdict.PLANE_INLIER_SHARE`: below it the plane tells neither depth nor
+# orientation, and an outline back-projected onto it lands metres off)
+OUTLINE_INLIER_SHARE = 0.05
 
 
 def ground_region(
@@ -106,3 +121,100 @@ def elevation(points: FloatArray, up: FloatArray, ground: GroundFit) -> float:
     normal, offset = ground
     heights = (points @ normal - offset) / float(normal @ up)
     return float(heights.min())
+
+
+def lowest_beneath(part: FloatArray, up: FloatArray, points: FloatArray) -> float | None:
+    """The height along `up` of the lowest of `points` seen beneath `part`: inside its
+    footprint (the convex hull of its corners projected along `up`, by `BENEATH_MARGIN`) and
+    lower than its lowest corner; None if there is none.
+
+    Something the views see beneath a part stands on the ground, so the ground there lies at
+    least that low: a house's floor rests on the ground, and no surface is seen under it, but
+    a tree's box-shaped crown shows its trunk beneath it (dev clutter 64240, the views showing
+    no ground region: the camera 0.5 m high sees the ground at too grazing an angle).
+
+    part : (K, 3) corners of the part's faces, metres, world frame; up : (3,) unit vector;
+    points : (N, 3) points on the surfaces seen (regions that are not the object's own).
+    """
+    if len(points) == 0 or len(part) < 3:
+        return None
+    helper = np.array([1.0, 0.0, 0.0]) if abs(float(up[0])) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(up, helper)
+    e1 /= float(np.linalg.norm(e1))
+    e2 = np.cross(up, e1)
+    flat = np.stack([part @ e1, part @ e2], axis=1)
+    try:
+        hull = flat[ConvexHull(flat).vertices]  # 2-D: counter-clockwise
+    except QhullError:  # the part is seen edge-on from above: it has no footprint
+        return None
+    low = float((part @ up).min())
+    heights = points @ up
+    candidates = heights < low
+    if not candidates.any():
+        return None
+    xy = np.stack([points[candidates] @ e1, points[candidates] @ e2], axis=1)
+    a, b = hull, np.roll(hull, -1, axis=0)  # counter-clockwise: inside is left of every edge
+    edge = b - a
+    length = np.maximum(np.linalg.norm(edge, axis=1), 1e-12)
+    left = (edge[None, :, 0] * (xy[:, None, 1] - a[None, :, 1])) - (
+        edge[None, :, 1] * (xy[:, None, 0] - a[None, :, 0])
+    )  # (N, E): each point's distance inside each edge, times the edge's length
+    size = float(np.linalg.norm(np.ptp(hull, axis=0)))
+    inside = np.all(left / length[None, :] >= BENEATH_MARGIN * size, axis=1)
+    if not inside.any():
+        return None
+    return float(heights[candidates][inside].min())
+
+
+class EvidenceGround:
+    """The ground one view's evidence shows under a part: its ground region's plane
+    (`ground_plane`) and the surfaces it sees beneath the part (`lowest_beneath`).
+
+    regions : the view's regions (world frame); points_on : region id -> (N, 3) points on its
+    plane (centroid, outline), metres, world frame; own : ids of the object's own regions
+    (no ground, and not beneath it); up : (3,) unit vector; beneath_only : the ground region's
+    plane left out (the verdict's: a refined model's part moved along a grazing ray sinks or
+    lifts it against that plane, and it is still the object, wrongly placed; a surface seen
+    beneath it shows the object itself hanging in the air). The surfaces' points are read
+    once, when first needed.
+    """
+
+    def __init__(
+        self,
+        regions: Sequence[RegionView],
+        points_on: Callable[[str], FloatArray],
+        own: Collection[str],
+        up: FloatArray,
+        *,
+        beneath_only: bool = False,
+    ) -> None:
+        self.up = up
+        self.plane = None if beneath_only else ground_plane(regions, up, own)
+        self._others = [
+            r
+            for r in regions
+            if r.id not in own
+            and (r.inliers is None or r.inliers >= OUTLINE_INLIER_SHARE * r.area_px)
+        ]
+        self._points_on = points_on
+        self._seen: FloatArray | None = None
+
+    def seen(self) -> FloatArray:
+        """(N, 3) points of the surfaces the view sees that are not the object's own."""
+        if self._seen is None:
+            pts = [self._points_on(r.id) for r in self._others]
+            self._seen = np.concatenate(pts) if pts else np.zeros((0, 3))
+        return self._seen
+
+    def elevation(self, corners: FloatArray) -> float | None:
+        """How far the lowest of a part's `corners` (K, 3; metres, world frame) lies above the
+        ground the evidence shows, metres: above the ground's plane under it (`elevation`) or
+        above the lowest surface seen beneath it (`lowest_beneath`: the ground lies at least
+        that low there), whichever of the two lies lower; None where it shows neither."""
+        values = []
+        if self.plane is not None:
+            values.append(elevation(corners, self.up, self.plane))
+        beneath = lowest_beneath(corners, self.up, self.seen())
+        if beneath is not None:
+            values.append(float((corners @ self.up).min()) - beneath)
+        return max(values) if values else None

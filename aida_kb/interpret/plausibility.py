@@ -24,7 +24,7 @@ import numpy.typing as npt
 from aida_kb.diagnostics.core import Span
 from aida_kb.interpret.closure import ClosingFace, close, inside_face
 from aida_kb.interpret.context import Context
-from aida_kb.interpret.ground import GROUND_LEVEL_DEG, elevation, ground_plane
+from aida_kb.interpret.ground import GROUND_LEVEL_DEG, EvidenceGround
 from aida_kb.interpret.hypotheses import Frame
 from aida_kb.interpret.knowledge import Structure, join
 from aida_kb.interpret.observe import RegionView
@@ -233,7 +233,7 @@ ON_TOP_MARGIN = 0.1
 
 
 def on_object(
-    ctx: Context,
+    regions: Sequence[RegionView],
     binding: Mapping[str, str],
     planes: Planes,
     polygons: Mapping[str, FloatArray],
@@ -253,7 +253,7 @@ def on_object(
         return mine
     corners = np.concatenate(list(polygons.values()))
     size = float(np.max(np.ptp(corners, axis=0)))
-    for region in ctx.regions:
+    for region in regions:
         if region.id in mine or abs(float(region.normal @ up)) < COS_LEVEL:
             continue
         for role in tops:
@@ -295,10 +295,12 @@ def attribute_violation(
     if whole is not None:
         fixed, fixed_faces, bound = whole
         mine = {**dict.fromkeys(bound, ""), **(binding or {})}
-        own = on_object(ctx, mine, {**fixed, **planes}, {**fixed_faces, **polygons}, frame.up)
+        own = on_object(
+            ctx.regions, mine, {**fixed, **planes}, {**fixed_faces, **polygons}, frame.up
+        )
     else:
-        own = on_object(ctx, binding or {}, planes, polygons, frame.up)
-    ground = ground_plane(ctx.regions, frame.up, own)
+        own = on_object(ctx.regions, binding or {}, planes, polygons, frame.up)
+    ground = EvidenceGround(ctx.regions, ctx.evidence.points_on, own, frame.up)
     for node in structure.nodes:
         for attribute in ctx.knowledge.concept(node.concept).attributes.values():
             if attribute.measure not in LENGTH_MEASURES or not attribute.measure_args:
@@ -307,12 +309,13 @@ def attribute_violation(
                 continue
             paths = [join(node.role, a) for a in attribute.measure_args]
             if attribute.measure == "elevation":
-                if ground is None:
-                    continue  # the view shows no ground: the measure cannot be taken
                 faces = _faces_under(polygons, paths[0])
                 if not faces:
                     continue
-                value = elevation(np.concatenate(faces), frame.up, ground)
+                taken = ground.elevation(np.concatenate(faces))
+                if taken is None:
+                    continue  # the view shows no ground: the measure cannot be taken
+                value = taken
             elif attribute.measure == "distance":
                 a, b = paths[0], paths[-1]
                 if a not in planes or b not in planes:

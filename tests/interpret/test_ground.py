@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -15,7 +16,15 @@ import numpy as np
 import pytest
 
 from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, object_reference_weight
-from aida_kb.interpret.ground import GROUND_MIN_SHARE, elevation, ground_plane, ground_region
+from aida_kb.interpret.ground import (
+    BENEATH_MARGIN,
+    GROUND_MIN_SHARE,
+    EvidenceGround,
+    elevation,
+    ground_plane,
+    ground_region,
+    lowest_beneath,
+)
 from aida_kb.interpret.observe import RegionView
 from aida_kb.interpret.run import interpret
 from aida_kb.kb import compile_text
@@ -167,15 +176,47 @@ def _box_faces() -> tuple[dict[str, tuple[np.ndarray, float]], dict[str, np.ndar
     return planes, polygons
 
 
+def _centroid_of(regions: tuple[RegionView, ...]) -> Callable[[str], np.ndarray]:
+    """`EvidenceView.points_on` of regions known by their centroids alone."""
+    by_id = {r.id: r.centroid_m[None, :] for r in regions}
+    return lambda rid: by_id[rid]
+
+
+def test_what_is_seen_beneath_a_part_is_no_lower_than_the_ground() -> None:
+    """A tree's box-shaped crown on its trunk (dev clutter 64240, 65033: the camera 0.4-0.5 m
+    above the ground sees no ground region): the trunk, seen beneath the crown, stands on the
+    ground, so the ground lies at least as low as the trunk's foot. A point on the footprint's
+    border (a wall's outline leaking below its foot) or beside it is not beneath."""
+    floor = np.array([[0, -2, 20], [4, -2, 20], [4, -2, 24], [0, -2, 24]], dtype=np.float64)
+    trunk = np.array([[2.0, -1.0, 22.0], [2.0, 0.5, 22.0]])  # from 1 m to 2.5 m below it
+    assert lowest_beneath(floor, UP, trunk) == pytest.approx(-0.5)
+    border = np.array(
+        [[4.0, 1.0, 22.0], [2.0, 1.0, 20.0 + 0.9 * BENEATH_MARGIN * math.hypot(4, 4)]]
+    )
+    beside = np.array([[6.0, 1.0, 22.0]])
+    above = np.array([[2.0, -3.0, 22.0]])
+    assert lowest_beneath(floor, UP, np.vstack([border, beside, above])) is None
+    assert lowest_beneath(floor, UP, np.zeros((0, 3))) is None
+    # the elevation: above the lowest surface seen beneath, or above the ground's plane,
+    # whichever of the two lies lower; neither seen: not taken
+    trunk_region = _region("00/5", [0, 0, -1], [2.0, 0.5, 22.0], 3000)
+    plain = _region("00/9", [0, -1, 0], [0, 0.4, 15.0], 40000)  # the ground 0.4 m down
+    for regions, expected in (([trunk_region], 2.5), ([trunk_region, plain], 2.5)):
+        seen = EvidenceGround(regions, _centroid_of(tuple(regions)), (), UP)
+        assert seen.elevation(floor) == pytest.approx(expected)
+    level = _region("00/9", [0, -1, 0], [0, 3.0, 15.0], 40000)  # the ground 3 m down
+    assert EvidenceGround(
+        [trunk_region, level], _centroid_of((trunk_region, level)), (), UP
+    ).elevation(floor) == pytest.approx(5.0)
+    nothing = EvidenceGround([trunk_region], _centroid_of((trunk_region,)), {"00/5"}, UP)
+    assert nothing.elevation(floor) is None  # the trunk the object's own: no ground seen
+
+
 def test_the_objects_own_top_is_no_ground() -> None:
     """The ground unlabelled or absent, a flat roof's region is the lowest level surface the
     view shows: measured from it, the house's floor lies 8 m below the ground (held-out 61713,
     -8.61 m, every hypothesis rejected). A hypothesis's own regions are no ground: bound to
     its parts, or lying on its upward face; the ground under its floor still is."""
-    from types import SimpleNamespace
-    from typing import cast
-
-    from aida_kb.interpret.context import Context
     from aida_kb.interpret.plausibility import ON_TOP_MARGIN, on_object
 
     planes, polygons = _box_faces()
@@ -183,21 +224,22 @@ def test_the_objects_own_top_is_no_ground() -> None:
     # the roof's sparse stereo fits its plane 4 deg and 0.15 m off (61713: 221 points)
     roof = _region("00/6", [0, -1, -0.07], [0.5, -6.15, 23.0], 9000)
     ground = _region("00/9", [0, -1, 0], [0, 2.1, 15.0], 40000)
-    ctx = cast(Context, SimpleNamespace(regions=(front, roof, ground)))
+    regions = (front, roof, ground)
     assert ON_TOP_MARGIN * 10.0 > 0.15  # the box's size is 10 m
     # unbound, the roof's region lies on the top face: the object's
-    own = on_object(ctx, {"00/2": "body.front"}, planes, polygons, UP)
+    own = on_object(regions, {"00/2": "body.front"}, planes, polygons, UP)
     assert own == {"00/2", "00/6"}
     assert ground_region([front, roof], UP) is roof  # the roof taken for the ground
     assert ground_region([front, roof], UP, own) is None  # no ground: not measured
     # the ground below the floor is not the object's: it stays the ground
     assert ground_region([front, roof, ground], UP, own) is ground
-    bound = on_object(ctx, {"00/2": "body.front", "00/6": "body.roof.top"}, planes, polygons, UP)
+    bound = on_object(
+        regions, {"00/2": "body.front", "00/6": "body.roof.top"}, planes, polygons, UP
+    )
     assert bound == {"00/2", "00/6"}
     # a level region beside the box, at its top's height, is not on its face
     beside = _region("00/7", [0, -1, 0], [14.0, -6.0, 23.0], 9000)
-    ctx2 = cast(Context, SimpleNamespace(regions=(front, beside)))
-    assert on_object(ctx2, {"00/2": "body.front"}, planes, polygons, UP) == {"00/2"}
+    assert on_object((front, beside), {"00/2": "body.front"}, planes, polygons, UP) == {"00/2"}
 
 
 def test_an_oriel_stands_clear_of_the_ground(buildings_kb: Any) -> None:
@@ -225,11 +267,12 @@ def test_an_oriel_stands_clear_of_the_ground(buildings_kb: Any) -> None:
         ]
         ground = _region("00/9", [0, -1, 0], [0, 2.0, 15.0], 40000)
         front = _region("00/4", [0, 0, -1], [0, bottom_y - 2.0, 18.8], 6000)
+        seen = (ground if ground_seen else flat_top, front)
         ctx = cast(
             Context,
             SimpleNamespace(
-                regions=(ground if ground_seen else flat_top, front),
-                evidence=SimpleNamespace(metric=True),
+                regions=seen,
+                evidence=SimpleNamespace(metric=True, points_on=_centroid_of(seen)),
                 knowledge=Knowledge.from_kb(kb),
             ),
         )

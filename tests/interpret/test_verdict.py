@@ -496,6 +496,29 @@ def test_a_view_left_without_a_camera_is_named(
         "(no other view confirms the object)",
     )
     assert verdict.views_not_explained == ("01",)
+    # view 01 registered where the model covers none of its regions (the camera turned 40 deg
+    # about its vertical: the house leaves the image): nothing there confirms the object
+    # either (dev clutter 65033: a tree's crown, doubtful before)
+    turn = np.radians(40.0)
+    c, s = np.cos(turn), np.sin(turn)
+    R0 = np.asarray(interp.model.cameras[0].R)
+    t0 = np.asarray(interp.model.cameras[0].t)
+    yaw = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+    away = interp.model.cameras[0].model_copy(
+        update={"view": "01", "R": (yaw @ R0).tolist(), "t": (yaw @ t0).tolist()}
+    )
+    model = interp.model.model_copy(update={"cameras": [*interp.model.cameras, away]})
+    astray = interp.model_copy(update={"model": model})
+    (check,) = [c for c in judge(buildings_kb, astray, both).checks if c.view == "01"]
+    assert check.inside_weight == 0.0
+    verdict = judge(buildings_kb, astray, both, all_views=True)
+    assert verdict.verdict == NOTHING
+    assert verdict.reasons == (
+        "seen in view 00 alone: no other view (01) confirms the object (at view 01's camera "
+        "the model covers none of its regions or shows none of its edges)",
+    )
+    # at view 00's own camera view 01 (its copy) confirms the object: a doubt, not nothing
+    assert judge(buildings_kb, registered, three, all_views=True).verdict == DOUBTFUL
 
 
 def test_outlines_crossing_a_hidden_face_do_not_measure_it() -> None:
@@ -731,3 +754,39 @@ def test_a_registered_pose_the_evidence_did_not_decide_is_doubted() -> None:
     # model.json keeps it: a rejudged result doubts the view as the reconstruction did
     again = ModelCamera.model_validate_json(twin.model_dump_json())
     assert again.undecided_turns_deg == (-80.0, 99.9)
+
+
+def test_a_surface_seen_beneath_the_floor_shows_the_object_floating(
+    buildings_kb: KnowledgeBase, interpreted: Get, unbiased: None
+) -> None:
+    """A house stands on the ground (kb/buildings.kb: its plinth, the floor's elevation,
+    within 1 m): a surface the reference view sees beneath its floor (a tree's trunk under
+    its box-shaped crown, dev clutter 64240: the refined model's floor 2.3 m above the trunk's
+    foot, no ground region in view) shows the object hanging in the air — not the goal,
+    nothing found. The right house has nothing beneath it."""
+    interp = interpreted("house_correct.json")
+    assert interp.model is not None
+    evidence = _evidence("house_correct.json")
+    assert judge(buildings_kb, interp, evidence).verdict == VERIFIED
+    floor = next(p for p in interp.model.parts if p.role == "body.floor")
+    corners = np.asarray(floor.polygon)
+    down = -np.asarray(floor.normal)  # the floor faces down: up is against its normal
+    view = evidence.views[0]
+    wall = max(view.regions, key=lambda r: r.w_c)
+    under = corners.mean(axis=0) - 2.5 * down  # 2.5 m below the floor's middle
+    n = np.asarray(wall.n_init)
+    trunk = wall.model_copy(
+        update={
+            "id": max(r.id for r in view.regions) + 1,
+            "c_init": tuple(under),
+            "d_init": float(n @ under),
+            "w_c": 0.01 * wall.w_c,
+        }
+    )
+    seen = evidence.model_copy(
+        update={"views": [view.model_copy(update={"regions": [*view.regions, trunk]})]}
+    )
+    verdict = judge(buildings_kb, interp, seen)
+    assert verdict.verdict == NOTHING
+    (reason,) = verdict.reasons
+    assert reason.startswith("body: plinth = 2.5 m outside [-1, 1]")

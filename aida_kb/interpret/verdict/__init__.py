@@ -87,9 +87,13 @@ is **verified** only when it also
 Otherwise the interpretation is **doubtful**, and the reasons say which check failed and
 where. An interpretation that found no object is **nothing**; so is one whose sizes (the
 attributes in metres) lie outside the knowledge's ranges: what was found is not the goal (a
-0.3 m box is no house), and the reasons say which sizes; and so is a reconstruction that
-registered none of the scene's other views (`unconfirmed`: no other view confirms the object;
-a tree's box-shaped crown taken for a small house in one view). The summary line says the
+0.3 m box is no house), and the reasons say which sizes — among them an ``elevation`` above
+the surfaces the reference view sees beneath the part (`attributes.evidence_ground`: a tree's
+crown over its trunk floats; the ground region's plane is the search's, not the verdict's);
+and so is a reconstruction that no other view of the scene confirms (`unconfirmed`: it
+registered none of them, or the model, at the cameras it gave them, covers none of their
+regions or shows none of their edges; a tree's box-shaped crown taken for a small house in
+one view). The summary line says the
 reasons once for several parts (`summary_reasons`). Everything is read from the
 compiled knowledge base and the files: no concept or attribute of a particular .kb is named.
 

@@ -4,9 +4,12 @@ hold, measured on the model."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
+from aida_kb.interpret.ground import EvidenceGround
+from aida_kb.interpret.observe import view_of
 from aida_kb.interpret.result import Instance, Interpretation
 from aida_kb.interpret.verdict.geometry import FloatArray
 from aida_kb.interpret.verdict.tolerances import (
@@ -14,6 +17,7 @@ from aida_kb.interpret.verdict.tolerances import (
     RANGE_SLACK_REL,
     SIZE_UNIT,
 )
+from aida_kb.io.evidence import Evidence
 from aida_kb.io.model import ReconstructedModel
 from aida_kb.kb.model import AttributeModel, KnowledgeBase, MeasureKind
 
@@ -70,21 +74,64 @@ def _forward(
         role = role.rsplit(".", 1)[0] if "." in role else ""
 
 
+Ground = Callable[[FloatArray], float | None]
+"""A part's corners (K, 3), metres, world frame -> their elevation above the ground the
+evidence shows, metres (None: it shows none; `interpret.ground.EvidenceGround.elevation`)."""
+
+
+def evidence_ground(
+    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel, evidence: Evidence
+) -> Ground | None:
+    """The ground the reference view (the first: the world frame) shows under the model's
+    parts: the surfaces it sees beneath a part (`interpret.ground.lowest_beneath`), the
+    object's own regions (bound to its parts, or level on a face of it that faces up) left
+    out. The search measures each hypothesis against the ground region's plane as well
+    (`interpret.plausibility.attribute_violation`); the refined model is not measured so again
+    (`interpret.ground.EvidenceGround`, beneath_only). None without an up direction (no part
+    the knowledge orients up- or downward) or when no attribute of the model's concepts is an
+    elevation."""
+    from aida_kb.interpret.plausibility import on_object  # the search's modules import this one
+
+    measures = (
+        a.measure.kind
+        for inst in interp.instances
+        if (concept := kb.concepts.get(inst.concept)) is not None
+        for a in concept.attributes.values()
+        if a.measure is not None
+    )
+    if MeasureKind.ELEVATION not in measures:
+        return None  # nothing to measure: the evidence is not read
+    up = _up(kb, interp, model)
+    if up is None:
+        return None
+    view = view_of(evidence)
+    reference = evidence.views[0].id
+    regions = [r for r in view.regions.values() if r.view == reference]
+    binding = {b: inst.role for inst in interp.instances for b in inst.bindings if "/" in b}
+    planes = {p.role: (np.asarray(p.normal, dtype=np.float64), p.offset_m) for p in model.parts}
+    polygons = {p.role: np.asarray(p.polygon, dtype=np.float64) for p in model.parts}
+    own = on_object(regions, binding, planes, polygons, up)
+    return EvidenceGround(regions, view.points_on, own, up, beneath_only=True).elevation
+
+
 def _measure(
     kind: MeasureKind,
     args: list[str],
     model: ReconstructedModel,
     up: FloatArray,
     forward: FloatArray | None,
+    ground: Ground | None = None,
 ) -> float | None:
     """The measure's value (radians or metres) on the model, None when it cannot be taken."""
     sets = [_parts_under(model, a) for a in args]
     if any(not s for s in sets):
         return None
     if kind is MeasureKind.ELEVATION:
-        # the ground is read from the reference view's regions, which the search has (its
-        # attribute_violation rejects a hypothesis that floats); the model alone has none
-        return None
+        # the ground is read from the reference view's evidence (`evidence_ground`); the
+        # model alone has none
+        if ground is None:
+            return None
+        return ground(np.vstack([poly for _, _, poly in sets[0]]))
     if kind in (MeasureKind.HEIGHT, MeasureKind.WIDTH, MeasureKind.DEPTH):
         if kind is MeasureKind.HEIGHT:
             axis = up
@@ -137,12 +184,16 @@ def check_orientations(
 
 
 def measured_attributes(
-    kb: KnowledgeBase, interp: Interpretation, model: ReconstructedModel
+    kb: KnowledgeBase,
+    interp: Interpretation,
+    model: ReconstructedModel,
+    ground: Ground | None = None,
 ) -> list[tuple[Instance, AttributeModel, float]]:
     """Every measured attribute (`is slope(self)`, ...) of every instance, measured on the
     model: (instance, attribute, value in SI: radians or metres), in the order of the
     instances and of the concept's attributes. Attributes whose measure cannot be taken
-    (no up direction, a part missing from the model) are left out."""
+    (no up direction, a part missing from the model, an elevation without `ground`:
+    `evidence_ground`) are left out."""
     up = _up(kb, interp, model)
     if up is None:
         return []
@@ -156,7 +207,8 @@ def measured_attributes(
             if m is None:
                 continue
             fwd = _forward(kb, interp, model, inst.role, up)
-            value = _measure(m.kind, [_join(inst.role, a) for a in m.args], model, up, fwd)
+            args = [_join(inst.role, a) for a in m.args]
+            value = _measure(m.kind, args, model, up, fwd, ground)
             if value is not None:
                 out.append((inst, attr, value))
     return out
@@ -169,12 +221,14 @@ def check_attributes(
     *,
     unit: str = "",
     metric: bool = True,
+    ground: Ground | None = None,
 ) -> list[str]:
     """Check (d): every measured attribute of every instance inside its range (reasons).
     unit : only the attributes of this unit ('m': the sizes); '' all. metric : False when the
-    model's lengths are in unknown units (a scene up to scale): ranges in metres are skipped."""
+    model's lengths are in unknown units (a scene up to scale): ranges in metres are skipped.
+    ground : the evidence's ground, for ``elevation`` (`evidence_ground`; None: not taken)."""
     reasons = []
-    for inst, attr, value in measured_attributes(kb, interp, model):
+    for inst, attr, value in measured_attributes(kb, interp, model, ground):
         if unit and attr.unit != unit:
             continue
         if not metric and attr.unit == SIZE_UNIT:

@@ -9,13 +9,17 @@ import numpy.typing as npt
 
 from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.uncertainty import Uncertainty, adjustment_uncertainty
-from aida_kb.interpret.verdict.attributes import check_attributes, check_orientations
+from aida_kb.interpret.verdict.attributes import (
+    check_attributes,
+    check_orientations,
+    evidence_ground,
+)
 from aida_kb.interpret.verdict.cameras import camera_doubts
 from aida_kb.interpret.verdict.edges import edge_cover
 from aida_kb.interpret.verdict.filled import unfilled
 from aida_kb.interpret.verdict.measured import unmeasured_parts
 from aida_kb.interpret.verdict.normals import loose_normals
-from aida_kb.interpret.verdict.outcome import DOUBTFUL, NOTHING, VERIFIED, Verdict
+from aida_kb.interpret.verdict.outcome import DOUBTFUL, NOTHING, VERIFIED, Verdict, ViewCheck
 from aida_kb.interpret.verdict.tolerances import (
     CONTRADICTION_MAX,
     EDGE_COVER_MIN,
@@ -28,26 +32,59 @@ from aida_kb.interpret.verdict.tolerances import (
     STANDING_OUT_SHARE_MAX,
 )
 from aida_kb.interpret.verdict.views import adjoining, check_view, unexplained_near
-from aida_kb.io.evidence import Evidence
+from aida_kb.io.evidence import Evidence, ViewEvidence
 from aida_kb.io.model import ModelPart, ReconstructedModel
 from aida_kb.kb.model import KnowledgeBase
 
 
-def unconfirmed(evidence: Evidence, model: ReconstructedModel) -> str | None:
+def confirms(check: ViewCheck | None, view: ViewEvidence) -> bool:
+    """True if `check` (a registered view at the camera the reconstruction gave it) finds the
+    model in the view's evidence: the model covers some of its regions and shows an edge (or
+    the view has no segments). A camera where it covers no region or shows no edge is
+    confirmed by nothing there (a registration 100 degrees off passes every other check for
+    want of evidence), and neither is the object. None (no region of the view has a plane):
+    its registration, by the view's edges, is all there is to go by."""
+    if check is None:
+        return True
+    return check.inside_weight > 0 and (check.edge_cover is not None or not view.lines)
+
+
+def unconfirmed(
+    evidence: Evidence, model: ReconstructedModel, checks: Sequence[ViewCheck] = ()
+) -> str | None:
     """The reason why no other view confirms the model, or None: the evidence has views
-    besides the one interpreted (the first) and the model has a camera for none of them
-    (the reconstruction registered none: the model's edges matched in no other image). An
-    object that stands there would be found from 20-45 degrees further round; development
-    scenes: 2 of 57 houses seen in several views (both doubtful for other reasons), and
-    every object-less scene accepted in one view."""
+    besides the one interpreted (the first) and none of them confirms it — the reconstruction
+    registered none (the model's edges matched in no other image), or the model, at the
+    cameras it gave them, covers none of their regions or shows none of their edges
+    (`confirms`; `checks`: the views' checks, by view id). An object that stands there would
+    be found from 20-45 degrees further round; development scenes: 2 of 57 houses seen in
+    several views (both doubtful for other reasons), and every object-less scene accepted in
+    one view. Dev clutter scene 65033: a tree's crown, view 01 not registered, view 02's camera
+    kept where the crown covers none of its regions (doubtful before, now nothing)."""
     first = evidence.views[0].id
-    others = [v.id for v in evidence.views[1:]]
+    others = list(evidence.views[1:])
     cameras = {c.view for c in model.cameras}
-    if not others or first not in cameras or cameras & set(others):
+    if not others or first not in cameras:
         return None
+    by_view = {c.view: c for c in checks}
+    registered = [v for v in others if v.id in cameras]
+    if any(confirms(by_view.get(v.id), v) for v in registered):
+        return None
+    names = ", ".join(v.id for v in others)
+    if not registered:
+        return (
+            f"seen in view {first} alone: none of the other views ({names}) could be "
+            "registered to the model (no other view confirms the object)"
+        )
+    why = [
+        f"at view {v.id}'s camera the model covers none of its regions or shows none of its edges"
+        if v.id in cameras
+        else f"view {v.id} could not be registered"
+        for v in others
+    ]
     return (
-        f"seen in view {first} alone: none of the other views ({', '.join(others)}) could "
-        "be registered to the model (no other view confirms the object)"
+        f"seen in view {first} alone: no other view ({names}) confirms the object "
+        f"({'; '.join(why)})"
     )
 
 
@@ -183,14 +220,15 @@ def judge(
     # an object whose sizes the knowledge's ranges exclude is not the goal at all (a 0.3 m
     # box, a chessboard on a stand): nothing is found, and the sizes say why
     metric = evidence.units == "m"
-    sizes = check_attributes(kb, interp, model, unit=SIZE_UNIT, metric=metric)
+    ground = evidence_ground(kb, interp, model, evidence)
+    sizes = check_attributes(kb, interp, model, unit=SIZE_UNIT, metric=metric, ground=ground)
     if sizes:
         return Verdict(NOTHING, tuple(sizes), tuple(not_explained), tuple(checks), uncertainty)
     # an object no other view confirms: the scene has other views, and none of them could be
-    # registered to the model (its edges are nowhere in those images) — what one view took
-    # for the object is not there as the model has it (a tree's box-shaped crown taken for a
-    # small house)
-    alone = unconfirmed(evidence, model) if all_views else None
+    # registered to the model (its edges are nowhere in those images), or the model covers
+    # none of their regions where it put their cameras — what one view took for the object is
+    # not there as the model has it (a tree's box-shaped crown taken for a small house)
+    alone = unconfirmed(evidence, model, checks) if all_views else None
     if alone is not None:
         return Verdict(NOTHING, (alone,), tuple(not_explained), tuple(checks), uncertainty)
     # (f) no large surface joined to the model that the model does not explain
@@ -216,7 +254,7 @@ def judge(
     # (i) every part a region measures has its normal fixed to the accuracy asked of it
     reasons += loose_normals(uncertainty)
     # (d) the knowledge's measured attributes
-    reasons += check_attributes(kb, interp, model, metric=metric)
+    reasons += check_attributes(kb, interp, model, metric=metric, ground=ground)
     reasons += check_orientations(kb, interp, model)
     reasons += undecided(interp)
     verdict = DOUBTFUL if reasons else VERIFIED
