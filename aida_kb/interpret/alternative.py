@@ -31,7 +31,7 @@ from aida_kb.interpret.plausibility import (
     outside,
     unseen,
 )
-from aida_kb.interpret.support import EdgeSupport, edge_support, overflow
+from aida_kb.interpret.support import EdgeSupport, edge_support, overflow, uncovered
 from aida_kb.interpret.trace import Trace
 from aida_kb.interpret.unseen import Planes, UnseenError
 from aida_kb.interpret.verdict.tolerances import ORIENTATION_TOLERANCE_DEG
@@ -61,6 +61,9 @@ class Level:
     # inserted parts of the main body facing the camera, shown by the segments along their
     # edges though no region fits them (`unseen_by_edges`)
     visible: tuple[str, ...] = ()
+    # the share of the reference view's region pixels its bound faces cover where no region
+    # lies (`support.uncovered`)
+    uncovered: float = 0.0
 
 
 # a part of the main body inserted facing the camera (no region fits it: a dark, low-texture
@@ -254,6 +257,7 @@ def verify_alternative(
             edges,
             overflow(ctx, binding, polygons),
             adjusted.visible,
+            0.0 if smaller else uncovered(ctx, binding, polygons),
         )
         if best is None or level.misfit < best.misfit:
             best = level

@@ -538,10 +538,13 @@ def body_evidence_cost(ctx: Context, level: Level) -> float:
     """What a verified body costs beyond its misfit: `INSERTED_PART_PENALTY` for each part
     it guesses (`guessed`), and the evidence weight of its bound regions that lies outside
     their faces (`support.overflow`; a gable end wall's triangle above a flat roof's eave) at
-    the rate of unexplained evidence (`plausibility.UNEXPLAINED_PENALTY`)."""
+    the rate of unexplained evidence (`plausibility.UNEXPLAINED_PENALTY`), as are the region
+    pixels its bound faces cover where no region lies (`support.uncovered`: a shed's side
+    wall rising past a gable wall's rake into the sky)."""
     return (
         INSERTED_PART_PENALTY * guessed(level)
         + UNEXPLAINED_PENALTY * level.overflow / ctx.total_weight
+        + UNEXPLAINED_PENALTY * level.uncovered
     )
 
 

@@ -13,7 +13,13 @@ from aida_kb.interpret.generate import WEAKER_PENALTY
 from aida_kb.interpret.interpreter import TIE_MARGIN, Interpreter
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
-from aida_kb.interpret.support import OVERFLOW_FREE, OVERFLOW_MARGIN_PX, overflow
+from aida_kb.interpret.support import (
+    OVERFLOW_FREE,
+    OVERFLOW_MARGIN_PX,
+    UNCOVERED_FREE,
+    overflow,
+    uncovered,
+)
 from aida_kb.io.evidence import read_evidence
 
 from .conftest import FIXTURES  # type: ignore[import-not-found]
@@ -158,3 +164,64 @@ def test_a_region_leaking_to_the_image_edge_is_not_charged_for_it(dark_roof: Int
     short = charged(12.0)
     assert short > 0.0  # the strip is a share of the region beyond OVERFLOW_FREE
     assert charged(0.0) == 0.0
+
+
+def test_a_face_over_no_region_is_evidence_it_predicts_and_the_image_does_not_show(
+    dark_roof: Interpreter,
+) -> None:
+    """A bound face whose projection no region covers at its depth or before it (a shed's
+    side wall rising past a gable wall's rake into the sky, or over the ground far behind)
+    counts the pixels beyond UNCOVERED_FREE of its projection, as a share of the view's
+    region pixels. Covered by a region at its depth it counts nothing."""
+    state = dark_roof.state  # type: ignore[attr-defined]
+    body = state.levels[0]
+    ctx = dark_roof.context
+    rid, other = "00/1", "00/2"
+    role = body.binding[rid]
+    face = body.polygons[role]
+    face_px = ctx.evidence.camera.pinhole.project(face)
+    centre = face_px.mean(axis=0)
+    regions = ctx.evidence.regions
+    total = sum(r.area_px for r in regions.values() if r.view == "00")
+    corner = np.array([[1.0, 1.0], [3.0, 1.0], [3.0, 3.0]])  # out of the way
+    far = {r: (corner,) for r in regions if regions[r].view == "00"}
+
+    def charged(outlines: dict[str, Any], moved: dict[str, Any] | None = None) -> float:
+        view = replace(ctx.evidence, outlines=outlines, regions={**regions, **(moved or {})})
+        return uncovered(replace(ctx, evidence=view), {rid: role}, body.polygons)
+
+    assert charged({**far, rid: (face_px,)}) == 0.0
+    # where a region of the view has no outline, nothing is known of where it lies
+    assert charged({rid: (face_px[:3],)}) == 0.0
+    # a region covering the middle half of the face (by scale about its centre): the rest of
+    # the face, less a strip OVERFLOW_MARGIN_PX wide inside its outline, is bare
+    half = centre + np.sqrt(0.5) * (face_px - centre)
+    area = _area(face_px)
+    bare = area - OVERFLOW_MARGIN_PX * _perimeter(face_px) - _area(half)
+    assert bare > 2 * UNCOVERED_FREE * area
+    expected = (bare - UNCOVERED_FREE * area) / total
+    assert charged({**far, rid: (half,)}) == pytest.approx(expected, rel=0.1)
+    # the whole face shown by another, smaller region (drawn over the face's own): in the
+    # face's plane it covers, 50 m behind it (the ground beyond the house) it does not
+    normal, offset = body.outcome.planes[role]
+    normal = normal / np.linalg.norm(normal)
+    point = face.mean(axis=0)
+    assert float(normal @ point) == pytest.approx(offset, abs=1e-6)
+    ray = point - ctx.evidence.camera.centre_m
+    behind = point + 50.0 * ray / np.linalg.norm(ray)
+    whole = (area - OVERFLOW_MARGIN_PX * _perimeter(face_px) - UNCOVERED_FREE * area) / (
+        total - regions[other].area_px + 1.0
+    )
+    for where, share in ((point, 0.0), (behind, whole)):
+        moved = {
+            other: replace(
+                regions[other], normal=normal, centroid_m=where, inliers=None, area_px=1.0
+            )
+        }
+        got = charged({**far, rid: (half,), other: (face_px,)}, moved)
+        assert got == pytest.approx(share, rel=0.1, abs=1e-9)
+
+
+def _perimeter(polygon: Any) -> float:
+    """The perimeter of a polygon (N, 2), pixels."""
+    return float(np.linalg.norm(np.roll(polygon, -1, axis=0) - polygon, axis=1).sum())
