@@ -499,40 +499,52 @@ def edge_bias_information(
     out = np.zeros((n, n))
     if bias_px <= 0:
         return out
-    edges: dict[tuple[int, int], list[int]] = {}
+    # the edge factors (K) and their edges' part pairs; the factors' rows follow with numpy
+    factors, pairs = [], []
     for ci, c in enumerate(problem.constraints):
         whitened = c.sqrt_information is not None and len(c.sqrt_information) == 2
         if c.kind == "edge" and c.measurement and c.unit == "px" and whitened and len(c.parts) == 2:
-            a, b = c.parts
-            edges.setdefault((min(a, b), max(a, b)), []).append(ci)
+            factors.append(ci)
+            pairs.append((min(c.parts), max(c.parts)))
     order = np.argsort(constraint_of_row, kind="stable")
     starts = np.searchsorted(constraint_of_row[order], np.arange(len(problem.constraints) + 1))
-    for (a, b), cons in edges.items():
-        cols = np.r_[3 * a : 3 * a + 3, 3 * b : 3 * b + 3]
-        own = [(ci, order[starts[ci] : starts[ci + 1]]) for ci in cons]
-        own = [(ci, r) for ci, r in own if r.size == 2]
-        if not own:
-            continue
-        rows = np.concatenate([r for _, r in own])
-        # each factor's end points' displacements, pixels: its whitening undone
-        G = np.vstack(
-            [
-                np.linalg.solve(
-                    np.asarray(problem.constraints[ci].sqrt_information), J[np.ix_(r, cols)]
-                )
-                for ci, r in own
-            ]
-        )
-        w, V = np.linalg.eigh(G.T @ G)
-        keep = w > NULL_EIGEN_REL * max(float(w.max()), 0.0)
-        rank = int(keep.sum())
-        if rank == 0:
-            continue
-        L = V[:, keep] * (bias_px * math.sqrt(G.shape[0] / rank) / np.sqrt(w[keep]))
-        Jr = Jw[rows]
-        Uz = Jr[:, cols] @ L
-        M = Jr.T @ Uz
-        out += M @ np.linalg.solve(np.eye(rank) + Uz.T @ Uz, M.T)
+    ci_all = np.asarray(factors, dtype=np.intp)
+    two = (starts[ci_all + 1] - starts[ci_all]) == 2 if factors else np.zeros(0, dtype=bool)
+    if not two.any():
+        return out
+    ci_all = ci_all[two]
+    # the edges (P of them) and each factor's edge
+    edge_pairs, edge_of = np.unique(np.asarray(pairs)[two], axis=0, return_inverse=True)
+    edge_of = edge_of.reshape(-1)
+    P = len(edge_pairs)
+    cols = np.hstack([3 * edge_pairs[:, :1] + np.arange(3), 3 * edge_pairs[:, 1:] + np.arange(3)])
+    rows = order[starts[ci_all][:, None] + np.arange(2)]  # (K, 2) each factor's two rows
+    S = np.asarray([problem.constraints[ci].sqrt_information for ci in ci_all], dtype=np.float64)
+    fcols = cols[edge_of]  # (K, 6)
+    # each factor's end points' displacements by its edge's step, pixels: whitening undone
+    G = np.linalg.solve(S, J[rows[:, :, None], fcols[:, None, :]])  # (K, 2, 6)
+    GtG = np.zeros((P, 6, 6))
+    np.add.at(GtG, edge_of, np.einsum("kri,krj->kij", G, G))
+    w, V = np.linalg.eigh(GtG)  # (P, 6), (P, 6, 6)
+    keep = w > NULL_EIGEN_REL * np.maximum(w.max(axis=1, keepdims=True), 0.0)
+    rank = keep.sum(axis=1)
+    count = np.bincount(edge_of, minlength=P) * 2  # end points per edge
+    scale = (
+        bias_px * np.sqrt(count / np.maximum(rank, 1))[:, None] / np.sqrt(np.where(keep, w, 1.0))
+    )
+    L = V * np.where(keep, scale, 0.0)[:, None, :]  # (P, 6, 6); columns of dropped directions 0
+    row_edge = np.repeat(edge_of, 2)
+    flat_rows = rows.reshape(-1)
+    Jr = Jw[flat_rows]  # (R, n)
+    Uz = np.einsum(
+        "ri,rij->rj", Jr[np.arange(len(flat_rows))[:, None], cols[row_edge]], L[row_edge]
+    )
+    M = np.zeros((P, n, 6))
+    np.add.at(M, row_edge, Jr[:, :, None] * Uz[:, None, :])
+    UtU = np.zeros((P, 6, 6))
+    np.add.at(UtU, row_edge, Uz[:, :, None] * Uz[:, None, :])
+    X = np.linalg.solve(np.eye(6)[None] + UtU, M.transpose(0, 2, 1))  # (P, 6, n)
+    out += np.einsum("pna,pam->nm", M, X)
     return out
 
 
