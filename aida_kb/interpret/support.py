@@ -153,6 +153,15 @@ def edge_support(
     return EdgeSupport(parts, edges.length_px, np.minimum(seen, edges.length_px))
 
 
+def _raster(camera: CameraView) -> tuple[float, int, int, int]:
+    """The raster the outlines and faces are drawn in: its scale (`RASTER_SCALE`), width and
+    height, pixels, and `OVERFLOW_MARGIN_PX` in its pixels (at least one)."""
+    scale = RASTER_SCALE
+    width = max(1, math.ceil(camera.width_px * scale))
+    height = max(1, math.ceil(camera.height_px * scale))
+    return scale, width, height, max(1, round(OVERFLOW_MARGIN_PX * scale))
+
+
 def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArray]) -> float:
     """The evidence weight of the bound regions lying outside their faces' projections.
 
@@ -165,10 +174,7 @@ def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArr
     """
     camera = ctx.evidence.camera
     pinhole = camera.pinhole
-    scale = RASTER_SCALE
-    width = max(1, math.ceil(camera.width_px * scale))
-    height = max(1, math.ceil(camera.height_px * scale))
-    margin = max(1, round(OVERFLOW_MARGIN_PX * scale))
+    scale, width, height, margin = _raster(camera)
     kernel = np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)
     total = 0.0
     for rid, role in sorted(binding.items()):
@@ -239,10 +245,7 @@ def uncovered(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatAr
     """
     camera = ctx.evidence.camera
     pinhole = camera.pinhole
-    scale = RASTER_SCALE
-    width = max(1, math.ceil(camera.width_px * scale))
-    height = max(1, math.ceil(camera.height_px * scale))
-    margin = max(1, round(OVERFLOW_MARGIN_PX * scale))
+    scale, width, height, margin = _raster(camera)
     view = ctx.evidence.reference_view
     regions = sorted(
         (r for r in ctx.evidence.regions.values() if r.view == view), key=lambda r: -r.area_px
