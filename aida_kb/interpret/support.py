@@ -162,6 +162,15 @@ def _raster(camera: CameraView) -> tuple[float, int, int, int]:
     return scale, width, height, max(1, round(OVERFLOW_MARGIN_PX * scale))
 
 
+def _face_pixels(camera: CameraView, face: FloatArray) -> FloatArray | None:
+    """(K, 2) the pinhole pixels of a face's corners (`face` (K, 3), metres, world), clipped
+    to +-1e6; None unless every corner lies in front of the camera."""
+    depth = face @ camera.R_cam_world[2] + camera.t_cam_world[2]
+    if not np.all(depth > 0):
+        return None
+    return np.clip(camera.pinhole.project(face), -1e6, 1e6)
+
+
 def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArray]) -> float:
     """The evidence weight of the bound regions lying outside their faces' projections.
 
@@ -173,7 +182,6 @@ def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArr
     pieces outside the face that reach the image's edge do not count (`_reaching_edge`).
     """
     camera = ctx.evidence.camera
-    pinhole = camera.pinhole
     scale, width, height, margin = _raster(camera)
     kernel = np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)
     total = 0.0
@@ -183,10 +191,9 @@ def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArr
         region = ctx.evidence.regions.get(rid)
         if not outlines or face is None or len(face) < 3 or region is None:
             continue
-        depth = face @ camera.R_cam_world[2] + camera.t_cam_world[2]
-        if not np.all(depth > 0):
+        face_px = _face_pixels(camera, face)
+        if face_px is None:
             continue
-        face_px = np.clip(pinhole.project(face), -1e6, 1e6)
         mask = np.zeros((height, width), np.uint8)
         cv2.fillPoly(mask, [np.round(o * scale).astype(np.int32) for o in outlines], 1)
         area = int(mask.sum())
@@ -244,7 +251,6 @@ def uncovered(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatAr
     outline (evidence without contours: where that region lies is not known).
     """
     camera = ctx.evidence.camera
-    pinhole = camera.pinhole
     scale, width, height, margin = _raster(camera)
     view = ctx.evidence.reference_view
     regions = sorted(
@@ -272,10 +278,9 @@ def uncovered(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatAr
         face = polygons.get(role)
         if face is None or len(face) < 3:
             continue
-        depth = face @ camera.R_cam_world[2] + camera.t_cam_world[2]
-        if not np.all(depth > 0):
+        face_px = _face_pixels(camera, face)
+        if face_px is None:
             continue
-        face_px = np.clip(pinhole.project(face), -1e6, 1e6)
         mask = np.zeros((height, width), np.uint8)
         cv2.fillPoly(mask, [np.round(face_px * scale).astype(np.int32)], 1)
         area = int(mask.sum())
