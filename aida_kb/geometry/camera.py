@@ -22,6 +22,7 @@ raises `GeometryError` for them; filter with `PinholeCamera.in_front` first.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -283,8 +284,38 @@ class PinholeCamera:
 
     @property
     def pose(self) -> FloatArray:
-        """The 6 extrinsic parameters ``[rvec of R_cam_world (rad), C (m)]``, (6,)."""
-        return pose_from_Rt(self.R_cam_world, self.t_cam_world)
+        """The 6 extrinsic parameters ``[rvec of R_cam_world (rad), C (m)]``, (6,) (a copy)."""
+        return self._pose.copy()
+
+    @cached_property
+    def _pose(self) -> FloatArray:
+        # a camera is immutable: its pose and rotation derivative are worked out once (the
+        # adjustments evaluate each camera's projections several times per iteration)
+        pose = pose_from_Rt(self.R_cam_world, self.t_cam_world)
+        pose.setflags(write=False)
+        return pose
+
+    @cached_property
+    def _K_inv(self) -> FloatArray:
+        K_inv = np.asarray(np.linalg.inv(self.K), dtype=np.float64)
+        K_inv.setflags(write=False)
+        return K_inv
+
+    @cached_property
+    def rotation_jacobian(self) -> tuple[FloatArray, FloatArray]:
+        """The rotation of `pose` and its derivative by the rotation vector (read-only).
+
+        Returns
+        -------
+        R : (3, 3) array
+            ``rotation_from_rvec(pose[:3])``: ``R_cam_world`` to rounding.
+        dR_drvec : (3, 3, 3) array, per radian
+            ``dR_drvec[j, k, i] = d R[j, k] / d pose[i]`` (`rotation_from_rvec_jacobian`).
+        """
+        R, dR = rotation_from_rvec_jacobian(self._pose[:3])
+        R.setflags(write=False)
+        dR.setflags(write=False)
+        return R, dR
 
     @property
     def P(self) -> FloatArray:
@@ -372,7 +403,7 @@ class PinholeCamera:
         """
         Pw = _points(points_world)
         R = self.R_cam_world
-        _, dR = rotation_from_rvec_jacobian(rvec_from_rotation(R))
+        dR = self.rotation_jacobian[1]
         C = self.centre
         D = Pw - C  # (N, 3)
         Xc = D @ R.T
@@ -422,8 +453,8 @@ class PinholeCamera:
     def unproject_with_jacobians(self, pixels: npt.ArrayLike) -> RayJacobians:
         """`unproject` with the rays' derivatives w.r.t. the rotation vector and the pixels."""
         q = _pixels(pixels)
-        _, dR = rotation_from_rvec_jacobian(rvec_from_rotation(self.R_cam_world))
-        Kinv = np.linalg.inv(self.K)
+        dR = self.rotation_jacobian[1]
+        Kinv = self._K_inv
         m = np.hstack([q, np.ones((q.shape[0], 1))]) @ Kinv.T  # (N, 3), camera frame
         norm = np.linalg.norm(m, axis=1)
         mh = m / norm[:, None]

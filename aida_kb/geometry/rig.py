@@ -53,7 +53,7 @@ class Rig:
         """
         R, dR = rotation_from_rvec_jacobian(left_pose[:3])
         right = self.right_of(PinholeCamera(self.K, R, -R @ left_pose[3:], self.width, self.height))
-        _, dRr = rotation_from_rvec_jacobian(right.pose[:3])
+        dRr = right.rotation_jacobian[1]
         # d R_r / d rvec_i = R_rig dR_i = sum_j dRr_j M[j, i]: solve for M (exact, 9 x 3)
         A = dRr.reshape(9, 3)
         B = np.einsum("ab,bci->aci", self.R, dR).reshape(9, 3)

@@ -11,7 +11,11 @@ from hypothesis import strategies as st
 
 from aida_kb.errors import GeometryError
 from aida_kb.geometry.camera import Cahv, PinholeCamera, Rt_from_pose, pose_from_Rt
-from aida_kb.geometry.rotation import rotation_from_rvec
+from aida_kb.geometry.rotation import (
+    rotation_from_rvec,
+    rotation_from_rvec_jacobian,
+    rvec_from_rotation,
+)
 
 
 @st.composite
@@ -124,6 +128,23 @@ def test_camera_is_immutable() -> None:
         cam.K[0, 0] = 1.0
     with pytest.raises(AttributeError):
         cam.width = 3  # type: ignore[misc]
+
+
+@settings(max_examples=40, deadline=None)
+@given(cameras())
+def test_cached_pose_and_rotation_derivative_are_those_of_the_rotation(cam: PinholeCamera) -> None:
+    """The pose and rotation derivative a camera keeps equal, bit for bit, what the rotation
+    functions give for its rotation; the pose handed out is the caller's own copy."""
+    rvec = rvec_from_rotation(cam.R_cam_world)
+    np.testing.assert_array_equal(cam.pose, pose_from_Rt(cam.R_cam_world, cam.t_cam_world))
+    R, dR = rotation_from_rvec_jacobian(rvec)
+    np.testing.assert_array_equal(cam.rotation_jacobian[0], R)
+    np.testing.assert_array_equal(cam.rotation_jacobian[1], dR)
+    pose = cam.pose
+    pose[:] = 0.0  # the caller's copy: the camera's own pose is unchanged
+    np.testing.assert_array_equal(cam.pose[:3], rvec)
+    with pytest.raises(ValueError, match="read-only"):
+        cam.rotation_jacobian[1][0, 0, 0] = 1.0
 
 
 @settings(max_examples=60, deadline=None)

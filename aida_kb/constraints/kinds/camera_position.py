@@ -36,7 +36,7 @@ from aida_kb.constraints.kinds.base import (
 )
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
-from aida_kb.geometry.rotation import rotation_from_rvec_jacobian, skew
+from aida_kb.geometry.rotation import skew
 
 _KEEP = np.array([[1, 2], [0, 2], [0, 1]], dtype=np.intp)
 """The two components of a cross product with n kept when n's largest component is 0, 1, 2."""
@@ -103,7 +103,7 @@ class CameraPosition(Kind):
         for c in np.unique(cam_of):  # one rotation per distinct camera
             sel = np.flatnonzero(cam_of == c)
             pose = cameras[int(c)].pose
-            Rm, dR = rotation_from_rvec_jacobian(pose[:3])  # dR[j, k, i] = dR_jk / drvec_i
+            Rm, dR = cameras[int(c)].rotation_jacobian  # dR[j, k, i] = dR_jk / drvec_i
             cc = data["centre_cam"][sel]
             nc = data["normal_cam"][sel]
             X[sel] = cc @ Rm + pose[3:]
