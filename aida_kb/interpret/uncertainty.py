@@ -573,6 +573,78 @@ def stereo_fit_pairs(
     return np.vstack(out) if out else np.zeros((0, 2), dtype=np.intp)
 
 
+@dataclass(frozen=True)
+class Information:
+    """An adjustment's measurements and knowledge linearised at its solution, whitened.
+
+    J : (m, n) every residual row's derivatives by the unknowns (each part's offset and two
+        tilts, 3 a part, then each free camera's rotation vector and centre, 6 a camera),
+        per sigma of its noise model; Jw : J with each measurement row rescaled by its
+        group's variance factor (`variance_factors`), the rows the covariance is made of.
+    rows : (m,) each row's constraint index into the problem's constraints.
+    groups : (m,) each row's group (`measurement_group`); measured : (m,) whether it is a
+        measurement (the knowledge's and the priors' rows are not).
+    factors : each group's variance factor.
+    """
+
+    J: FloatArray
+    Jw: FloatArray
+    rows: npt.NDArray[np.intp]
+    groups: npt.NDArray[np.str_]
+    measured: npt.NDArray[np.bool_]
+    factors: dict[str, float]
+
+
+def problem_information(
+    problem: Problem, parts: int, cameras: Sequence[PinholeCamera], free: Sequence[int]
+) -> Information | None:
+    """The whitened rows of `problem` (`Information`) at the solution it starts from: its
+    `parts` parts all free and the cameras `free` (indices into `cameras`, the problem's
+    first cameras). None when a residual or derivative is not finite or the problem cannot
+    be evaluated."""
+    from aida_kb.interpret.joint import JOINT_F_SCALE, JOINT_LOSS, STEREO_FIT_CORRELATION
+    from aida_kb.solve import Evaluation
+
+    try:
+        ev = Evaluation(
+            problem,
+            np.arange(parts, dtype=np.intp),
+            free_cameras=np.asarray(free, dtype=np.intp),
+            loss=JOINT_LOSS,
+            f_scale=JOINT_F_SCALE,
+        )
+        r, J = ev.residuals_and_dense_jacobian(ev.x_from(np.zeros((parts, 3)), list(cameras)))
+    except AidaError:
+        return None
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        return None
+    of_row = np.asarray(ev.constraint_of_row, dtype=np.intp)
+    rows = [problem.constraints[int(c)] for c in of_row]
+    measured = np.array([c.measurement for c in rows], dtype=bool)
+    groups = np.array([measurement_group(c) for c in rows])
+    pairs = stereo_fit_pairs(problem, of_row)
+    factors = variance_factors(r, J, groups, measured, pairs, STEREO_FIT_CORRELATION)
+    scale = np.ones(r.shape[0])
+    for kind, fk in factors.items():
+        scale[groups == kind] = 1.0 / math.sqrt(fk)
+    return Information(J, J * scale[:, None], of_row, groups, measured, factors)
+
+
+def camera_rotation_covariance(
+    cov: FloatArray, parts: int, k: int, camera: PinholeCamera
+) -> FloatArray:
+    """(3, 3) the covariance of the `k`-th free camera's rotation (radians²) about its own
+    axes (x right, y down, z forward: a turn R -> exp([w]) R, w in the camera frame), from the
+    covariance `cov` (n, n) of an adjustment's unknowns with `parts` parts (`Information`)."""
+    col = 3 * parts + 6 * k
+    block = cov[col : col + 3, col : col + 3]
+    if not np.all(np.isfinite(block)):  # a camera the evidence leaves open
+        return np.full((3, 3), np.inf)
+    G = rotation_jacobian(camera.pose[:3])
+    out: FloatArray = G @ block @ G.T
+    return out
+
+
 def problem_uncertainty(
     problem: Problem,
     names: Sequence[str],
@@ -587,39 +659,15 @@ def problem_uncertainty(
     with each model edge's shared bias of `edge_bias_px` pixels (`edge_bias_information`;
     `EDGE_BIAS_PX` in the verdict), the cameras' without it (`EDGE_BIAS_PX` says why). None
     when a residual or derivative is not finite or the problem cannot be evaluated."""
-    from aida_kb.interpret.joint import (
-        JOINT_EDGE_SIGMA_PX,
-        JOINT_F_SCALE,
-        JOINT_LOSS,
-        STEREO_FIT_CORRELATION,
-    )
-    from aida_kb.solve import Evaluation
+    from aida_kb.interpret.joint import JOINT_EDGE_SIGMA_PX
 
     P = len(names)
-    try:
-        ev = Evaluation(
-            problem,
-            np.arange(P, dtype=np.intp),
-            free_cameras=np.asarray(free, dtype=np.intp),
-            loss=JOINT_LOSS,
-            f_scale=JOINT_F_SCALE,
-        )
-        r, J = ev.residuals_and_dense_jacobian(ev.x_from(np.zeros((P, 3)), list(cameras)))
-    except AidaError:
+    info_rows = problem_information(problem, P, cameras, free)
+    if info_rows is None:
         return None
-    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-        return None
-    rows = [problem.constraints[int(c)] for c in ev.constraint_of_row]
-    measured = np.array([c.measurement for c in rows], dtype=bool)
-    kinds = np.array([measurement_group(c) for c in rows])
-    m, n = int(measured.sum()), ev.n_params
-    pairs = stereo_fit_pairs(problem, np.asarray(ev.constraint_of_row, dtype=np.intp))
-    factors = variance_factors(r, J, kinds, measured, pairs, STEREO_FIT_CORRELATION)
-    scale = np.ones(r.shape[0])
-    for kind, fk in factors.items():
-        scale[kinds == kind] = 1.0 / math.sqrt(fk)
-    Jw = J * scale[:, None]
-    of_row = np.asarray(ev.constraint_of_row, dtype=np.intp)
+    J, Jw, of_row = info_rows.J, info_rows.Jw, info_rows.rows
+    kinds, factors = info_rows.groups, info_rows.factors
+    m, n = int(info_rows.measured.sum()), J.shape[1]
     info = Jw.T @ Jw
     cov = covariance_of(info)
     biased = (
@@ -637,10 +685,9 @@ def problem_uncertainty(
     deviations = {}
     for k, view in enumerate(views):
         col = 3 * P + 6 * k
-        rot = cov[col : col + 3, col : col + 3]
+        rot = camera_rotation_covariance(cov, P, k, cameras[free[k]])
         if np.all(np.isfinite(rot)):
-            G = rotation_jacobian(cameras[free[k]].pose[:3])
-            angle = math.degrees(math.sqrt(max(float(np.trace(G @ rot @ G.T)), 0.0)))
+            angle = math.degrees(math.sqrt(max(float(np.trace(rot)), 0.0)))
         else:
             angle = math.inf
         centre = math.sqrt(max(float(np.trace(cov[col + 3 : col + 6, col + 3 : col + 6])), 0.0))

@@ -20,6 +20,9 @@ from aida_kb.interpret.uncertainty import (
     IMAGE_EDGE_LABEL,
     IMAGE_EDGE_MIN_FACTOR,
     adjustment_uncertainty,
+    camera_rotation_covariance,
+    covariance_of,
+    problem_information,
     problem_uncertainty,
     stereo_fit_pairs,
 )
@@ -155,6 +158,17 @@ def test_edges_without_a_clean_fit_keep_their_segments(monkeypatch: pytest.Monke
     assert unc.factors["edge"] < 0.2  # segments at 0.5 px noise: a tenth of the 4 px model
     assert 0.0 < unc.cameras["01"][0] < 1.0
     assert 0.0 < unc.cameras["02"][0] < 1.0
+    # the same rows, whitened and rescaled, and each camera's rotation about its own axes
+    info = problem_information(problem, len(model.names), cams, [1, 2])
+    assert info is not None
+    assert info.factors == unc.factors
+    assert info.Jw.shape == info.J.shape == (info.rows.size, 3 * len(model.names) + 12)
+    cov = covariance_of(info.Jw.T @ info.Jw)
+    for k, view in enumerate(("01", "02")):
+        rot = camera_rotation_covariance(cov, len(model.names), k, cams[k + 1])
+        assert np.allclose(rot, rot.T)
+        assert np.all(np.linalg.eigvalsh(rot) > 0.0)
+        assert math.degrees(math.sqrt(np.trace(rot))) == pytest.approx(unc.cameras[view][0])
 
 
 def _house(interpreted: Get) -> tuple[Interpretation, Evidence]:
