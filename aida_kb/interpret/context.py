@@ -191,6 +191,13 @@ class Context:
         area = sum(r.area_px for r in self.regions) or 1.0
         return region.area_px >= MIN_PART_AREA_FRACTION * area
 
+    def must_explain(self, region: RegionView) -> bool:
+        """True if `region` is evidence an interpretation must explain or pay for leaving
+        out (`plausibility.unexplained`): significant by its weight, or large in the image
+        (`large`: a dark roof slope, little certainty over many pixels, may be a part's
+        evidence, `generate.best_bindings`, and so counts when no part binds it)."""
+        return self.significant(region) or self.large(region)
+
     def hidden_by_others(self, point_m: FloatArray) -> bool:
         """True if another object's region (`foreign`) hides `point_m` ((3,), world frame,
         metres) from the reference camera: the point's pixel lies inside the region's outline

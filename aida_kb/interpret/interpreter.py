@@ -80,7 +80,8 @@ class Pending:
 
     hypothesis: BodyHypothesis
     # what optional parts may still explain of the evidence it leaves unbound (the penalty
-    # for the free significant walls, where the body's concept has optional parts)
+    # for the free walls its estimate charges and one of them may bind, where the body's
+    # concept has optional parts)
     optional: float = 0.0
     # the free significant regions an optional part may bind, walls and pitched roof planes
     # (region ids; `junction_regions`): a segment between one and the body is where a part
@@ -167,7 +168,7 @@ class Interpreter:
             for r in ctx.regions
             if r.id not in used
             and ctx.significant(r, MIN_PART_WEIGHT_FRACTION)
-            and not ctx.significant(r)
+            and not ctx.must_explain(r)
         ]
         walls = vertical(lighter, levels[0].frame.up)
         return out + UNEXPLAINED_PENALTY * sum(ctx.share(r) for r in walls)
@@ -224,7 +225,16 @@ class Interpreter:
                 out.append(Pending(h, facing=facing))
                 continue
             free = [r for r in ctx.regions if r.id not in h.binding and ctx.significant(r)]
-            walls = vertical(free, h.frame.frame.up)
+            # the walls an optional part may bind (`assign`: down to MIN_PART_WEIGHT_FRACTION)
+            # among the evidence the estimate charges (`plausibility.unexplained`)
+            charged = [
+                r
+                for r in ctx.regions
+                if r.id not in h.binding
+                and ctx.must_explain(r)
+                and ctx.significant(r, MIN_PART_WEIGHT_FRACTION)
+            ]
+            walls = vertical(charged, h.frame.frame.up)
             out.append(
                 Pending(
                     h,

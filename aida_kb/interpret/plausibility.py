@@ -51,9 +51,10 @@ COS_LEVEL = math.cos(math.radians(GROUND_LEVEL_DEG))
 
 
 def unexplained(ctx: Context, used: set[str]) -> float:
-    """The penalty for the significant regions of the reference view not in `used`, each
-    by its share of the evidence (`Context.share`: weight or pixels, the larger)."""
-    left = sum(ctx.share(r) for r in ctx.regions if r.id not in used and ctx.significant(r))
+    """The penalty for the regions of the reference view not in `used` that are evidence of
+    the object (`Context.must_explain`: significant by weight, or large in the image), each by
+    its share of the evidence (`Context.share`: weight or pixels, the larger)."""
+    left = sum(ctx.share(r) for r in ctx.regions if r.id not in used and ctx.must_explain(r))
     return UNEXPLAINED_PENALTY * left
 
 

@@ -184,6 +184,28 @@ def test_a_region_left_unexplained_counts_by_its_weight_or_its_pixels(
     assert unexplained(occluded, left) == pytest.approx(UNEXPLAINED_PENALTY * occluded.share(front))
 
 
+def test_a_large_light_region_left_unexplained_costs_its_pixels(occluded: Context) -> None:
+    """A region too light to be significant but large in the image (a dark roof slope) may
+    be a part's evidence (`generate.best_bindings`); an interpretation leaving it out pays
+    its share as it would for a significant one (dev 65027, a hip under a dark roof: the
+    flat roof left both slopes, 7 % of the pixels, out at no cost and was taken). A region
+    neither significant nor large stays free to leave out (clutter)."""
+    pixels = sum(r.area_px for r in occluded.regions)
+    wall = next(r for r in occluded.regions if r.id == "00/2")
+    dark = replace(wall, weight=wall.weight / 100)
+    tiny = replace(wall, weight=wall.weight / 100, area_px=wall.area_px / 100)
+    for region, charged in ((dark, True), (tiny, False)):
+        regions = tuple(region if r.id == "00/2" else r for r in occluded.regions)
+        area = pixels - wall.area_px + region.area_px
+        ctx = replace(occluded, regions=regions, total_area_px=area)
+        assert not ctx.significant(region)
+        assert ctx.large(region) is charged
+        assert ctx.must_explain(region) is charged
+        others = {r.id for r in regions} - {"00/2"}
+        cost = unexplained(ctx, others)
+        assert cost == pytest.approx(UNEXPLAINED_PENALTY * ctx.share(region) if charged else 0.0)
+
+
 def test_a_verified_body_costs_each_part_it_inserts(buildings_kb: Any) -> None:
     """Of two bodies explaining the same evidence as well, the one that guesses fewer parts
     from the knowledge is preferred: each inserted part costs INSERTED_PART_PENALTY, less the
