@@ -36,6 +36,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from aida_kb.interpret.party import stereo_depth
 from aida_kb.interpret.scene import evaluate_scene, reconstruct_objects, scene_evidence_of
 from aida_kb.interpret.sight import unseen_parts
 from aida_kb.interpret.verdict import judge, with_verdict
@@ -127,7 +128,9 @@ def main() -> None:
                 render_scene(preset(name, seed=seed, params=params, views=views), folder)
                 start = time.perf_counter()
                 scene = read_scene(folder, with_truth=False)
-                evidence = scene_evidence_of(kb, scene_evidence(scene)[0], "Street")
+                raw, products = scene_evidence(scene)
+                depth = stereo_depth(products, raw.views[0].id)
+                evidence = scene_evidence_of(kb, raw, "Street", depth)
                 interp = reconstruct_objects(kb, evidence, goal="Street", scene=scene)
                 interp = with_verdict(interp, judge(kb, interp, evidence, all_views=True))
                 seconds = time.perf_counter() - start

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from aida_kb.interpret.kbfile import write_interpretation_kb
+from aida_kb.interpret.party import stereo_depth
 from aida_kb.interpret.result import Interpretation, write_interpretation
 from aida_kb.interpret.run import check_goal
 from aida_kb.interpret.scene import reconstruct_objects, scene_evidence_of
@@ -128,8 +129,10 @@ def _reconstruct(
 
     params = VisionParams(num_disp=max_disp)
     evidence, products = scene_evidence(scene, views=views, params=params, stage=stage)
-    # a street's terraces split at their party walls (what evidence.json then holds)
-    evidence = scene_evidence_of(kb, evidence, goal)
+    # a street's terraces split at their party walls, each piece on its own plane fitted to
+    # the reference view's depths (what evidence.json then holds)
+    depth = stereo_depth(products, evidence.views[0].id) if evidence.views else None
+    evidence = scene_evidence_of(kb, evidence, goal, depth)
     for prod in products:
         for text in prod.warnings:
             if warn is not None:

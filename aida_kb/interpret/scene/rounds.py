@@ -36,6 +36,7 @@ from aida_kb.io.model import ModelObject, ReconstructedModel
 from aida_kb.io.subset import without_regions
 
 if TYPE_CHECKING:
+    from aida_kb.interpret.party import StereoDepth
     from aida_kb.kb.model import KnowledgeBase
 
 from aida_kb.interpret.scene.faces import on_faces
@@ -119,15 +120,18 @@ def meet(view: EvidenceView, a: str, b: str) -> int:
     return len(pixels) if float(np.median(gap / depth)) <= MEET_TOLERANCE else 0
 
 
-def scene_evidence_of(kb: KnowledgeBase, evidence: Evidence, goal: str | None) -> Evidence:
+def scene_evidence_of(
+    kb: KnowledgeBase, evidence: Evidence, goal: str | None, depth: StereoDepth | None = None
+) -> Evidence:
     """The evidence a goal is interpreted on: for a goal holding several objects (`members`),
     the reference view's regions split at the party walls it shows (`party.split_terraces`:
-    a terrace's touching houses, merged by the segmentation); for one object, `evidence`."""
+    a terrace's touching houses, merged by the segmentation; with the reference view's stereo
+    `depth`, each piece on its own plane); for one object, `evidence`."""
     from aida_kb.interpret.party import split_terraces
     from aida_kb.interpret.run import check_goal
 
     slot = members(Knowledge.from_kb(kb), check_goal(kb, goal))
-    return evidence if slot is None else split_terraces(evidence)
+    return evidence if slot is None else split_terraces(evidence, depth)
 
 
 def _near(points: FloatArray, polygon: FloatArray) -> npt.NDArray[np.bool_]:
