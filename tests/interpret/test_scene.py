@@ -575,3 +575,28 @@ def test_a_tied_body_replaces_the_accepted_one_only_under_the_planes_its_later_l
     # 64103 stopped in verify_levels), so the accepted body stays
     under_roof = _level({}, ["body.wings[0].front"], ("body.front", "body.roof.top"))
     assert preferred(interpreter, State((flat, under_roof), True, 2.0), wanted) is None
+
+
+def test_a_later_view_its_stereo_does_not_place_is_not_searched(
+    street_kb: KnowledgeBase, street_result: tuple[Path, Evidence, Interpretation]
+) -> None:
+    """A later view whose registered pose the model, seen from it, does not bear out (its
+    regions inside the model's projection not on its faces) is not searched for more objects:
+    what it shows would be moved to where that pose puts it."""
+    from aida_kb.interpret.scene import later_view_objects
+
+    _, evidence, interp = street_result
+    assert interp.model is not None
+    first = evidence.views[0]
+    again = first.model_copy(update={"id": "01", "frame": "camera"})
+    both = evidence.model_copy(update={"views": [first, again]})
+    (cam,) = interp.model.cameras
+    # view 01's camera 4 m to the side of where its images were taken
+    t = np.asarray(cam.t, dtype=np.float64) + np.array([4.0, 0.0, 0.0])
+    off = cam.model_copy(update={"view": "01", "t": (float(t[0]), float(t[1]), float(t[2]))})
+    model = interp.model.model_copy(update={"cameras": [cam, off]})
+    lost = _without_object(interp.model_copy(update={"model": model}), "houses[1]")
+
+    found = later_view_objects(street_kb, both, lost)
+    assert [o.role for o in found.objects] == ["houses[0]"]
+    assert "view 01 not searched for more House" in found.message
