@@ -4,8 +4,9 @@ noise models.
 `joint_problem` builds one problem of `aida_kb.solve` from a model, its cameras and each view's
 measurements: edge factors (the line detector's segments matched to the model's projected edges,
 or the model's edges fitted along the images, `aida_kb.interpret.imagefit`), the regions' plane
-fits in their cameras' frames, the knowledge base's constraints of the interpreted objects and,
-loosely, the first shape's angles between adjacent parts; `joint_adjustment` solves it. The
+fits in their cameras' frames, the knowledge base's constraints and attributes of the
+interpreted objects and, loosely, the first shape's angles between adjacent parts the knowledge
+does not relate; `joint_adjustment` solves it. The
 sequence that calls them is `aida_kb.interpret.multiview`."""
 
 from __future__ import annotations
@@ -24,10 +25,13 @@ from aida_kb.constraints.kinds.edge import segment_sqrt_information
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.rig import Rig
+from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD
+from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
 from aida_kb.interpret.party import touching_ties
-from aida_kb.interpret.result import Interpretation
+from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.uncertainty import IMAGE_EDGE_LABEL
+from aida_kb.interpret.verify import orientation_priors, tilt_constraints
 from aida_kb.kb.paths import RolePath
 from aida_kb.register import (
     EdgeObservations,
@@ -46,7 +50,7 @@ from aida_kb.solve import ResidualReport, build_problem, constraints_from_kb, so
 from aida_kb.solve.problem import Loss, Problem
 
 if TYPE_CHECKING:
-    from aida_kb.kb.model import KnowledgeBase
+    from aida_kb.kb.model import KnowledgeBase, OrientationModel
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -121,7 +125,15 @@ JOINT_ANGLE_SIGMA_DEG = 0.3
 """The first shape's angles between adjacent parts, kept to this standard deviation."""
 
 PRIOR_ANGLE_SIGMA_DEG = 2.0
-"""... or to this one, where the knowledge base's own constraints are in the adjustment."""
+"""... or to this one, where the knowledge base's own constraints are in the adjustment (and
+only for the pairs whose angle they do not state, `STATED_KINDS`)."""
+
+STATED_KINDS = frozenset({"angle", "parallel"})
+"""The kinds of constraint between two planes that state the angle at which they meet: where
+the knowledge's constraints (`kb_constraints`) state it, the first shape's angle of that pair
+(`PRIOR_ANGLE_SIGMA_DEG`) is left out. It is the first view's measurement, which the adjustment
+holds already: kept, it counted the first view twice, and it carried the first view's tilt of
+the floor into the final model (dev 65006: walls within 0.15 deg, the floor 1.23 deg off)."""
 
 JOINT_LOSS: Loss = "soft_l1"
 """The robust loss of the joint adjustments' measurements (segments and regions) ..."""
@@ -191,7 +203,8 @@ class JointInputs:
     angles : the first shape's meeting angles of adjacent parts, rad, by the pair of part
         indices (a, b), a < b; None: the model's own (`meeting_angles`).
     internal : the knowledge base's constraints among the parts (`kb_constraints`); with them
-        the first shape's angles are kept only loosely (`PRIOR_ANGLE_SIGMA_DEG`).
+        the first shape's angles are kept only loosely (`PRIOR_ANGLE_SIGMA_DEG`), and not at
+        all for the pairs whose angle they state (`stated_pairs`).
     stereo : per view, the segments of its right image and its rig (or None): their edge
         factors look through a camera that follows the view's (a derived key of the solve).
     fitted : per view, the model's edges fitted to its image (`aida_kb.register.image_edges`)
@@ -333,7 +346,10 @@ def joint_problem(
         angles = meeting_angles(model)
     cons.extend(internal)
     sigma_deg = PRIOR_ANGLE_SIGMA_DEG if internal else JOINT_ANGLE_SIGMA_DEG
+    stated = stated_pairs(internal)
     for (a, b), phi in angles.items():
+        if (min(a, b), max(a, b)) in stated:
+            continue  # the knowledge says this angle: the first view's would count it twice
         cons.append(
             Constraint(
                 kind="angle",
@@ -354,6 +370,16 @@ def joint_problem(
         cameras=all_cameras,
         free_cameras=free_cameras,
         derived=derived,
+    )
+
+
+def stated_pairs(constraints: Sequence[Constraint]) -> frozenset[tuple[int, int]]:
+    """The pairs of parts (a, b), a < b, whose angle one of `constraints` states: an
+    ``angle`` or ``parallel`` constraint between those two planes."""
+    return frozenset(
+        (min(c.parts), max(c.parts))
+        for c in constraints
+        if c.kind in STATED_KINDS and len(c.parts) == 2 and c.parts[0] != c.parts[1]
     )
 
 
@@ -562,12 +588,15 @@ def kb_constraints(
 
     For each object the interpretation found (an instance right under the goal, e.g. ``body``:
     ``HouseBody``), `aida_kb.solve.constraints_from_kb` with the parts under it and the
-    concepts the interpretation chose for its roles (e.g. ``roof``: ``GableRoof``). Part
-    indices are positions in `names`. Objects whose constraints cannot be built are skipped.
-    Where a scene's objects touch, their shared faces are tied to one plane
-    (`party.touching_ties`).
+    concepts the interpretation chose for its roles (e.g. ``roof``: ``GableRoof``), and the
+    knowledge's attributes of its parts as the single-view adjustment has them
+    (`_attribute_constraints`: each part's slope to the object's ground, the level parts the
+    first view inserted). Part indices are positions in `names`. Objects whose constraints
+    cannot be built are skipped. Where a scene's objects touch, their shared faces are tied to
+    one plane (`party.touching_ties`).
     """
     out: list[Constraint] = []
+    knowledge = Knowledge.from_kb(kb)
     index = {path: i for i, n in enumerate(names) if (path := _role_path(n)) is not None}
     roles = [(path, inst.concept) for inst in interp.instances if (path := _role_path(inst.role))]
     # the objects of a scene of several (interpret.scene) are one level down: houses[0].body
@@ -590,9 +619,68 @@ def kb_constraints(
                 continue
             o = c.source
             out.append(replace(c, origin=replace(o, owner=top.join(o.owner))))
+        out += _attribute_constraints(knowledge, interp, top, index)
     if interp.model is not None:  # touching objects' shared walls: one plane each
         out += touching_ties(interp.model, [o.role for o in interp.objects], names)
     return out
+
+
+def _attribute_constraints(
+    knowledge: Knowledge, interp: Interpretation, top: RolePath, index: Mapping[RolePath, int]
+) -> list[Constraint]:
+    """The attributes of the object at `top` as the single-view adjustment takes them
+    (`aida_kb.interpret.adjust.adjust`): each planar part's slope attribute as a soft angle to
+    the object's ground (`verify.tilt_constraints`: a wall at 90 deg to the floor, sigma 1 deg),
+    and the parts no region of the first view showed (``inserted``) that the knowledge orients
+    level held level (`verify.orientation_priors`). The ground is the outermost part under
+    `top` that the knowledge orients ``downward`` (as `unseen.ground_of`). Without them the
+    floor, which the views measure only by its foot edges at grazing angles, kept the first
+    view's tilt (dev 65006: walls within 0.15 deg, the floor 1.23 deg off). `index`: role
+    path -> part index.
+    """
+    fillers = {inst.role: inst.concept for inst in interp.instances}
+    under = {str(p): i for p, i in index.items() if p.is_under(top)}
+    faces = {
+        role: (o.direction, o.span)
+        for role in under
+        if (o := _orientation(knowledge, fillers, RolePath.parse(role))) is not None
+    }
+    grounds = [r for r, (direction, _) in faces.items() if direction == DOWNWARD]
+    if not grounds:
+        return []
+    ground = min(grounds, key=lambda r: (r.count("."), r))
+    planar = [(role, fillers[role]) for role in under if fillers.get(role) in knowledge.concepts]
+    out = tilt_constraints(knowledge, planar, ground, under)
+    level = {UPWARD: True, DOWNWARD: False}
+    inserted = {inst.role for inst in interp.instances if INSERTED in inst.bindings}
+    out += orientation_priors(
+        [
+            (role, concept, level[faces[role][0]], faces[role][1])
+            for role, concept in planar
+            if role in inserted and role in faces and faces[role][0] in level
+        ],
+        ground,
+        under,
+    )
+    return out
+
+
+def _orientation(
+    knowledge: Knowledge, fillers: Mapping[str, str], path: RolePath
+) -> OrientationModel | None:
+    """The orientation the knowledge declares for the planar part at `path` (``orient``): the
+    outermost composite's declaration that holds for the interpretation's `fillers` (role path
+    -> concept; a whole's declaration overrides its parts' own, `Knowledge.structures`)."""
+    found: OrientationModel | None = None
+    for depth in range(len(path) - 1, -1, -1):
+        owner = RolePath(path.steps[:depth])
+        concept = fillers.get(str(owner))
+        if concept is None or concept not in knowledge.concepts:
+            continue
+        o = knowledge.concept(concept).orientations.get(str(path.relative_to(owner).plain))
+        if o is not None and knowledge.holds(str(owner), o.requires, fillers):
+            found = o
+    return found
 
 
 def _role_path(text: str) -> RolePath | None:

@@ -134,6 +134,37 @@ def test_kb_constraints_are_the_interpreted_objects_internal_ones(
     assert corner.value == pytest.approx(np.pi / 2)
 
 
+def test_the_joint_adjustment_takes_the_attributes_and_drops_the_first_views_stated_angles(
+    interpreted: Callable[[str], Interpretation], buildings_kb: object
+) -> None:
+    # the walls' slope attributes tie them to the floor as in the single-view adjustment
+    # (90 deg, sigma 1 deg); the first shape's angle of a pair the knowledge relates is left
+    # out (it counted the first view twice and kept its tilt of the floor)
+    interp = interpreted("house_correct.json")
+    assert interp.model is not None
+    rigid = RigidModel.from_model(interp.model)
+    names = list(rigid.names)
+    cons = kb_constraints(buildings_kb, interp, names)  # type: ignore[arg-type]
+    floor = names.index("body.floor")
+    tilts = [c for c in cons if c.source.rule == "attribute"]
+    walls = {"body.front", "body.back", "body.left", "body.right"}
+    assert {names[c.parts[0]] for c in tilts} == walls
+    assert all(c.parts[1] == floor for c in tilts)
+    assert all(c.value == pytest.approx(np.pi / 2) for c in tilts)
+    assert all(c.sigma == pytest.approx(math.radians(1.0)) for c in tilts)
+    problem = joint.joint_problem(rigid, [], [], [], joint.JointInputs(internal=cons))
+    priors = {c.parts for c in problem.constraints if c.label.startswith("first-shape")}
+    stated = joint.stated_pairs(cons)
+    assert priors  # the pairs the knowledge leaves free keep the first shape's angle
+    assert not priors & stated
+    front, left = sorted((names.index("body.front"), names.index("body.left")))
+    assert (min(front, floor), max(front, floor)) in stated
+    assert (front, left) in stated
+    # without the knowledge's constraints every adjacent pair keeps it
+    bare = joint.joint_problem(rigid, [], [], [])
+    assert {c.parts for c in bare.constraints} == set(joint.meeting_angles(rigid))
+
+
 def test_a_single_later_view_pose_converges_in_the_final_rounds(
     tmp_path: Path, buildings_kb: object
 ) -> None:
