@@ -201,6 +201,7 @@ def scene_views(
     from aida_kb.io.evidence import read_evidence
     from aida_kb.io.scene import read_scene
     from aida_kb.register import RigidModel
+    from aida_kb.register.evidence import camera_of
 
     out_dir = keep / f"out-{seed}"
     if not (out_dir / "interpretation.json").is_file():
@@ -232,16 +233,7 @@ def scene_views(
             np.array([p.d for p in ps], dtype=np.float64),
             [np.asarray(p.polygon, dtype=np.float64) for p in ps],
         )
-        cams = [
-            PinholeCamera(
-                np.asarray(placed[v].K, dtype=np.float64),
-                np.asarray(placed[v].R, dtype=np.float64),
-                np.asarray(placed[v].t, dtype=np.float64),
-                placed[v].image_width,
-                placed[v].image_height,
-            )
-            for v in order
-        ]
+        cams = [camera_of(placed[v]) for v in order]
         true_cams = [
             PinholeCamera(
                 np.asarray(true_poses[v].K, dtype=np.float64),

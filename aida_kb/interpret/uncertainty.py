@@ -175,10 +175,9 @@ def adjustment_uncertainty(
 ) -> Uncertainty | None:
     """The standard deviations of `interp`'s model and cameras (module docstring); None
     when there is no model, the first view has no camera or the problem cannot be built."""
-    from aida_kb.geometry.camera import PinholeCamera
     from aida_kb.interpret.joint import JointInputs, joint_problem, kb_constraints, meeting_angles
     from aida_kb.register import RigidModel
-    from aida_kb.register.evidence import measurements_of
+    from aida_kb.register.evidence import camera_of, measurements_of
 
     model = interp.model
     if model is None or not evidence.views:
@@ -191,16 +190,7 @@ def adjustment_uncertainty(
     order = [reference] + [v for v in cams_by_view if v != reference]
     try:
         rigid = RigidModel.from_model(model)
-        cams = [
-            PinholeCamera(
-                np.asarray(cams_by_view[v].K, dtype=np.float64),
-                np.asarray(cams_by_view[v].R, dtype=np.float64),
-                np.asarray(cams_by_view[v].t, dtype=np.float64),
-                cams_by_view[v].image_width,
-                cams_by_view[v].image_height,
-            )
-            for v in order
-        ]
+        cams = [camera_of(cams_by_view[v]) for v in order]
         views = [measurements_of(by_id[v]) for v in order]
         free = list(range(1, len(order)))
         problem = joint_problem(
