@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -307,6 +308,17 @@ def test_a_registered_camera_is_fixed_by_the_adjustment(
     # the same camera fixed twice as well passes check (c)
     assert camera_doubts("01", two.model, replace(full, cameras={"01": (0.04, 0.03)})) == []
     assert camera_doubts("01", two.model, replace(full, cameras={"01": (0.06, 0.03)}))
+    # what the evidence leaves open is said in words, never as "+-inf" (Blender 71600: the
+    # centre not fixed was "+-inf% of its distance")
+    centre_open = replace(full, cameras={"01": (0.06, math.inf)})
+    (open_centre,) = camera_doubts("01", two.model, centre_open)
+    assert "nothing in its distance" in open_centre
+    assert "inf" not in open_centre
+    assert "+-0.12 deg" in open_centre
+    both_open = replace(full, cameras={"01": (math.inf, math.inf)})
+    (open_both,) = camera_doubts("01", two.model, both_open)
+    assert "nothing in its rotation" in open_both
+    assert "inf" not in open_both
     model = with_verdict(two, verdict).model
     assert model is not None
     sds = {c.view: c.sd for c in model.cameras}

@@ -42,12 +42,19 @@ def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None)
         else f"{unc.measurements} measurements, their scatter "
         f"{unc.variance_factor**0.5:.2f} of their noise model"
     )
-    # the figures said are those held against the limits: k sd (the sd itself in brackets)
+    # the figures said are those held against the limits: k sd (the sd itself in brackets);
+    # an infinite sd is what the evidence leaves open, said in words (never "+-inf")
+    rotation = f"+-{k * angle:.2f} deg" if math.isfinite(angle) else "nothing in its rotation"
+    distance_text = (
+        f"+-{100 * k * centre:.1f}% of its distance"
+        if math.isfinite(centre)
+        else "nothing in its distance"
+    )
+    sd = f"sd {angle:.3f} deg" if math.isfinite(angle) else "rotation sd not finite"
     return [
         *undecided,
-        f"camera is fixed by the adjustment only to +-{k * angle:.2f} deg and "
-        f"+-{100 * k * centre:.1f}% of its distance at {k:g} sd (at most "
-        f"{CAMERA_ANGLE_SD_MAX_DEG:g} deg and {100 * CAMERA_CENTRE_SD_MAX:g}%; sd {angle:.3f} deg; "
+        f"camera is fixed by the adjustment only to {rotation} and {distance_text} at {k:g} sd "
+        f"(at most {CAMERA_ANGLE_SD_MAX_DEG:g} deg and {100 * CAMERA_CENTRE_SD_MAX:g}%; {sd}; "
         f"{by})",
     ]
 

@@ -244,9 +244,10 @@ def unmeasured_parts(
             if uncertainty is not None and part.role in uncertainty.parts:
                 sd = max(sd, uncertainty.parts[part.role][1])
             if sd > POSITION_TOLERANCE * size:
+                placed_to = f"+-{sd:.2f} m" if math.isfinite(sd) else "nothing (left open)"
                 reasons.append(
                     f"{part.role} is placed by {lines} edge{'s' if lines != 1 else ''} only "
-                    f"to +-{sd:.2f} m, more than "
+                    f"to {placed_to}, more than "
                     f"{100 * POSITION_TOLERANCE:.0f}% of the model's size ({size:.1f} m; an "
                     f"edge's ends good to {EDGE_SIGMA_PX:g} px in the views that see it, or "
                     "the adjustment's covariance)"
