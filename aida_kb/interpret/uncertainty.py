@@ -317,19 +317,10 @@ def outlying_measurement(
     factor as measured)."""
     from scipy.stats import f as f_distribution
 
-    from aida_kb.solve import Evaluation
-
-    P = len(names)
-    try:
-        ev = Evaluation(
-            problem, np.arange(P, dtype=np.intp), free_cameras=np.asarray(free, dtype=np.intp)
-        )
-        r, J = ev.residuals_and_dense_jacobian(ev.x_from(np.zeros((P, 3)), list(cameras)))
-    except AidaError:
+    linear = _linearised(problem, len(names), cameras, free, robust=False)
+    if linear is None:
         return None
-    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-        return None
-    of_row = np.asarray(ev.constraint_of_row, dtype=np.intp)
+    r, J, of_row = linear
     measured = np.array([problem.constraints[int(c)].measurement for c in of_row], dtype=bool)
     basis = range_basis(J[measured])
     rm, cm = r[measured], of_row[measured]
@@ -585,14 +576,19 @@ class Information:
     factors: dict[str, float]
 
 
-def problem_information(
-    problem: Problem, parts: int, cameras: Sequence[PinholeCamera], free: Sequence[int]
-) -> Information | None:
-    """The whitened rows of `problem` (`Information`) at the solution it starts from: its
-    `parts` parts all free and the cameras `free` (indices into `cameras`, the problem's
-    first cameras). None when a residual or derivative is not finite or the problem cannot
-    be evaluated."""
-    from aida_kb.interpret.joint import JOINT_F_SCALE, JOINT_LOSS, STEREO_FIT_CORRELATION
+def _linearised(
+    problem: Problem,
+    parts: int,
+    cameras: Sequence[PinholeCamera],
+    free: Sequence[int],
+    *,
+    robust: bool,
+) -> tuple[FloatArray, FloatArray, npt.NDArray[np.intp]] | None:
+    """`problem` linearised at the solution it starts from, its `parts` parts all free and the
+    cameras `free` (indices into `cameras`): the residuals r (m,), their derivatives J (m, n)
+    and each row's constraint index (m,); weighted by the joint adjustment's robust loss when
+    `robust`. None when the problem cannot be evaluated or a value is not finite."""
+    from aida_kb.interpret.joint import JOINT_F_SCALE, JOINT_LOSS
     from aida_kb.solve import Evaluation
 
     try:
@@ -600,15 +596,30 @@ def problem_information(
             problem,
             np.arange(parts, dtype=np.intp),
             free_cameras=np.asarray(free, dtype=np.intp),
-            loss=JOINT_LOSS,
-            f_scale=JOINT_F_SCALE,
+            loss=JOINT_LOSS if robust else "linear",
+            f_scale=JOINT_F_SCALE if robust else 1.0,
         )
         r, J = ev.residuals_and_dense_jacobian(ev.x_from(np.zeros((parts, 3)), list(cameras)))
     except AidaError:
         return None
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
         return None
-    of_row = np.asarray(ev.constraint_of_row, dtype=np.intp)
+    return r, J, np.asarray(ev.constraint_of_row, dtype=np.intp)
+
+
+def problem_information(
+    problem: Problem, parts: int, cameras: Sequence[PinholeCamera], free: Sequence[int]
+) -> Information | None:
+    """The whitened rows of `problem` (`Information`) at the solution it starts from: its
+    `parts` parts all free and the cameras `free` (indices into `cameras`, the problem's
+    first cameras). None when a residual or derivative is not finite or the problem cannot
+    be evaluated."""
+    from aida_kb.interpret.joint import STEREO_FIT_CORRELATION
+
+    linear = _linearised(problem, parts, cameras, free, robust=True)
+    if linear is None:
+        return None
+    r, J, of_row = linear
     rows = [problem.constraints[int(c)] for c in of_row]
     measured = np.array([c.measurement for c in rows], dtype=bool)
     groups = np.array([measurement_group(c) for c in rows])
