@@ -8,8 +8,9 @@ import pytest
 
 from aida_kb.io.scene import StereoCalib
 from aida_kb.vision.depth import depth_map
-from aida_kb.vision.evidence import _plane_regions, original_rays
+from aida_kb.vision.evidence import original_rays
 from aida_kb.vision.rectify import remap, stereo_rectification
+from aida_kb.vision.regions import ViewStereo, fit_region_planes, unseen_by_right
 from aida_kb.vision.stereo import DisparityMap
 
 W, H = 320, 240
@@ -50,9 +51,8 @@ def test_ground_to_the_horizon_gets_a_metric_rms_and_a_random_region_is_left_out
     rect_ids = np.where(ground > 0.3, 1, np.where(upper, 2, 0)).astype(np.float32)
     regions = np.nan_to_num(remap(rect_ids, rect.inverse_left, nearest=True, border=0.0))
     regions = regions.astype(np.int32)
-    out = _plane_regions(
-        regions, dmap, depth, rect, original_rays(calib), calib, 11, None, True, None
-    )
+    stereo = ViewStereo(dmap, depth, rect, original_rays(calib), calib)
+    out = fit_region_planes(regions, stereo, 11, None, True, None)
     assert [r.id for r in out] == [1]  # the random region is no plane: not in the evidence
     g = out[0]
     # distance of the centroid ~ a few metres; RMS a small fraction of it (was kilometres)
@@ -70,16 +70,13 @@ def test_the_strip_the_right_camera_cannot_see_is_a_disparity_wide() -> None:
     """A wall 20 m before a rig of baseline 0.5 m and focal length 400 px: its points in the
     left image's leftmost f·B/Z = 10 px (and the matcher's margin) lie beyond the right image;
     a plane behind the camera has no such pixels."""
-    from aida_kb.io.scene import StereoCalib
-    from aida_kb.vision.evidence import _unseen_by_right, original_rays
-
     K = np.array([[400.0, 0.0, 79.5], [0.0, 400.0, 59.5], [0.0, 0.0, 1.0]])
     calib = StereoCalib(
         K, np.zeros(5), K, np.zeros(5), np.eye(3), np.array([-0.5, 0.0, 0.0]), (160, 120)
     )
     rays = original_rays(calib)
     normals = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])
-    unseen = _unseen_by_right(rays, normals, np.array([-20.0, -5.0]), calib, 2.0)
+    unseen = unseen_by_right(rays, normals, np.array([-20.0, -5.0]), calib, 2.0)
     columns = np.flatnonzero(unseen[0][10:-10].any(axis=0))  # rows well inside the margin
     assert columns.tolist() == list(range(12))  # 10 px of disparity and 2 px of margin
     assert np.all(unseen[0][10:-10, 12:] == 0)

@@ -407,7 +407,7 @@ def test_an_outline_on_one_line_fixes_no_tilt() -> None:
     points along one verge (a line) fix none."""
     import math
 
-    from aida_kb.vision.evidence import _outline_tilt_rad
+    from aida_kb.vision.regions import outline_tilt_rad
 
     s = np.linspace(0.0, 20.0, 50)
     n = np.array([0.0, 0.6, -0.8])
@@ -416,6 +416,6 @@ def test_an_outline_on_one_line_fixes_no_tilt() -> None:
     left = np.outer(s, along)
     right = left + 8.0 * across
     both = np.vstack([left, right]) + np.array([0.0, 0.0, 30.0])
-    tilt = _outline_tilt_rad(both, n, 0.05, 100, 11)
+    tilt = outline_tilt_rad(both, n, 0.05, 100, 11)
     assert math.isclose(tilt, 0.05 / (math.sqrt(100 / 81) * 4.0), rel_tol=1e-6)
-    assert _outline_tilt_rad(left + np.array([0.0, 0.0, 30.0]), n, 0.05, 100, 11) > 1e3
+    assert outline_tilt_rad(left + np.array([0.0, 0.0, 30.0]), n, 0.05, 100, 11) > 1e3
