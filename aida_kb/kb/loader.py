@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic, Span
 from aida_kb.dsl import ast, parse
-from aida_kb.dsl.parser import BOM
+from aida_kb.dsl.build import BOM
 from aida_kb.kb.resolve import chain_text
 from aida_kb.limits import MAX_KB_BYTES, read_text_limited
 
