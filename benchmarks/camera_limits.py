@@ -64,7 +64,9 @@ if TYPE_CHECKING:
     from aida_kb.geometry.camera import PinholeCamera
     from aida_kb.interpret.result import Interpretation
     from aida_kb.io.evidence import Evidence
+    from aida_kb.io.model import ModelCamera, ReconstructedModel
     from aida_kb.io.scene import Scene
+    from aida_kb.io.truth import PoseTruth, SceneTruth
     from aida_kb.kb.model import KnowledgeBase
     from aida_kb.register import RigidModel
     from aida_kb.solve.problem import Problem
@@ -187,6 +189,22 @@ def _deg(cov: FloatArray | None) -> float:
     return math.degrees(math.sqrt(max(float(np.trace(cov)), 0.0)))
 
 
+def registered_views(
+    evidence: Evidence, model: ReconstructedModel, truth: SceneTruth
+) -> tuple[list[str], dict[str, ModelCamera], dict[str, PoseTruth]]:
+    """The views whose cameras a kept model placed and the truth knows, the evidence's first
+    view leading (none unless it and a later view are there), with the model's and the
+    truth's cameras by view."""
+    ids = {v.id for v in evidence.views}
+    placed = {c.view: c for c in model.cameras if c.view in ids}
+    true_poses = {v.view: v for v in truth.views}
+    first = evidence.views[0].id
+    order = [first] + [v for v in placed if v != first and v in true_poses]
+    if len(order) < 2 or first not in placed:
+        order = []
+    return order, placed, true_poses
+
+
 def scene_views(
     keep: Path, seed: int, kb_of: Callable[[str], KnowledgeBase]
 ) -> list[dict[str, object]]:
@@ -216,12 +234,8 @@ def scene_views(
     true_parts = {p.role: p for p in truth.parts}
     if sorted(true_parts) != sorted(p.role for p in model.parts):
         return []
-    by_id = {v.id: v for v in evidence.views}
-    placed = {c.view: c for c in model.cameras if c.view in by_id}
-    true_poses = {v.view: v for v in truth.views}
-    first = evidence.views[0].id
-    order = [first] + [v for v in placed if v != first and v in true_poses]
-    if len(order) < 2 or first not in placed:
+    order, placed, true_poses = registered_views(evidence, model, truth)
+    if not order:
         return []
     kb = kb_of(str(truth.parameters.get("knowledge", "buildings.kb")))
     try:
@@ -343,15 +357,11 @@ def summary(records: list[dict[str, object]]) -> dict[str, object]:
     }
 
 
-def main(argv: list[str] | None = None) -> None:
-    """Read the kept scenes, print a line per view and the JSON summary."""
+def knowledge_bases() -> Callable[[str], KnowledgeBase]:
+    """A loader of the repository's ``kb/NAME`` files, each compiled once (SystemExit when
+    one does not compile)."""
     from aida_kb.kb import compile_path
 
-    parser = argparse.ArgumentParser(description="What limits the later views' cameras.")
-    parser.add_argument("keep", nargs="+", type=Path, help="robustness --keep folders")
-    parser.add_argument("--seeds", default="", help="only these seeds: A-B (inclusive)")
-    args = parser.parse_args(argv)
-    lo, _, hi = args.seeds.partition("-")
     kbs: dict[str, KnowledgeBase] = {}
     root = Path(__file__).resolve().parent.parent / "kb"
 
@@ -363,12 +373,31 @@ def main(argv: list[str] | None = None) -> None:
             kbs[name] = compiled.kb
         return kbs[name]
 
+    return kb_of
+
+
+def kept_seeds(keep: Path, seeds: str) -> list[int]:
+    """The seeds of the ``scene-SEED`` folders in `keep`, within ``seeds`` ("A-B" inclusive,
+    "A", or "" for all), in order."""
+    lo, _, hi = seeds.partition("-")
+    out = []
+    for folder in sorted(keep.glob("scene-*")):
+        seed = int(folder.name.split("-", 1)[1])
+        if not lo or int(lo) <= seed <= int(hi or lo):
+            out.append(seed)
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Read the kept scenes, print a line per view and the JSON summary."""
+    parser = argparse.ArgumentParser(description="What limits the later views' cameras.")
+    parser.add_argument("keep", nargs="+", type=Path, help="robustness --keep folders")
+    parser.add_argument("--seeds", default="", help="only these seeds: A-B (inclusive)")
+    args = parser.parse_args(argv)
+    kb_of = knowledge_bases()
     records: list[dict[str, object]] = []
     for keep in args.keep:
-        for folder in sorted(keep.glob("scene-*")):
-            seed = int(folder.name.split("-", 1)[1])
-            if lo and not int(lo) <= seed <= int(hi or lo):
-                continue
+        for seed in kept_seeds(keep, args.seeds):
             for r in scene_views(keep, seed, kb_of):
                 print(json.dumps(r), file=sys.stderr)
                 records.append(r)

@@ -10,8 +10,9 @@ factor):
   camera, the camera index in the measurement (`EdgeData.camera`,
   `CameraPositionData.camera`);
 * **measurement** — per-kind typed data: the target ``value`` of an angle, the ``sign`` of a
-  parallel pair, `PositionData` (eq. 4), `EdgeData` (eq. 5) or `CameraPositionData` (eq. 4
-  measured in a free camera's frame);
+  parallel pair, `PositionData` (eq. 4), `EdgeData` (eq. 5), `CameraPositionData` (eq. 4
+  measured in a free camera's frame) or `TextureData` (a patch of a reference image's texture
+  seen again through a camera);
 * **noise model** — ``sigma`` (isotropic, in ``unit``), or an explicit ``weight``, or a square-
   root information matrix ``sqrt_information`` (k x k, whitening the k residual components,
   e.g. a segment's two correlated end-point residuals or metres and radians together);
@@ -33,6 +34,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
 
 from aida_kb.diagnostics.core import Span
 from aida_kb.kb.paths import ROOT, RolePath
@@ -147,6 +151,43 @@ class CameraPositionData:
     centre_cam: tuple[float, float, float]
 
 
+@dataclass(frozen=True, eq=False)
+class TextureImage:
+    """An image a texture factor looks into (shared by all factors of its camera).
+
+    Attributes
+    ----------
+    pixels : (H, W) float64 grey levels of the undistorted image of the camera's pinhole model
+        (pixel centres at integer coordinates, x right, y down).
+    """
+
+    pixels: npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class TextureData:
+    """A patch of a reference image's texture on one plane, seen again by camera ``camera``.
+
+    The patch's N sample pixels of the reference image look along the world-frame rays
+    ``rays`` from ``origin`` (the reference camera's centre; that camera is held fixed); each
+    ray meets the constraint's plane in a point that camera ``camera`` sees in ``image``.
+
+    Attributes
+    ----------
+    camera : index of the camera that sees the patch again (its pose may be an unknown).
+    origin : (3,) metres, world frame: the reference camera's centre.
+    rays : N rows (3,), world frame: the sample pixels' ray directions (any length > 0).
+    values : (N,) grey levels of the reference image at the sample pixels.
+    image : the image of camera ``camera`` (`TextureImage`).
+    """
+
+    camera: int
+    origin: tuple[float, float, float]
+    rays: tuple[tuple[float, float, float], ...]
+    values: tuple[float, ...]
+    image: TextureImage
+
+
 @dataclass(frozen=True)
 class Constraint:
     """One constraint (a factor) between parts: see the module docstring.
@@ -165,7 +206,7 @@ class Constraint:
     measurement : True for measurements of the evidence (the default robust loss applies).
     label : a name for reports and messages (the origin's label when not given).
     sign : "parallel" only: +1 the normals face the same way, -1 opposite ways, 0 either.
-    position, edge, camera_position : the measurement of the kinds that have one.
+    position, edge, camera_position, texture : the measurement of the kinds that have one.
     loss, loss_scale : this block's robust loss and its threshold in sigmas (None: the
         solve's default for measurements, linear for the others).
     origin : where the constraint came from (None: made by code, labelled `label`).
@@ -184,6 +225,7 @@ class Constraint:
     edge: EdgeData | None = None
     sign: int = 0
     camera_position: CameraPositionData | None = None
+    texture: TextureData | None = None
     sqrt_information: tuple[tuple[float, ...], ...] | None = None
     loss: Loss | None = None
     loss_scale: float | None = None

@@ -17,6 +17,7 @@ from aida_kb.constraints.kinds.parallel import PARALLEL
 from aida_kb.constraints.kinds.parallel_edge import PARALLEL_EDGE
 from aida_kb.constraints.kinds.position import POSITION
 from aida_kb.constraints.kinds.symmetry import SYMMETRY
+from aida_kb.constraints.kinds.texture import TEXTURE
 from aida_kb.errors import SolveError
 
 KINDS: dict[str, Kind] = {
@@ -30,12 +31,14 @@ KINDS: dict[str, Kind] = {
         EDGE,  # eq. 5: an edge against an image segment
         CAMERA_POSITION,  # eq. 4 measured in a free camera's frame (registration)
         COINCIDENT,  # one plane of two parts (touching objects' shared wall)
+        TEXTURE,  # a patch of the first view's texture seen again by a later camera
     )
 }
 
-CHI2_999 = {1: 10.828, 2: 13.816, 3: 16.266}
-"""99.9 % quantiles of chi-square with 1, 2, 3 degrees of freedom: the default rejection
-thresholds of the normalised cost when a constraint has no ``reject_above``."""
+CHI2_999 = {1: 10.828, 2: 13.816, 3: 16.266, 14: 36.123}
+"""99.9 % quantiles of chi-square with 1, 2, 3 and 14 (a texture patch) degrees of freedom:
+the default rejection thresholds of the normalised cost when a constraint has no
+``reject_above``."""
 
 
 def kind_of(name: str, where: str = "constraint") -> Kind:

@@ -17,6 +17,8 @@ from aida_kb.constraints import (
     Constraint,
     EdgeData,
     PositionData,
+    TextureData,
+    TextureImage,
     compile_blocks,
 )
 from aida_kb.geometry.camera import PinholeCamera
@@ -43,6 +45,29 @@ def _scene() -> tuple[np.ndarray, np.ndarray, list[PinholeCamera]]:
     cam0 = PinholeCamera(K, np.eye(3), np.zeros(3), 640, 480)
     cam1 = cam0.with_pose(np.array([0.01, -0.05, 0.02, -1.0, 0.2, 0.5]))
     return n, d, [cam0, cam1]
+
+
+def _texture(cam: PinholeCamera) -> Constraint:
+    """A 4 x 4 patch of camera 0's image about its centre on part 0, seen again by camera 1
+    in a smooth synthetic image."""
+    ys, xs = np.mgrid[0:480, 0:640].astype(np.float64)
+    image = 120.0 + 40.0 * np.sin(xs / 9.0) * np.cos(ys / 7.0) + 0.05 * xs
+    u, v = np.meshgrid(300.0 + 3.3 * np.arange(4), 220.0 + 2.9 * np.arange(4))
+    rays = np.stack([(u.ravel() - 320.0) / 800.0, (v.ravel() - 240.0) / 800.0, np.ones(16)], 1)
+    values = 100.0 + 30.0 * np.cos(u.ravel() / 5.0 + v.ravel() / 11.0)
+    return Constraint(
+        kind="texture",
+        parts=(0,),
+        sigma=2.0,
+        measurement=True,
+        texture=TextureData(
+            1,
+            (0.0, 0.0, 0.0),
+            tuple(tuple(float(x) for x in r) for r in rays),  # type: ignore[misc]
+            tuple(float(x) for x in values),
+            TextureImage(image),
+        ),
+    )
 
 
 SAMPLES: dict[str, Callable[[PinholeCamera], Constraint]] = {
@@ -92,6 +117,7 @@ SAMPLES: dict[str, Callable[[PinholeCamera], Constraint]] = {
             (0.3, -0.2, 17.0),
         ),
     ),
+    "texture": _texture,
 }
 
 
