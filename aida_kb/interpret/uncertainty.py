@@ -198,7 +198,9 @@ def adjustment_uncertainty(
             cams,
             views,
             free,
-            JointInputs(meeting_angles(rigid), kb_constraints(kb, interp, rigid.names)),
+            JointInputs(
+                meeting_angles(rigid), kb_constraints(kb, interp, rigid.names), up=model.up
+            ),
         )
     except AidaError:
         return None

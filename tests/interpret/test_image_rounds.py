@@ -494,3 +494,48 @@ def test_edge_rows_finds_each_edge_in_either_order() -> None:
     assert joint.edge_rows(model_faces, faces).tolist() == [0, 3, 2, -1, 1]
     assert joint.edge_rows(model_faces, np.zeros((0, 2), dtype=int)).tolist() == []
     assert joint.edge_rows(np.zeros((0, 2), dtype=int), faces).tolist() == [-1] * 5
+
+
+def test_segments_on_a_foot_seen_at_a_grazing_angle_get_the_foot_bias() -> None:
+    # the same box as above: a segment on the front foot, seen from 15 mm above (0.688 deg),
+    # is whitened as a fit there (the line detector is pulled into the squeezed ground as the
+    # fit is); seen from 0.225 m above (10 deg), or with no vertical, by its length alone
+    model = _box()
+    up = (0.0, -1.0, 0.0)
+    high = PinholeCamera(K, np.eye(3), np.array([0.0, -0.2, 0.0]), 640, 480)
+    low = PinholeCamera(K, np.eye(3), np.array([0.0, -0.41, 0.0]), 640, 480)
+
+    def front_foot(camera: PinholeCamera, vertical: tuple[float, float, float] | None) -> float:
+        fits = _every_edge_fitted(model, camera)
+        names = [tuple(sorted((model.names[a], model.names[b]))) for a, b in fits.faces]
+        k = names.index(("bottom", "front"))
+        p1, p2 = fits.p1[[k]], fits.p2[[k]]
+        inner1, inner2 = p1 + 0.1 * (p2 - p1), p2 - 0.1 * (p2 - p1)  # within the edge
+        (factor,) = joint._edge_factors(model, camera, 0, inner1, inner2, "00", up=vertical)
+        return 0.5 / float(np.asarray(factor.sqrt_information)[0, 0])  # its mean offset's sd
+
+    plain = front_foot(low, None)
+    assert front_foot(high, up) == pytest.approx(front_foot(high, None), rel=1e-12)
+    widened = front_foot(low, up)
+    assert widened == pytest.approx(math.sqrt(plain**2 + joint.FOOT_BIAS_PX**2), rel=1e-9)
+    assert widened > 2.0 * plain
+
+
+def test_a_segment_along_two_edges_meeting_nearly_in_line_measures_neither() -> None:
+    # two projected edges meeting at (100, 1) nearly in line (two feet seen at a grazing
+    # angle), and a third, a piece of the first model edge's after a gap (an edge cut by
+    # what hides it)
+    a = np.array([[0.0, 0.0], [100.0, 1.0], [210.0, 0.0]])
+    b = np.array([[100.0, 1.0], [200.0, 0.0], [300.0, 0.0]])
+    index = np.array([0, 1, 0])
+    p1 = np.array([[40.0, 0.6], [10.0, 0.3], [140.0, 0.4]])
+    p2 = np.array([[160.0, 0.6], [90.0, 1.0], [250.0, 0.1]])
+    matched = joint.match_segments(
+        a, b, p1, p2, max_distance_px=joint.JOINT_MATCH_PX, max_angle_rad=math.radians(10.0)
+    )
+    assert matched.segment.tolist() == [0, 1, 2]
+    # the first crosses the corner: 60 px on each edge; the second lies on the first edge
+    # alone; the third runs along edge 1 and the first model edge's other piece: two edges
+    assert joint._along_two_edges(a, b, index, p1, p2, matched).tolist() == [True, False, True]
+    # along one model edge cut in two pieces: one edge
+    assert not joint._along_two_edges(a, b, np.array([0, 1, 1]), p1, p2, matched)[2]
