@@ -45,7 +45,12 @@ import numpy as np
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.multiview import reconstruct_views
 from aida_kb.interpret.result import INSERTED, Interpretation
-from aida_kb.interpret.verdict import check_attributes, check_orientations, check_view
+from aida_kb.interpret.verdict import (
+    check_attributes,
+    check_orientations,
+    check_view,
+    unmeasured_roles,
+)
 from aida_kb.io.evidence import Evidence
 from aida_kb.io.scene import Scene
 from aida_kb.kb.model import KnowledgeBase
@@ -302,7 +307,9 @@ def most_specific(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
     constraints is inserted by the knowledge (`guessed_by_stronger`), it sits where the
     knowledge put it, and meeting them says nothing (dev 61819: a shed taken for an asymmetric
     gable whose back slope no region showed, inserted at the front's pitch, then named a
-    gable)."""
+    gable). A part the first view inserted but a later view's regions measure in the refined
+    model is no guess (dev 67027: a gable's back slope seen in view 02, its pitch within 0.1
+    deg of the front's, stayed an asymmetric gable)."""
     model = interp.model
     if model is None or interp.objects:
         return interp
@@ -318,7 +325,7 @@ def most_specific(kb: KnowledgeBase, interp: Interpretation, evidence: Evidence)
             if current.get(role) != concept:
                 continue
             stronger = _relabelled(interp, role, strong.partition("=")[2])
-            if guessed_by_stronger(kb, interp, stronger):
+            if guessed_by_stronger(kb, interp, stronger, evidence):
                 continue
             broken = stronger_broken(kb, interp, stronger)
             broken = broken or list(contradicted(kb, stronger, evidence))
@@ -345,14 +352,20 @@ def _relabelled(interp: Interpretation, role: str, concept: str) -> Interpretati
 
 
 def guessed_by_stronger(
-    kb: KnowledgeBase, weak: Interpretation, strong: Interpretation
+    kb: KnowledgeBase,
+    weak: Interpretation,
+    strong: Interpretation,
+    evidence: Evidence | None = None,
 ) -> list[str]:
     """The guessed parts among those of the internal constraints `strong` asserts and `weak`
     does not (the same model, other concepts): inserted by the knowledge (bound to no region:
     `result.INSERTED`) with a slope the knowledge leaves open (`_slope_open`: a roof plane
     tilted by its pitch, placed at the pitch's default). An inserted wall counts as measured
     here: the knowledge stands it upright, and a symmetry of slopes about it holds by the
-    slopes alone. Role paths, sorted; every part when the model's planes make no problem."""
+    slopes alone. With the `evidence`, an inserted part that the views with a camera in the
+    model measure (verdict check (e), `verdict.unmeasured_roles`: a region on it, or two of
+    its edges seen — a later view that sees the back slope the first view did not) is no
+    guess either. Role paths, sorted; every part when the model's planes make no problem."""
     model = weak.model
     if model is None:
         return []
@@ -360,6 +373,9 @@ def guessed_by_stronger(
     if isinstance(rows, str):
         return sorted(p.role for p in model.parts)
     inserted = {i.role for i in weak.instances if INSERTED in i.bindings}
+    if evidence is not None:
+        checks = tuple(c for v in evidence.views if (c := check_view(v, model)) is not None)
+        inserted &= set(unmeasured_roles(weak, evidence, checks, kb))
     parts = {p for r in rows for p in r.parts if p in inserted}
     return sorted(p for p in parts if _slope_open(kb, weak, p))
 

@@ -430,3 +430,30 @@ def test_a_slope_the_knowledge_inserted_does_not_make_the_gable_symmetric(
     seen, _ = _gable_result(None)
     both = rejudge._relabelled(seen, "body.roof", "GableRoof")
     assert rejudge.guessed_by_stronger(buildings_kb, seen, both) == []
+
+
+def test_a_slope_the_first_view_inserted_but_a_view_measures_is_no_guess(
+    buildings_kb: Any, interpreted: Any
+) -> None:
+    """Dev 67027: a gable's back slope inserted by the first view, then seen by view 02 in
+    the refined model (its pitch within 0.1 deg of the front's), stayed an asymmetric gable.
+    Here the fixture house's back slope, which its view's region 00/4 shows, is taken as
+    inserted: the evidence measures it all the same, so the symmetry is measured."""
+    evidence = read_evidence(FIXTURES / "house_correct.json")
+    house = interpreted("house_correct.json")
+    instances = []
+    for i in house.instances:
+        if i.role == "body.roof.back.region":
+            continue
+        if i.role == "body.roof.back":
+            i = i.model_copy(update={"bindings": ["inserted"]})
+        if i.role == "body.roof":
+            i = i.model_copy(update={"concept": "AsymmetricGableRoof"})
+        instances.append(i)
+    weak = house.model_copy(update={"instances": instances})
+    strong = rejudge._relabelled(weak, "body.roof", "GableRoof")
+    assert rejudge.guessed_by_stronger(buildings_kb, weak, strong) == ["body.roof.back"]
+    assert rejudge.guessed_by_stronger(buildings_kb, weak, strong, evidence) == []
+    out = rejudge.most_specific(buildings_kb, weak, evidence)
+    assert out.instance("body.roof").concept == "GableRoof"
+    assert out.model == weak.model

@@ -32,7 +32,7 @@ from aida_kb.interpret.verdict import (
     judge,
     line_offset_sd,
     unexplained_near,
-    unmeasured_parts,
+    unmeasured_roles,
     with_verdict,
 )
 from aida_kb.interpret.verdict.views import check_view, normal_tolerance_cos
@@ -187,7 +187,7 @@ def test_a_part_no_evidence_measures_is_named(
     # segments they are measured (edges seen), without them nothing says where they are
     interp = interpreted("house_correct.json")
     evidence = _evidence("house_correct.json")
-    assert unmeasured_parts(interp, evidence, judge(buildings_kb, interp, evidence).checks) == []
+    assert unmeasured_roles(interp, evidence, judge(buildings_kb, interp, evidence).checks) == {}
     blind = evidence.model_copy(
         update={"views": [evidence.views[0].model_copy(update={"lines": [], "contours": []})]}
     )
@@ -470,10 +470,14 @@ def test_regions_turned_away_from_a_contested_orientation_are_named(
     )
     (check,) = judge(buildings_kb, flat, evidence).checks
     assert check.turned_on["body.roof.top"] < 1.0
-    assert not [r for r in unmeasured_parts(flat, evidence, (check,), buildings_kb) if "top" in r]
+    assert not [
+        r for r in unmeasured_roles(flat, evidence, (check,), buildings_kb).values() if "top" in r
+    ]
     turned = replace(check, turned_on={**check.turned_on, "body.roof.top": 6.0})
     (reason,) = [
-        r for r in unmeasured_parts(flat, evidence, (turned,), buildings_kb) if "roof.top" in r
+        r
+        for r in unmeasured_roles(flat, evidence, (turned,), buildings_kb).values()
+        if "roof.top" in r
     ]
     assert reason.startswith("body.roof.top is oriented by the knowledge of FlatRoof, not by")
     assert "ShedRoof orients it otherwise" in reason

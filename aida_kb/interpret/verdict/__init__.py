@@ -149,7 +149,7 @@ from aida_kb.interpret.verdict.measured import (
     PLACED_BY_KNOWLEDGE,
     contested,
     spread,
-    unmeasured_parts,
+    unmeasured_roles,
 )
 from aida_kb.interpret.verdict.normals import (
     NORMAL_SD_CONFIDENCE,
@@ -315,7 +315,7 @@ __all__ = [
     "undecided",
     "unexplained_near",
     "unfilled",
-    "unmeasured_parts",
+    "unmeasured_roles",
     "with_deviations",
     "with_verdict",
 ]

@@ -17,7 +17,7 @@ from aida_kb.interpret.verdict.attributes import (
 from aida_kb.interpret.verdict.cameras import camera_doubts
 from aida_kb.interpret.verdict.edges import edge_cover
 from aida_kb.interpret.verdict.filled import unfilled
-from aida_kb.interpret.verdict.measured import unmeasured_parts
+from aida_kb.interpret.verdict.measured import unmeasured_roles
 from aida_kb.interpret.verdict.normals import loose_normals
 from aida_kb.interpret.verdict.outcome import DOUBTFUL, NOTHING, VERIFIED, Verdict, ViewCheck
 from aida_kb.interpret.verdict.tolerances import (
@@ -250,7 +250,7 @@ def judge(
     for check in checks:
         reasons += unfilled(by_id[check.view], model, check.explained_ids)
     # (e) every part inserted from knowledge is measured by some evidence
-    reasons += unmeasured_parts(interp, evidence, tuple(checks), kb, uncertainty)
+    reasons += unmeasured_roles(interp, evidence, tuple(checks), kb, uncertainty).values()
     # (i) every part a region measures has its normal fixed to the accuracy asked of it
     reasons += loose_normals(uncertainty)
     # (d) the knowledge's measured attributes

@@ -119,14 +119,15 @@ def _owner_concept(interp: Interpretation, role: str) -> str:
     return next((i.concept for i in interp.instances if i.role == owner), "")
 
 
-def unmeasured_parts(
+def unmeasured_roles(
     interp: Interpretation,
     evidence: Evidence,
     checks: tuple[ViewCheck, ...],
     kb: KnowledgeBase | None = None,
     uncertainty: Uncertainty | None = None,
-) -> list[str]:
-    """The parts whose plane the evidence does not measure (reasons): inserted from
+) -> dict[str, str]:
+    """The parts whose plane the evidence does not measure, each with its reason (role path
+    -> reason, in the order of the model's parts): inserted from
     knowledge, or bound to regions none of which lies on the part (a region bound but left
     off the face by the adjustment measures nothing).
 
@@ -154,7 +155,7 @@ def unmeasured_parts(
     into the body) is no surface of the object and needs no measurement."""
     model = interp.model
     if model is None:
-        return []
+        return {}
     inserted = {i.role for i in interp.instances if INSERTED in i.bindings}
     bound = {  # parts whose realisation (a con-of region) is bound to evidence
         i.parent
@@ -187,7 +188,7 @@ def unmeasured_parts(
         [p.normal for p in model.parts if p.role in on_region], dtype=np.float64
     ).reshape(-1, 3)
     enclosed = enclosed_parts(model)  # inside another solid: no surface to measure
-    reasons = []
+    reasons: dict[str, str] = {}
     for part in model.parts:
         if part.role in on_region:
             rival = contested(kb, interp, part.role) if kb is not None else None
@@ -200,7 +201,7 @@ def unmeasured_parts(
             turned = sum(a * w for a, w in on) / weight if weight > 0 else 0.0
             if rival is not None and turned > CONTESTED_NORMAL_DEG:
                 chosen = _owner_concept(interp, part.role)
-                reasons.append(
+                reasons[part.role] = (
                     f"{part.role} is oriented by the knowledge of {chosen}, not by its regions: "
                     f"they lie at {turned:.1f} deg to it (at most {CONTESTED_NORMAL_DEG:g}; "
                     f"{rival} orients it otherwise)"
@@ -233,7 +234,7 @@ def unmeasured_parts(
             placed = rival is None
             if not placed:
                 chosen = _owner_concept(interp, part.role)
-                reasons.append(
+                reasons[part.role] = (
                     f"{part.role} is oriented by the knowledge of {chosen}, not measured: no "
                     f"region lies on it and {lines} of its edges are measured, which {rival} "
                     f"would fit as well ({MEASURED_LINES} needed to tell them apart)"
@@ -245,7 +246,7 @@ def unmeasured_parts(
                 sd = max(sd, uncertainty.parts[part.role][1])
             if sd > POSITION_TOLERANCE * size:
                 placed_to = f"+-{sd:.2f} m" if math.isfinite(sd) else "nothing (left open)"
-                reasons.append(
+                reasons[part.role] = (
                     f"{part.role} is placed by {lines} edge{'s' if lines != 1 else ''} only "
                     f"to {placed_to}, more than "
                     f"{100 * POSITION_TOLERANCE:.0f}% of the model's size ({size:.1f} m; an "
@@ -254,7 +255,7 @@ def unmeasured_parts(
                 )
             continue
         how = PLACED_BY_KNOWLEDGE if part.role in inserted else BOUND_TO_NOTHING
-        reasons.append(
+        reasons[part.role] = (
             f"{part.role} is {how}{NOT_MEASURED}: no region lies on it and "
             f"{lines} of its edges are measured ({MEASURED_LINES} needed: seen in two views, "
             "or in one along a neighbour a region measures)"
