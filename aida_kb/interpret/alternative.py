@@ -121,6 +121,26 @@ def level_violation(
     return ""
 
 
+def _unpitched(binding: dict[str, str], pitched: frozenset[str]) -> dict[str, str] | None:
+    """`binding` (region id -> role path) without the regions bound to `pitched` parts, to
+    verify again where its planes close no solid; None when it binds none of them or nothing
+    else.
+
+    A roof region seen at a grazing angle (a low camera sees a sliver of the roof) or lit
+    flat gives its plane a pitch far off its face's: the roof then cuts the walls below their
+    eaves or through the floor and no solid closes, while a level top or a shed over the same
+    walls, with its top inserted, closes and is taken (dev 67032, a shed seen from below its
+    eaves: its top bound to a region pitched 58 deg, 19 deg true, every pitched roof failed
+    and a flat roof was accepted). Without those regions the knowledge inserts the slopes and
+    the segments place them (`adjust`); the regions left out count against it as any
+    evidence an alternative could have bound (`plausibility.misfit`).
+    """
+    unpitched = {r: role for r, role in binding.items() if role not in pitched}
+    if not unpitched or len(unpitched) == len(binding):
+        return None
+    return unpitched
+
+
 def verify_alternative(
     ctx: Context,
     trace: Trace,
@@ -170,6 +190,10 @@ def verify_alternative(
     if isinstance(options, str):
         trace.reject(hid, f"[{what}] {options}")
         return None
+    options = list(options)
+    # the parts the knowledge tilts by a pitch (``orient P: ... tilted by T``): the bindings
+    # without their regions are tried where a binding's planes close no solid (`_unpitched`)
+    pitched = frozenset(leaf.role for leaf in structure.leaves if leaf.pitched)
     best: Level | None = None
     attachment = ctx.knowledge.attachment(structure.root)
     # the regions of the parts this one meets: segments to them are no loose evidence
@@ -212,6 +236,9 @@ def verify_alternative(
             polygons, closing = closed(ctx, structure, outcome, fixed, frame)
         except GeometryError as exc:
             reasons.append((f"its planes do not close a solid: {exc}", None))
+            unpitched = None if smaller else _unpitched(binding, pitched)
+            if unpitched is not None and unpitched not in options:
+                options.append(unpitched)
             continue
         whole = (fixed, faces or {}, exclude) if smaller else None
         violation = attribute_violation(

@@ -305,3 +305,50 @@ def test_a_complete_state_is_charged_for_the_light_walls_an_optional_part_could_
     rest = ctx.share(ctx.evidence.regions["00/7"])
     assert both == pytest.approx(bound + UNEXPLAINED_PENALTY * rest)
     assert alone - both > 0.05
+
+
+def test_a_binding_whose_roof_regions_close_no_solid_is_tried_without_them(
+    buildings_kb: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Dev 67032: a shed's top bound to a roof sliver whose plane fit was pitched 58 deg (19
+    deg true) closed no solid, nor did any pitched roof, and a flat roof was taken. Where a
+    binding's planes close no solid, the same binding without the regions of the parts the
+    knowledge tilts by a pitch is verified: the knowledge inserts the slopes, the segments
+    place them, and the regions left out are charged as evidence it could have bound."""
+    import aida_kb.interpret.alternative as alternative
+    from aida_kb.errors import GeometryError
+
+    evidence = read_evidence(FIXTURES / "house_occluded.json")
+    it = Interpreter(Knowledge.from_kb(buildings_kb), view_of(evidence, "occluded"), "House")
+    goal = it.trace.create("House", "", None, "goal")
+    gable = next(
+        p
+        for p in it.body_candidates(goal)
+        if p.hypothesis.structure.describe() == "body.roof=GableRoof"
+    )
+    roofs = {r for r, role in gable.hypothesis.binding.items() if ".roof." in role}
+    assert roofs  # the fixture's roof regions are bound to the slopes
+    tried: list[dict[str, str]] = []
+    adjust, closed = alternative.adjust, alternative.closed  # type: ignore[attr-defined]
+
+    def recorded(*args: Any, **kw: Any) -> Any:
+        tried.append(dict(args[3]))
+        return adjust(*args, **kw)
+
+    def failing(*args: Any, **kw: Any) -> Any:
+        if len(tried) == 1:  # the first binding's planes: a roof cutting the floor
+            raise GeometryError("face body.left: its polygon intersects itself")
+        return closed(*args, **kw)
+
+    monkeypatch.setattr(alternative, "adjust", recorded)
+    monkeypatch.setattr(alternative, "closed", failing)
+    verified = it.verify_body(gable, goal)
+    assert verified is not None
+    level, _ = verified
+    assert tried[0] == gable.hypothesis.binding
+    assert tried[-1] == {r: role for r, role in tried[0].items() if r not in roofs}
+    assert level.binding == tried[-1]
+    assert {"body.roof.front", "body.roof.back"} <= set(level.inserted)
+    # the roof regions it leaves out cost it their share of the evidence
+    share = sum(it.context.share(it.evidence.regions[r]) for r in roofs)
+    assert level.misfit >= UNEXPLAINED_PENALTY * share
