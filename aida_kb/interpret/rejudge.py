@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aida_kb.interpret.knowledge import Knowledge
-from aida_kb.interpret.multiview import reconstruct_views
+from aida_kb.interpret.multiview import REGISTERED_EXPLAINED_MIN, reconstruct_views
 from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.verdict import (
     check_attributes,
@@ -127,7 +127,14 @@ def judged(
     interp: Interpretation, evidence: Evidence
 ) -> tuple[dict[str, ViewScore], frozenset[str]]:
     """`score`, and the views with a camera in `interp`'s model whose regions it covers none
-    of (`Candidate.uncovered`)."""
+    of (`Candidate.uncovered`).
+
+    A view whose regions the model explains less than `REGISTERED_EXPLAINED_MIN` of is at a
+    pose its own stereo does not confirm (`multiview.reconstruct_from_first` keeps such a pose
+    when no rival turn explains the view better): its edges and faces, seen from a camera that
+    may be anywhere, say nothing of the model, and it scores its explained share alone (dev
+    66004, a gable: the shed's view 02, 6 % explained, scored 1.51 on edges and faces to the
+    gable's 1.27 at a confirmed pose, and the views left the tie open)."""
     from aida_kb.interpret.scene import inside_faces  # it builds on this module
 
     out: dict[str, ViewScore] = {}
@@ -139,7 +146,10 @@ def judged(
         if check is None:
             continue
         explained = check.explained_share if check.inside_weight > 0 else 0.0
-        out[view.id] = (explained, check.edge_cover, inside_faces(view, interp.model))
+        if explained < REGISTERED_EXPLAINED_MIN:
+            out[view.id] = (explained, None, None)
+        else:
+            out[view.id] = (explained, check.edge_cover, inside_faces(view, interp.model))
         if check.inside_weight <= 0:
             uncovered.add(view.id)
     return out, frozenset(uncovered)

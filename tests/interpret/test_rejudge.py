@@ -457,3 +457,23 @@ def test_a_slope_the_first_view_inserted_but_a_view_measures_is_no_guess(
     out = rejudge.most_specific(buildings_kb, weak, evidence)
     assert out.instance("body.roof").concept == "GableRoof"
     assert out.model == weak.model
+
+
+def test_a_view_at_a_pose_its_stereo_does_not_confirm_scores_its_explained_share_alone(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Dev 66004: the shed's view 02, 6 % of its region weight explained, scored its edges
+    and faces as a confirmed view does and kept the gable's lead under the margin."""
+    import aida_kb.interpret.scene as scene
+
+    shares = {"01": 0.97, "02": 0.06}
+
+    def check(view: Any, model: Any) -> Any:
+        return SimpleNamespace(explained_share=shares[view.id], inside_weight=1.0, edge_cover=0.46)
+
+    monkeypatch.setattr(rejudge, "check_view", check)
+    monkeypatch.setattr(scene, "inside_faces", lambda view, model: 1.0)
+    ev = SimpleNamespace(views=[SimpleNamespace(id=v) for v in shares], units="m")
+    per_view, uncovered = rejudge.judged(_interp("House verified", []), ev)  # type: ignore[arg-type]
+    assert per_view == {"01": (0.97, 0.46, 1.0), "02": (0.06, None, None)}
+    assert uncovered == frozenset()
