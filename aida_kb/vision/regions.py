@@ -248,6 +248,18 @@ def _inliers_per_region(
     return {int(i): int(c) for i, c in enumerate(counts.tolist()) if c > 0}
 
 
+def _in_camera(
+    plane_regions: list[Region], pose: tuple[F64, F64]
+) -> tuple[npt.NDArray[np.int64], F64, F64]:
+    """The regions' ids (R,), unit normals (R, 3) and centroids (R, 3, metres) in the camera
+    frame, from their planes given in the frame of pose = (R_cam_world, t_cam_world)."""
+    R_w, t_w = pose
+    ids = np.array([r.id for r in plane_regions], np.int64)
+    normals = np.array([np.array(r.n_init) for r in plane_regions], np.float64).reshape(-1, 3)
+    centroids = np.array([np.array(r.c_init) for r in plane_regions], np.float64).reshape(-1, 3)
+    return ids, normals @ R_w.T, centroids @ R_w.T + t_w
+
+
 def merged_regions(
     regions: I32,
     plane_regions: list[Region],
@@ -261,10 +273,7 @@ def merged_regions(
 
     pose : (R_cam_world, t_cam_world) of the frame the regions' planes are given in.
     """
-    R_w, t_w = pose
-    ids = np.array([r.id for r in plane_regions], np.int64)
-    normals = np.array([R_w @ np.array(r.n_init) for r in plane_regions])
-    centroids = np.array([R_w @ np.array(r.c_init) + t_w for r in plane_regions])
+    ids, normals, centroids = _in_camera(plane_regions, pose)
     merged = merge_coplanar(
         regions,
         ids,
@@ -294,10 +303,7 @@ def completed_regions(
     pose : (R_cam_world, t_cam_world) of the frame the regions' planes are given in.
     """
     depth, rect = stereo.depth, stereo.rect
-    R_w, t_w = pose
-    ids = np.array([r.id for r in plane_regions], np.int64)
-    normals = np.array([R_w @ np.array(r.n_init) for r in plane_regions])
-    centroids = np.array([R_w @ np.array(r.c_init) + t_w for r in plane_regions])
+    ids, normals, centroids = _in_camera(plane_regions, pose)
     offsets = np.einsum("ij,ij->i", normals, centroids)
     rms = np.array([r.rms_m for r in plane_regions])
     grown = complete_regions(
@@ -497,10 +503,7 @@ def plane_tolerances(
     normals (R, 3), offsets (R,) metres (n·x = d), and the distance from the plane within
     which a point lies on it, metres (COMPLETE_SIGMAS times the larger of the fit's RMS and
     the depth noise at the region's distance, as `complete_regions` uses it)."""
-    R_w, t_w = pose
-    ids = np.array([r.id for r in plane_regions], np.int64)
-    normals = np.array([R_w @ np.array(r.n_init) for r in plane_regions]).reshape(-1, 3)
-    centroids = np.array([R_w @ np.array(r.c_init) + t_w for r in plane_regions]).reshape(-1, 3)
+    ids, normals, centroids = _in_camera(plane_regions, pose)
     offsets = np.einsum("ij,ij->i", normals, centroids)
     z = np.abs(centroids[:, 2])
     sigma_z = z * z * DISPARITY_SIGMA_PX / max(rect.focal_px * rect.baseline_m, 1e-12)
