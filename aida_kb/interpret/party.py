@@ -1,7 +1,7 @@
 """Party walls: a terrace's touching houses told apart in the reference view's evidence.
 
 Without labels the segmentation grows one region over a terrace's coplanar fronts, and one over
-roof slopes of one pitch side by side (`vision.segmentation`: regions of one plane merged): the
+roof slopes of one pitch side by side (`vision.merge`: regions of one plane merged): the
 houses' fronts are one region, and the scene's rounds (`interpret.scene`) find at most one
 house there. Where two houses touch, the image shows their party wall on the front as a
 vertical line inside that region (a change of material or colour, the end of an eave, of a

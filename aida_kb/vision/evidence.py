@@ -110,7 +110,7 @@ class VisionParams:
     # pixels certain, 27 % exact); about twice the matcher's time
     ncc_exact: bool = True
     # regions on the faces without texture that the image's edges outline and the matcher
-    # measures all round (`segmentation.outlined_patches`): segmentation by orientation only
+    # measures all round (`outline.outlined_patches`): segmentation by orientation only
     outlined_faces: bool = True
     min_certainty: float = 0.05
     min_line_px: float = 15.0

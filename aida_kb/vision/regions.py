@@ -21,8 +21,20 @@ import numpy.typing as npt
 from aida_kb.errors import VisionError
 from aida_kb.io.evidence import Region
 from aida_kb.io.scene import StereoCalib
+from aida_kb.vision.complete import (
+    COMPLETE_GAP_M,
+    COMPLETE_GAP_PX,
+    COMPLETE_SIGMAS,
+    DISPARITY_SIGMA_PX,
+    absorb_recesses,
+    complete_regions,
+    extend_to_border,
+)
 from aida_kb.vision.depth import DepthMap
+from aida_kb.vision.linekinds import LINE_SIDE_PX, line_kinds
 from aida_kb.vision.lines import Segment
+from aida_kb.vision.merge import merge_coplanar
+from aida_kb.vision.outline import OUTLINE_EDGE_PX, OUTLINE_REACH_PX, outlined_patches
 from aida_kb.vision.planes import (
     PhotometricPair,
     fit_disparity_plane,
@@ -31,21 +43,6 @@ from aida_kb.vision.planes import (
     refine_plane_photometric,
 )
 from aida_kb.vision.rectify import Rectification, remap
-from aida_kb.vision.segmentation import (
-    COMPLETE_GAP_M,
-    COMPLETE_GAP_PX,
-    COMPLETE_SIGMAS,
-    DISPARITY_SIGMA_PX,
-    LINE_SIDE_PX,
-    OUTLINE_EDGE_PX,
-    OUTLINE_REACH_PX,
-    absorb_recesses,
-    complete_regions,
-    extend_to_border,
-    line_kinds,
-    merge_coplanar,
-    outlined_patches,
-)
 from aida_kb.vision.stereo import DisparityMap
 
 F32 = npt.NDArray[np.float32]
@@ -269,7 +266,7 @@ def merged_regions(
     to_frame: tuple[F64, F64] | None,
     photometric: PhotometricPair | None,
 ) -> tuple[I32, list[Region]]:
-    """Regions of one plane merged (`segmentation.merge_coplanar`) and their planes refitted.
+    """Regions of one plane merged (`merge.merge_coplanar`) and their planes refitted.
 
     pose : (R_cam_world, t_cam_world) of the frame the regions' planes are given in.
     """
@@ -297,7 +294,7 @@ def completed_regions(
     to_frame: tuple[F64, F64] | None,
     photometric: PhotometricPair | None,
 ) -> tuple[I32, list[Region]]:
-    """Regions grown over the pixels their planes explain (`segmentation.complete_regions`);
+    """Regions grown over the pixels their planes explain (`complete.complete_regions`);
     the planes stay fitted to the measured pixels, the extents (pixel count, area, box) grow.
 
     pose : (R_cam_world, t_cam_world) of the frame the regions' planes are given in.
@@ -338,7 +335,7 @@ def completed_regions(
     return grown, refit
 
 
-# A textureless face's plane (`segmentation.outlined_patches`) is fitted to the certain
+# A textureless face's plane (`outline.outlined_patches`) is fitted to the certain
 # points along its outline (within OUTLINE_REACH_PX of it, either side: the edge's depth is the
 # face's where the face is in front or meets its neighbour there), but of a neighbouring
 # region only its pixels within OUTLINE_EDGE_PX of the edge (a wall's pixels a few rows below
@@ -385,7 +382,7 @@ def outlined_regions(
     min_region_px: int,
     to_frame: tuple[F64, F64] | None,
 ) -> tuple[I32, list[Region]]:
-    """Regions added on the textureless faces (`segmentation.outlined_patches`): each patch
+    """Regions added on the textureless faces (`outline.outlined_patches`): each patch
     with the certain pixels of no region along its outline, its plane fitted to the certain
     pixels along the outline (no photometric refinement: they straddle the outline). Pixel
     figures are the patch's; inlier_count at most its pixels with depth. See
@@ -520,7 +517,7 @@ def segment_kinds(
     rect: Rectification,
     scale: float,
 ) -> list[Literal["structural", "texture"] | None]:
-    """Each segment structural, texture or unknown (`segmentation.line_kinds`); `scale`: the
+    """Each segment structural, texture or unknown (`linekinds.line_kinds`); `scale`: the
     image's pixels per working pixel (the sides are sampled as far at the object)."""
     if not segments:
         return []

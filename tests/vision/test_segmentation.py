@@ -58,7 +58,7 @@ def test_no_depth_no_regions() -> None:
 def test_coplanar_regions_merge_across_a_window_hole() -> None:
     """Two pieces of one wall 20 m away, 10 px apart across a window, merge; a piece 1 m in
     front (a porch) and a turned piece (a side wall) touching them do not."""
-    from aida_kb.vision.segmentation import merge_coplanar
+    from aida_kb.vision.merge import merge_coplanar
 
     regions = np.zeros((60, 200), np.int32)
     regions[:, 0:50] = 3  # wall, left of the window
@@ -86,7 +86,7 @@ def test_complete_regions_grows_a_wall_over_dropouts_and_openings() -> None:
     """A wall 20 m away measured on a lace of pixels: its region grows over the dropouts
     between them and the window it encloses (glass 0.4 m behind), not over a pole 2 m in front
     of it, nor over the sky beyond its outline; a second plane's region keeps its pixels."""
-    from aida_kb.vision.segmentation import complete_regions
+    from aida_kb.vision.complete import complete_regions
 
     H, W, f, B = 120, 200, 200.0, 4.0  # depth noise 0.125 m at 20 m: tolerance 0.375 m
     vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
@@ -130,7 +130,7 @@ def test_complete_regions_claims_no_strip_narrower_than_a_window() -> None:
     extended (a tower's corner rising past the eave: windows straddling a silhouette take the
     front's depth) beside a wide patch on the plane: with an 11-px matching window the strip
     stays out and the patch joins; with no window the strip joins too."""
-    from aida_kb.vision.segmentation import complete_regions
+    from aida_kb.vision.complete import complete_regions
 
     H, W, f, B = 120, 200, 200.0, 4.0
     vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
@@ -154,7 +154,7 @@ def test_line_kinds_tell_structural_from_texture() -> None:
     wall (region 2): a joint on the flat wall is texture, the recess's edge and the corner
     between the walls are structural, the wall's outline against the sky is structural, and a
     line in the sky is unknown."""
-    from aida_kb.vision.segmentation import line_kinds
+    from aida_kb.vision.linekinds import line_kinds
 
     H, W, f = 120, 200, 200.0
     vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
@@ -193,7 +193,7 @@ def test_fragments_of_one_wall_merge_across_windows_and_a_wing_does_not() -> Non
     """A wall 20 m away, broken by windows (no depth) into five pieces whose own plane fits
     scatter (noise 5 cm on a few hundred points each), merges into one region; a wing's wall
     at 45 degrees touching it, and a porch 1 m in front of it, stay apart."""
-    from aida_kb.vision.segmentation import merge_coplanar
+    from aida_kb.vision.merge import merge_coplanar
 
     H, W, f = 120, 400, 500.0
     v, u = np.mgrid[0:H, 0:W].astype(np.float64)
@@ -242,7 +242,7 @@ def test_absorb_recesses_takes_a_portal_set_in_the_wall_not_a_side_wall_or_the_s
     region and the embrasure's pixels (no depth, or behind the wall) join the wall; the ground
     in front, a side wall receding from the wall's corner, the sky above (no depth) and a
     chimney 4 m behind the wall's top (deeper than a recess) stay out."""
-    from aida_kb.vision.segmentation import absorb_recesses
+    from aida_kb.vision.complete import absorb_recesses
 
     H, W, f = 120, 200, 200.0
     vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
@@ -290,7 +290,7 @@ def test_extend_to_border_takes_the_strip_only_the_left_camera_sees() -> None:
     goes on to the border on the rows where stereo measured the wall next to the strip, not
     beside the recess of a porch (its region's pixels there lie 1 m behind the plane), not in
     the sky above the wall, and not across another region's pixels."""
-    from aida_kb.vision.segmentation import extend_to_border
+    from aida_kb.vision.complete import extend_to_border
 
     H, W, f = 100, 160, 200.0
     vs, us = np.mgrid[0:H, 0:W].astype(np.float64)
@@ -346,7 +346,7 @@ def test_outlined_patches_take_a_dark_face_measured_on_its_outline_not_the_sky()
     along the verges and the eave (not along the ridge, a row: no disparity there for any
     matcher), so it is a patch; the sky, cut by the image's border, is not. Without depth
     along the verges the roof is no patch either."""
-    from aida_kb.vision.segmentation import OUTLINE_REACH_PX, outlined_patches
+    from aida_kb.vision.outline import OUTLINE_REACH_PX, outlined_patches
 
     roof, image, regions, ring = _dark_roof()
     v = np.mgrid[0 : roof.shape[0], 0 : roof.shape[1]][0]
@@ -367,7 +367,7 @@ def test_outlined_patches_excuse_the_half_occluded_left_verge_only() -> None:
     """The right camera sees the far field beside the roof's left verge hidden behind the
     roof: no certain depth there, yet the roof is a patch on its right verge and its eave. The
     right verge (its background seen by both cameras) without depth is no excuse: no patch."""
-    from aida_kb.vision.segmentation import outlined_patches
+    from aida_kb.vision.outline import outlined_patches
 
     roof, image, regions, ring = _dark_roof()
     v, u = np.mgrid[0 : roof.shape[0], 0 : roof.shape[1]]
@@ -387,7 +387,7 @@ def test_outlined_patches_count_a_neighbours_depth_only_at_an_edge() -> None:
     roof's plane, so that depth does not measure the roof's outline (61935: a patch of far
     ground and a striped wall, held by the near ground's region, was fitted as the wall). Where
     the neighbour is lighter (an edge between them) its depth at the edge measures it."""
-    from aida_kb.vision.segmentation import outlined_patches
+    from aida_kb.vision.outline import outlined_patches
 
     roof, image, regions, ring = _dark_roof()
     v, u = np.mgrid[0 : roof.shape[0], 0 : roof.shape[1]]
