@@ -20,7 +20,8 @@ from aida_kb.interpret.closure import ClosingFace
 from aida_kb.interpret.context import Context
 from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD, Frame
 from aida_kb.interpret.knowledge import Structure
-from aida_kb.interpret.observe import RegionView
+from aida_kb.interpret.observe import RegionView, slope_deg
+from aida_kb.interpret.outline import outline_pitch
 from aida_kb.interpret.plausibility import (
     MAX_MEAN_COST,
     attribute_violation,
@@ -31,10 +32,16 @@ from aida_kb.interpret.plausibility import (
     outside,
     unseen,
 )
-from aida_kb.interpret.support import EdgeSupport, edge_support, overflow, uncovered
+from aida_kb.interpret.support import (
+    EdgeSupport,
+    edge_support,
+    outside_share,
+    overflow,
+    uncovered,
+)
 from aida_kb.interpret.trace import Trace
 from aida_kb.interpret.unseen import Planes, UnseenError
-from aida_kb.interpret.verdict.tolerances import ORIENTATION_TOLERANCE_DEG
+from aida_kb.interpret.verdict.tolerances import ORIENTATION_TOLERANCE_DEG, SPILL_MAX
 from aida_kb.interpret.verify import Outcome, Verification
 
 FloatArray = npt.NDArray[np.float64]
@@ -96,6 +103,28 @@ def unseen_by_edges(ctx: Context, visible: tuple[str, ...], edges: EdgeSupport) 
 # it cost the shed, and the result named the flat roof as a rival the evidence could not
 # rule out)
 LEVEL_TOLERANCE_DEG = ORIENTATION_TOLERANCE_DEG
+# an inserted tilted part that a relation of the knowledge places (the symmetry of a gable's
+# slopes, which an asymmetric gable does not assert) is rejected when the outline of the walls
+# it meets shows a slope this far from the one the relation gave it: the image contradicts
+# what the stronger structure asserts of a part it only guessed. On the outline's own
+# measure (`outline.outline_pitch`) of the back slopes of 13 dev gables (65013-68029) it lies
+# within 4.0 deg of the front's slope; on three asymmetric gables it lies 13.7-16.6 deg from
+# it (67013, 68017, 68024), and the randomised asymmetric gables' slopes differ by 8 deg or
+# more
+OUTLINE_CONTRADICTED_DEG = 8.0
+# a wall's outline measures a slope only where the camera sees the wall at most this far from
+# square on (between its line of sight and the wall's normal): seen edge-on its outline is a
+# few pixels wide, and so its back-projection along the wall is metres off (dev 68011, a
+# gable end wall seen at 83 deg: its outline said 55.5 deg for a 37.5 deg slope; 68027 and
+# 67014 at 83-85 deg: 3.5 deg off; 68017 and 68024 at 74 and 62 deg: within 2 deg of the truth)
+OUTLINE_MAX_INCIDENCE_DEG = 80.0
+# nor where more than this share of the wall's region lies outside the wall's face: the region
+# is more than that face, and its outline is not the face's (dev 67028, an L-shape: the body's
+# end wall and the wing's wall in its plane are one region, 42 % outside the end wall, its
+# outline 13 deg off the slopes; the asymmetric gables' end walls lie 0-15 % outside the
+# symmetric gable's face: 68017, 68024, 67013). A quarter, as the verdict's spill
+# (`verdict.tolerances.SPILL_MAX`)
+OUTLINE_OUTSIDE_MAX = SPILL_MAX
 
 
 def level_violation(
@@ -117,6 +146,51 @@ def level_violation(
                 f"{leaf.role} ({leaf.concept}) slopes {slope:.1f} deg where its region lies, "
                 f"but the knowledge orients it {leaf.direction} (within "
                 f"{LEVEL_TOLERANCE_DEG:g} deg)"
+            )
+    return ""
+
+
+def outline_contradiction(
+    ctx: Context,
+    structure: Structure,
+    frame: Frame,
+    binding: dict[str, str],
+    planes: Planes,
+    polygons: dict[str, FloatArray],
+    inserted: tuple[str, ...],
+    placed: frozenset[str],
+) -> str:
+    """Why an inserted tilted part that a relation of the knowledge places (`placed`: role
+    paths, `Knowledge.beyond_weaker`) contradicts the outline of the walls it meets ('' if
+    none does): its adjusted plane in `planes` (role path -> (unit normal (3,), offset m),
+    world) slopes more than `OUTLINE_CONTRADICTED_DEG` from the slope the outlines of the
+    regions bound to its neighbours show (`outline.outline_pitch`, walls seen within
+    `OUTLINE_MAX_INCIDENCE_DEG` of square on, regions at most `OUTLINE_OUTSIDE_MAX` outside
+    their faces in `polygons`: role path -> (K, 3), metres, world). Only a slope the
+    knowledge leaves to the evidence counts: a part tilted by a fixed angle is not measured
+    by its outline here."""
+    own = {
+        rid: role
+        for rid, role in binding.items()
+        if role not in polygons
+        or (share := outside_share(ctx, rid, polygons[role])) is None
+        or share <= OUTLINE_OUTSIDE_MAX
+    }
+    for leaf in structure.leaves:
+        if leaf.role not in placed or leaf.role not in inserted or leaf.tilt_deg is not None:
+            continue
+        traced = outline_pitch(
+            ctx, structure, leaf, frame, own, max_incidence_deg=OUTLINE_MAX_INCIDENCE_DEG
+        )
+        if traced is None:
+            continue
+        normal = planes[leaf.role][0] / np.linalg.norm(planes[leaf.role][0])
+        slope = slope_deg(normal, frame.up)
+        if abs(slope - traced) > OUTLINE_CONTRADICTED_DEG:
+            return (
+                f"{leaf.role} ({leaf.concept}) is inserted at a slope of {slope:.1f} deg, but "
+                f"the outlines of the walls it meets show {traced:.1f} deg (at most "
+                f"{OUTLINE_CONTRADICTED_DEG:g} deg apart)"
             )
     return ""
 
@@ -159,6 +233,7 @@ def verify_alternative(
     label: str = "",
     seen_by_edges: bool = False,
     faces: dict[str, FloatArray] | None = None,
+    placed: frozenset[str] = frozenset(),
 ) -> Level | None:
     """Verify a structure in `frame` with its anchor bound to `forced`; its level, or None.
 
@@ -166,7 +241,9 @@ def verify_alternative(
     ``choices``: their is-a choices; ``exclude``: regions they bound; ``junctions``: free
     regions of parts it may meet later (their segments along it are not loose, `adjust`);
     ``guessed``: their inserted parts (`adjust.adjust`). The hypothesis is recorded in
-    `trace` under `parent`.
+    `trace` under `parent`. ``placed``: the parts a relation of the knowledge places
+    beyond a weaker structure (`Knowledge.beyond_weaker`), checked against the walls'
+    outlines where they are inserted (`outline_contradiction`).
     ``bindings``: the region assignments to try (None: `assign.assignments` finds them from
     the anchor's region `forced`); ``offered``: the regions the structure could have bound
     (None: those of the bindings); ``label``: how the hypothesis was generated, for the trace.
@@ -250,6 +327,12 @@ def verify_alternative(
         tilted = level_violation(structure, binding, outcome.planes, frame.up)
         if tilted:
             reasons.append((tilted, None))
+            continue
+        against = outline_contradiction(
+            ctx, structure, frame, binding, outcome.planes, polygons, adjusted.inserted, placed
+        )
+        if against:
+            reasons.append((against, None))
             continue
         solid = {leaf.role: outcome.planes[leaf.role] for leaf in structure.leaves}
         solid.update({c.role: (c.normal, c.offset_m) for c in closing})

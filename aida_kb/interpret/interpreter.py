@@ -143,6 +143,9 @@ class Interpreter:
         self.verified_bodies = 0
         # every verified body with its cost (`ties`)
         self.bodies: list[tuple[Level, float]] = []
+        # per body structure (by its choices): the parts a relation it asserts beyond a weaker
+        # structure places (`Knowledge.beyond_weaker`; `alternative.outline_contradiction`)
+        self.placed: dict[tuple[tuple[str, str], ...], frozenset[str]] = {}
         # the body's concept has optional parts (an oriel, a wing): the lighter walls they
         # may bind are evidence a complete state leaves unexplained (`left_unexplained`)
         self.optional = any(
@@ -186,6 +189,7 @@ class Interpreter:
         role, concept = ctx.body.role, ctx.body.concept
         structures = self.knowledge.structures(concept, role, None if not role else "", "con-of")
         framed = [s for s in structures if s.anchor is not None]
+        self.placed = {s.choices: self.knowledge.beyond_weaker(s, framed) for s in framed}
         if not framed:
             hid = self.trace.create(concept, role, parent)
             self.trace.reject(
@@ -294,6 +298,7 @@ class Interpreter:
             junctions=pending.junctions,
             label=label,
             seen_by_edges=FACING_INSERTED,
+            placed=self.placed.get(h.structure.choices, frozenset()),
         )
         if level is None:
             if pending.facing:

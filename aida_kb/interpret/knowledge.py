@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -361,6 +361,22 @@ class Knowledge:
         if {_leaf_key(x) for x in a.leaves} != {_leaf_key(x) for x in b.leaves}:
             return False
         return self.asserted(a) < self.asserted(b)
+
+    def beyond_weaker(self, structure: Structure, others: Sequence[Structure]) -> frozenset[str]:
+        """The role paths of `structure`'s planar parts that a relation it asserts beyond a
+        weaker structure of `others` (`weaker`) names: what only the stronger one says of
+        them (the symmetry of a gable's slopes names both slopes and the eaves walls)."""
+        mine = self.asserted(structure)
+        leaves = {leaf.role for leaf in structure.leaves}
+        out: set[str] = set()
+        for other in others:
+            if other is structure or not self.weaker(other, structure):
+                continue
+            for relation in mine - self.asserted(other):
+                args = relation[1]
+                if isinstance(args, tuple):
+                    out.update(a for a in args if isinstance(a, str) and a in leaves)
+        return frozenset(out)
 
     def weaker_choices(self, concept: str, role: str) -> frozenset[tuple[str, str]]:
         """Pairs of choices along is-a (``ROLE=CONCEPT``) of `concept` at `role` whose

@@ -67,11 +67,15 @@ def outline_pitch(
     leaf: PlanarPart,
     frame: Frame,
     binding: dict[str, str],
+    *,
+    max_incidence_deg: float | None = None,
 ) -> float | None:
     """The slope (degrees) of tilted part `leaf`, no region bound to it, from the outlines
     of the regions bound to the parts it meets that face across its tilt (module
     docstring); None when there are none, or their outlines touch no slope clearly more
-    than another. ``binding``: region id -> role path."""
+    than another. ``binding``: region id -> role path. ``max_incidence_deg``: a region
+    whose outline the camera sees at more than this between its line of sight and the
+    region's normal (a wall seen edge-on) is left out (None: every region counts)."""
     if not leaf.pitched or leaf.direction is None:
         return None
     lean = frame.direction(leaf.direction)
@@ -103,6 +107,11 @@ def outline_pitch(
         segs = segs[np.all(np.isfinite(segs), axis=(1, 2))]  # rays that miss the plane: out
         if not len(segs):
             continue
+        if max_incidence_deg is not None:
+            sight = segs.reshape(-1, 3).mean(axis=0) - camera.centre_m
+            cos_in = abs(float(region.normal @ sight)) / max(float(np.linalg.norm(sight)), 1e-12)
+            if cos_in < math.cos(math.radians(max_incidence_deg)):
+                continue
         edges.append(segs)
         focal = float(camera.K[0, 0])
         dist = np.linalg.norm(segs.mean(axis=1) - camera.centre_m, axis=1)

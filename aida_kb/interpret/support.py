@@ -176,36 +176,46 @@ def overflow(ctx: Context, binding: dict[str, str], polygons: dict[str, FloatArr
 
     For each bound region (``binding``: region id -> role path), the share of its outline's
     area (reference image) farther than `OVERFLOW_MARGIN_PX` outside its face's projection
-    (``polygons``: role path -> (K, 3), metres, world) beyond `OVERFLOW_FREE`, times its
-    weight; summed. Regions
-    without an outline, or whose face is not wholly in front of the camera, count 0. The
-    pieces outside the face that reach the image's edge do not count (`_reaching_edge`).
+    (``polygons``: role path -> (K, 3), metres, world; `outside_share`) beyond
+    `OVERFLOW_FREE`, times its weight; summed. Regions without an outline, or whose face is
+    not wholly in front of the camera, count 0.
     """
-    camera = ctx.evidence.camera
-    scale, width, height, margin = _raster(camera)
-    kernel = np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)
     total = 0.0
     for rid, role in sorted(binding.items()):
-        outlines = ctx.evidence.outlines.get(rid, ())
-        face = polygons.get(role)
         region = ctx.evidence.regions.get(rid)
-        if not outlines or face is None or len(face) < 3 or region is None:
-            continue
-        face_px = _face_pixels(camera, face)
-        if face_px is None:
-            continue
-        mask = np.zeros((height, width), np.uint8)
-        cv2.fillPoly(mask, [np.round(o * scale).astype(np.int32) for o in outlines], 1)
-        area = int(mask.sum())
-        if area == 0:
-            continue
-        face_mask = np.zeros_like(mask)
-        cv2.fillPoly(face_mask, [np.round(face_px * scale).astype(np.int32)], 1)
-        near = cv2.dilate(face_mask, kernel) > 0
-        beyond = ((mask > 0) & ~near).astype(np.uint8)
-        outside = int(np.count_nonzero(beyond)) - _reaching_edge(beyond, outlines, camera, scale)
-        total += region.weight * max(0.0, outside / area - OVERFLOW_FREE)
+        face = polygons.get(role)
+        share = outside_share(ctx, rid, face) if face is not None else None
+        if region is not None and share is not None:
+            total += region.weight * max(0.0, share - OVERFLOW_FREE)
     return total
+
+
+def outside_share(ctx: Context, rid: str, face: FloatArray) -> float | None:
+    """The share of region `rid`'s outline area (reference image) farther than
+    `OVERFLOW_MARGIN_PX` outside the projection of `face` ((K, 3), metres, world); the pieces
+    outside it that reach the image's edge do not count (`_reaching_edge`). None when the
+    region has no outline (or no area), the face fewer than 3 corners, or a corner behind
+    the camera."""
+    camera = ctx.evidence.camera
+    outlines = ctx.evidence.outlines.get(rid, ())
+    if not outlines or len(face) < 3 or rid not in ctx.evidence.regions:
+        return None
+    face_px = _face_pixels(camera, face)
+    if face_px is None:
+        return None
+    scale, width, height, margin = _raster(camera)
+    kernel = np.ones((2 * margin + 1, 2 * margin + 1), np.uint8)
+    mask = np.zeros((height, width), np.uint8)
+    cv2.fillPoly(mask, [np.round(o * scale).astype(np.int32) for o in outlines], 1)
+    area = int(mask.sum())
+    if area == 0:
+        return None
+    face_mask = np.zeros_like(mask)
+    cv2.fillPoly(face_mask, [np.round(face_px * scale).astype(np.int32)], 1)
+    near = cv2.dilate(face_mask, kernel) > 0
+    beyond = ((mask > 0) & ~near).astype(np.uint8)
+    outside = int(np.count_nonzero(beyond)) - _reaching_edge(beyond, outlines, camera, scale)
+    return outside / area
 
 
 def _reaching_edge(

@@ -11,7 +11,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from aida_kb.interpret.alternative import level_violation
+from aida_kb.interpret.alternative import (
+    OUTLINE_CONTRADICTED_DEG,
+    level_violation,
+    outline_contradiction,
+)
 from aida_kb.interpret.hypotheses import Frame, PlanarPart
 from aida_kb.interpret.observe import CameraView, RegionView
 from aida_kb.interpret.outline import outline_pitch
@@ -44,6 +48,7 @@ def _ctx(regions: list[tuple[RegionView, Any]]) -> Any:
         regions={r.id: r for r, _ in regions},
         outlines={r.id: (_project(o),) for r, o in regions},
         segments_of=lambda rid: (),
+        camera=CAMERA,
     )
     return SimpleNamespace(evidence=evidence)
 
@@ -56,9 +61,9 @@ def _structure(*pairs: tuple[str, str]) -> Any:
     return SimpleNamespace(adjacency=pairs)
 
 
-def _side(top: Any) -> Any:
+def _side(top: Any, x: float = X) -> Any:
     """The right wall's outline: the ground at the front, its top ((y, z) each), the back."""
-    return [[X, 2.0, FRONT], *([X, y, z] for y, z in top), [X, 2.0, BACK]]
+    return [[x, 2.0, FRONT], *([x, y, z] for y, z in top), [x, 2.0, BACK]]
 
 
 @pytest.mark.parametrize("pitch", [10.4, 13.8, 30.0])
@@ -86,6 +91,71 @@ def test_a_gable_wall_gives_both_slopes() -> None:
         )
         assert found is not None
         assert abs(found - pitch) <= 0.5
+
+
+def _gable_end(front_pitch: float, back_pitch: float, x: float = X) -> Any:
+    """The right wall's outline under a gable of these slopes (degrees), eaves level, the
+    wall at ``x`` (m)."""
+    run_front, run_back = (1 / math.tan(math.radians(p)) for p in (front_pitch, back_pitch))
+    rise = (BACK - FRONT) / (run_front + run_back)
+    ridge_z = FRONT + rise * run_front
+    return _side([(-3.0, FRONT), (-3.0 - rise, ridge_z), (-3.0, BACK)], x)
+
+
+def _incidence_deg(outline: Any) -> float:
+    """The angle between the line of sight to the right wall's outline and its normal."""
+    centre = np.asarray(outline, dtype=np.float64).mean(axis=0)
+    return math.degrees(math.acos(abs(centre[0]) / float(np.linalg.norm(centre))))
+
+
+def test_a_wall_seen_edge_on_measures_no_slope_when_asked() -> None:
+    outline = _gable_end(35.0, 35.0)
+    ctx = _ctx([(_wall(outline, [1.0, 0.0, 0.0]), outline)])
+    back = _part("body.roof.back", "backward")
+    adjacency = _structure(("body.right", "body.roof.back"))
+    binding = {"00/1": "body.right"}
+    seen = _incidence_deg(outline)  # about 80 deg: the wall 4 m aside, 24 m ahead
+    found = outline_pitch(ctx, adjacency, back, FRAME, binding, max_incidence_deg=seen + 1.0)
+    assert found is not None
+    assert abs(found - 35.0) <= 0.5
+    assert outline_pitch(ctx, adjacency, back, FRAME, binding, max_incidence_deg=seen - 1.0) is None
+
+
+def test_a_slope_placed_by_a_relation_against_its_walls_outline_is_rejected() -> None:
+    # a gable end wall rising at 30 deg to the front and 50 deg to the back, seen at a slant
+    # (8 m aside, 24 m ahead: 72 deg from square on)
+    outline = _gable_end(30.0, 50.0, x=-8.0)
+    ctx = _ctx([(_wall(outline, [1.0, 0.0, 0.0]), outline)])
+    back = _part("body.roof.back", "backward")
+    structure = SimpleNamespace(leaves=(back,), adjacency=(("body.right", "body.roof.back"),))
+    binding = {"00/1": "body.right"}
+    placed = frozenset({"body.roof.back"})
+    inserted = ("body.roof.back",)
+
+    def planes(pitch: float) -> Any:
+        t = math.radians(pitch)  # backward: its normal leans to +z (away from the camera)
+        return {"body.roof.back": (np.array([0.0, -math.cos(t), math.sin(t)]), 0.0)}
+
+    face = {"body.right": np.asarray(outline, dtype=np.float64)}  # the wall's face: its region
+
+    def why(pitch: float, **change: Any) -> str:
+        args: dict[str, Any] = {"polygons": face, "inserted": inserted, "placed": placed}
+        args.update(change)
+        return outline_contradiction(ctx, structure, FRAME, binding, planes(pitch), **args)
+
+    # the symmetry put it at the front's 30 deg: the outline shows 50
+    said = why(30.0)
+    assert "body.roof.back" in said
+    assert "30.0 deg" in said
+    assert f"at most {OUTLINE_CONTRADICTED_DEG:g} deg apart" in said
+    # near the outline's slope, a part no relation places, or a part a region shows: nothing
+    assert why(50.0 - OUTLINE_CONTRADICTED_DEG / 2) == ""
+    assert why(30.0, placed=frozenset()) == ""
+    assert why(30.0, inserted=()) == ""
+    # a region mostly outside its wall's face (merged with another wall in its plane) is not
+    # that face's outline: it measures nothing
+    corner = np.asarray(outline, dtype=np.float64)[:3]  # the front's ground, eave and ridge
+    assert why(30.0, polygons={"body.right": corner}) == ""
 
 
 def test_the_eaves_wall_or_an_unrelated_wall_tells_nothing() -> None:

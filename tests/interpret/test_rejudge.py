@@ -164,6 +164,17 @@ def test_the_asymmetric_gable_asserts_less_than_the_symmetric_one(buildings_kb: 
     assert knowledge.weaker(asym, gable)
     assert not knowledge.weaker(gable, asym)
     assert not knowledge.weaker(found["body.roof=ShedRoof"], found["body.roof=FlatRoof"])
+    # what only the symmetric one says names the slopes and the eaves walls; nothing is
+    # asserted beyond a weaker structure by one that has none
+    structures = list(found.values())
+    assert knowledge.beyond_weaker(gable, structures) == {
+        "body.front",
+        "body.roof.front",
+        "body.back",
+        "body.roof.back",
+    }
+    assert knowledge.beyond_weaker(asym, structures) == frozenset()
+    assert knowledge.beyond_weaker(found["body.roof=HipRoof"], structures) == frozenset()
 
 
 def test_no_other_view_registered_decides_nothing() -> None:
