@@ -89,6 +89,11 @@ _MEASUREMENTS = ("position", "edge")
 #: The smallest tolerance (SI: rad, m, px). Below it the weight 1/sigma² leaves float64's
 #: normal range (sigma = 1e-300 deg squares to 0); 1e-12 already means "exactly".
 MIN_TOLERANCE = 1e-12
+#: KB137's message for a tolerance under MIN_TOLERANCE (a relation's or an attribute's).
+TOLERANCE_UNDERFLOW = (
+    f"a tolerance must be at least {MIN_TOLERANCE:g} (SI units): its weight 1/sigma² would not "
+    "be a finite number"
+)
 
 
 def quantity_si(q: ast.Quantity) -> float:
@@ -663,14 +668,7 @@ class Analyzer:
             self.report(diag(codes.BAD_QUALIFIER, "a tolerance must be positive", expr.span))
             return None
         if v is not None and any(0 < x < MIN_TOLERANCE for x, _ in v.alts):
-            self.report(
-                diag(
-                    codes.BAD_QUALIFIER,
-                    f"a tolerance must be at least {MIN_TOLERANCE:g} (SI units): its weight "
-                    "1/sigma² would not be a finite number",
-                    expr.span,
-                )
-            )
+            self.report(diag(codes.BAD_QUALIFIER, TOLERANCE_UNDERFLOW, expr.span))
             return None
         return v
 

@@ -17,7 +17,14 @@ from aida_kb.diagnostics import codes
 from aida_kb.diagnostics.core import Diagnostic
 from aida_kb.dsl import ast
 from aida_kb.kb.measures import MeasureKind
-from aida_kb.kb.relations import UNIT_KIND, Analyzer, Dimension, quantity_si
+from aida_kb.kb.relations import (
+    MIN_TOLERANCE,
+    TOLERANCE_UNDERFLOW,
+    UNIT_KIND,
+    Analyzer,
+    Dimension,
+    quantity_si,
+)
 from aida_kb.kb.resolve import CInfo, PathRes, Requires, SlotKind, Table, diag, did_you_mean
 
 __all__ = ["HORIZONTAL", "MEASURES", "attribute_measure", "build_shape", "check_shape"]
@@ -331,6 +338,8 @@ def _check_measure(table: Table, cname: str, m: ast.Attribute) -> Iterator[Diagn
             )
         elif tol.value <= 0:
             yield diag(codes.BAD_QUALIFIER, "a tolerance must be positive", tol.span)
+        elif quantity_si(tol) < MIN_TOLERANCE:  # as a relation's (`Analyzer.tolerance`)
+            yield diag(codes.BAD_QUALIFIER, TOLERANCE_UNDERFLOW, tol.span)
 
 
 def _check_unseen(table: Table, cname: str, g: ast.Unseen) -> Iterator[Diagnostic]:
