@@ -37,8 +37,10 @@ browser:
 	    fi; \
 	fi
 
+# One worker per core (pytest-xdist); each worker's numpy and OpenCV keep to one thread, so that
+# two workers on two cores do not each start a pool of threads that wait on the other's.
 pytest: $(STAMP)
-	$(BIN)/pytest -q
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 $(BIN)/pytest -q -n auto
 
 bench: $(STAMP)
 	@for b in benchmarks/*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done

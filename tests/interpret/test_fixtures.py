@@ -41,10 +41,24 @@ CONVERTED = (
 )
 
 
-def test_every_interpretation_fixture_of_the_repository_passes(
-    interpreted: Any, buildings_kb: Any
+FIXTURES = ROOT / "tests" / "fixtures"
+
+
+def test_every_evidence_file_of_the_repository_is_a_fixture() -> None:
+    from aida_kb.interpret.fixture import find_fixtures
+
+    # every evidence file of tests/fixtures is a fixture: its expectation lies beside it
+    assert {p.stem for p in FIXTURES.glob("*.json")} == set(CONVERTED)
+    paths = find_fixtures([FIXTURES])
+    assert [p.name for p in paths] == sorted(f"{n}.expected.kb" for n in CONVERTED)
+
+
+# one test per fixture, so that the suite's workers share them out
+@pytest.mark.parametrize("name", CONVERTED)
+def test_the_repository_interpretation_fixture_passes(
+    name: str, interpreted: Any, buildings_kb: Any
 ) -> None:
-    from aida_kb.interpret.fixture import Fixture, find_fixtures, run_fixture
+    from aida_kb.interpret.fixture import Fixture, run_fixture
     from aida_kb.interpret.verdict import judge, with_verdict
     from aida_kb.io.evidence import read_evidence
 
@@ -56,14 +70,8 @@ def test_every_interpretation_fixture_of_the_repository_passes(
         interp = interpreted(fixture.evidence.name)
         return with_verdict(interp, judge(kb, interp, read_evidence(fixture.evidence)))
 
-    fixtures = ROOT / "tests" / "fixtures"
-    # every evidence file of tests/fixtures is a fixture: its expectation lies beside it
-    assert {p.stem for p in fixtures.glob("*.json")} == set(CONVERTED)
-    paths = find_fixtures([fixtures])
-    assert [p.name for p in paths] == sorted(f"{n}.expected.kb" for n in CONVERTED)
-    for path in paths:
-        outcome = run_fixture(path, [KB_DIR], interpret=cached)
-        assert outcome.status == "passed", (path.name, outcome.lines)
+    outcome = run_fixture(FIXTURES / f"{name}.expected.kb", [KB_DIR], interpret=cached)
+    assert outcome.status == "passed", (name, outcome.lines)
 
 
 def test_the_demo_houses_interpretation_kb_is_met_by_its_own_result(demo_run: Any) -> None:
