@@ -285,6 +285,51 @@ def _unconfirmed(
     return "", False
 
 
+RIVAL_FIT_RATIO = 1.5
+"""A later view's first registered pose that the views' own stereo does not confirm
+(`REGISTERED_EXPLAINED_MIN`) is replaced by a rival turn it confirms unless the joint
+adjustment with the rival holds no more of the view's own measurements (degrees of freedom of
+its segments and regions matched) and fits the evidence worse: its reduced cost (every factor's
+normalised cost over the degrees of freedom, `ResidualReport.reduced_cost`) more than this many
+times the first pose's. The explained share counts whole regions on or off a face and a view
+holds two or three regions: a pose a few degrees off explains none of them before the final
+rounds (dev 69019 view 01: 2.6 deg off, 0 %), a quarter turn may put one wall region on
+another wall (85 deg off, 100 %). The adjustment weighs every segment and region: there the
+quarter turn's reduced cost is 2.1 times the first pose's (0.74 against 0.35; its one matched
+region lies 5 sigma off): taken, the view ended 88 deg off, kept 1.9 deg. Where a rival was
+taken on dev 65000-69035 and was right (68031 view 01, the first pose 91 deg off) or a twin
+(68006, 69023, 67007), it fitted 0.2-1.05 times the first pose's (cost ratios of those
+adjustments)."""
+
+
+def _own_dof(report: ResidualReport, view: str) -> int:
+    """The degrees of freedom of a view's own measurements (its segments' and regions' factors,
+    labelled ``...@VIEW``) in a joint adjustment's report."""
+    return sum(
+        d for r, d in zip(report.rows, report.dof, strict=True) if r.label.endswith(f"@{view}")
+    )
+
+
+def _fits_worse(
+    step: AdjustedStep | str, first: tuple[Registration, AdjustedStep | str, str], view: str
+) -> str:
+    """Why a rival pose of `view` whose joint adjustment is `step` does not replace the `first`
+    registered pose (its registration, its adjustment, why it was not confirmed), or '' when it
+    may (`RIVAL_FIT_RATIO`; neither adjustment failed)."""
+    before = first[1]
+    if isinstance(step, str) or isinstance(before, str):
+        return ""
+    rival, was = step[3].reduced_cost, before[3].reduced_cost
+    if rival <= RIVAL_FIT_RATIO * was or _own_dof(step[3], view) > _own_dof(before[3], view):
+        return ""
+    return (
+        f"the joint adjustment fits the evidence {rival / max(was, 1e-12):.1f} times worse "
+        f"(reduced cost {rival:.2f}) than at the turn of {first[0].angle_deg:.1f} deg "
+        f"registered first ({was:.2f}; at most {RIVAL_FIT_RATIO:g} times) and holds no more "
+        "of the view's segments and regions"
+    )
+
+
 def _reached(
     rigid: RigidModel, movable: frozenset[str], camera: PinholeCamera, view: ViewEvidence
 ) -> tuple[RigidModel, list[FloatArray], str] | None:
@@ -921,6 +966,10 @@ def reconstruct_from_first(
             # 177 deg off stayed, unjudged, where both adjustments failed)
             after = (rigid, polygons, cams) if isinstance(step, str) else step[:3]
             why, bent = _unconfirmed(model0, (rigid, polygons, cams[:-1]), after, shown, ids)
+            # a rival turn the views' stereo confirms replaces the first pose unless its joint
+            # adjustment fits the evidence clearly worse (`RIVAL_FIT_RATIO`)
+            if not (broken or why or kept_first is None):
+                why = _fits_worse(step, kept_first, v.id)
             if not (broken or why):
                 if isinstance(step, str):
                     notes.append(f"joint adjustment with view {v.id} skipped: {step}")
@@ -969,10 +1018,11 @@ def reconstruct_from_first(
                 notes.append(f"joint adjustment with view {v.id} skipped: {adjusted}")
             else:
                 rigid, polygons, cams, report = adjusted
+            rivals_seen = "" if len(refused) < 2 else f" ({'; '.join(refused[1:])})"
             refused = []
             notes.append(
                 f"view {v.id}: adjusted with it at a turn of {reg.angle_deg:.1f} deg, {why}, "
-                "and no rival turn explains it better"
+                f"and no rival turn explains it better{rivals_seen}"
             )
             break
         if ids[-1] != v.id:  # left out

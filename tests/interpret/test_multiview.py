@@ -17,6 +17,7 @@ from aida_kb.interpret.evaluate import compare_with_truth
 from aida_kb.interpret.joint import kb_constraints
 from aida_kb.interpret.multiview import (
     REGISTERED_EXPLAINED_MIN,
+    _fits_worse,
     explained_shares,
     reconstruct_from_first,
     reconstruct_views,
@@ -27,6 +28,8 @@ from aida_kb.io.model import ModelCamera, ReconstructedModel
 from aida_kb.io.scene import read_scene
 from aida_kb.register import Registration, RigidModel, turned, vertical_axis
 from aida_kb.register.evidence import register_evidence_view
+from aida_kb.solve import ResidualReport
+from aida_kb.solve.report import ConstraintResidual
 from aida_kb.synth.scenes import preset, render_scene
 from aida_kb.vision.evidence import scene_evidence
 
@@ -349,3 +352,45 @@ def test_a_pose_kept_unconfirmed_does_not_start_the_next_views_search(
     assert any(view == "02" for view, _, _ in starts)
     # so view 02 lands where view 01 truly is
     assert _angle_deg(interp.model.cameras[2], refined.model.cameras[1]) < 1.0
+
+
+def _report(view: str, own: tuple[float, ...], other: tuple[float, ...]) -> ResidualReport:
+    """A joint adjustment's report: `own` edge rows of `view` and `other` rows of view 00, each
+    with its normalised cost (2 degrees of freedom a row)."""
+    rows = tuple(
+        ConstraintResidual(
+            label=f"edge(body.front, body.left)@{v}",
+            kind="edge",
+            parts=("body.front", "body.left"),
+            residual=0.0,
+            unit="px",
+            sigma=1.0,
+            normalised_cost=c,
+            threshold=13.8,
+            reject_above=None,
+            rejected=False,
+        )
+        for v, costs in ((view, own), ("00", other))
+        for c in costs
+    )
+    return ResidualReport(rows, (2,) * len(rows))
+
+
+def test_a_rival_turn_that_fits_clearly_worse_does_not_replace_the_first_pose() -> None:
+    cam = PinholeCamera(np.diag([500.0, 500.0, 1.0]), np.eye(3), np.array([0.0, 0.0, 10.0]), 64, 48)
+    reg = Registration(cam, -39.2, 0.5, 0.6, 11, 0, (), np.eye(6), 0.1, 0.1)
+    first: Any = (None, None, None, _report("01", (1.0,) * 10, (1.0,) * 8))
+    kept = (reg, first, "the model explains 0% of its region weight")
+    # a quarter turn: as many of the view's segments held, each fitting four times worse
+    worse: Any = (None, None, None, _report("01", (6.0,) * 10, (1.0,) * 8))
+    why = _fits_worse(worse, kept, "01")
+    assert "times worse" in why
+    assert "-39.2 deg registered first" in why
+    # about as good a fit (a symmetric model's twin): the rival may replace it, as may one that
+    # holds more of the view's measurements, or where an adjustment failed
+    alike: Any = (None, None, None, _report("01", (1.2,) * 10, (1.0,) * 8))
+    assert _fits_worse(alike, kept, "01") == ""
+    more: Any = (None, None, None, _report("01", (6.0,) * 12, (1.0,) * 8))
+    assert _fits_worse(more, kept, "01") == ""
+    assert _fits_worse("no solve", kept, "01") == ""
+    assert _fits_worse(worse, (reg, "no solve", ""), "01") == ""
