@@ -76,25 +76,6 @@ STEREO = True
 """Also the first view's texture seen again in its own right image (fixes the planes)."""
 
 
-def _agreeing(
-    extra: list[Constraint],
-    normals: FloatArray,
-    offsets: FloatArray,
-    cameras: tuple[PinholeCamera, ...],
-) -> list[Constraint]:
-    """The texture patches whose whitened cost at the planes and cameras given is within the
-    99.9 % quantile of their chi-square (window frames, occlusions out)."""
-    from aida_kb.constraints import CHI2_999, compile_blocks
-    from aida_kb.constraints.kinds.texture import TEXTURE
-
-    if not extra:
-        return extra
-    (block,) = compile_blocks(extra, normals.shape[0], len(cameras))
-    r = block.whiten(block.evaluate(normals, offsets, cameras)[0])
-    cost = np.sum(r * r, axis=1)
-    return [c for c, z in zip(extra, cost, strict=True) if z <= CHI2_999[TEXTURE.dof]]
-
-
 AGREE_SIGMAS = 2.0
 """The texture is left out of a scene (every camera as before) when it moves a later camera
 by more than this many of the camera's deviations without it: it disagrees with the other
@@ -175,7 +156,12 @@ def scene_views(
     from aida_kb.errors import AidaError
     from aida_kb.interpret.imagefit import right_images, view_images
     from aida_kb.interpret.joint import JOINT_F_SCALE, JOINT_LOSS
-    from aida_kb.interpret.photometric import texture_factors, texture_noise_grey, well_posed
+    from aida_kb.interpret.photometric import (
+        agreeing_patches,
+        texture_factors,
+        texture_noise_grey,
+        well_posed,
+    )
     from aida_kb.interpret.result import read_interpretation
     from aida_kb.io.evidence import read_evidence
     from aida_kb.io.scene import read_scene
@@ -250,7 +236,7 @@ def scene_views(
                 problem = _rebuilt(base, normals, offsets, cameras, rigid, extra)
                 result = solve(problem, loss=JOINT_LOSS, f_scale=JOINT_F_SCALE)
                 normals, offsets, cameras = result.normals, result.offsets, result.cameras
-                extra = _agreeing(extra, normals, offsets, cameras)
+                extra = agreeing_patches(extra, normals, offsets, cameras)
             now = cameras[: len(base.cameras)]
             problem = _rebuilt(base, normals, offsets, cameras, rigid, extra)
         sd1 = _sds_deg(problem, P, list(cameras), len(order))

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator, Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -45,6 +45,7 @@ import numpy.typing as npt
 from aida_kb.errors import GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.polyhedron import Polyhedron
+from aida_kb.geometry.rig import Rig
 from aida_kb.interpret.closure import check_concurrent
 from aida_kb.interpret.imagefit import (
     FitKey,
@@ -90,15 +91,22 @@ from aida_kb.register.evidence import (
 )
 from aida_kb.register.extents import reached_offsets
 from aida_kb.solve import ResidualReport
+from aida_kb.solve.problem import Problem
 
 if TYPE_CHECKING:
     from aida_kb.interpret.scene import Preference
     from aida_kb.kb.model import KnowledgeBase
 
 FloatArray = npt.NDArray[np.float64]
+GreyImage = npt.NDArray[np.uint8]
+GroundResult = tuple[
+    RigidModel, list[FloatArray], list[PinholeCamera], ResidualReport, dict[int, CameraSd], str
+]
 
 __all__ = [
     "FINAL_ROUNDS",
+    "GROUND_AGREE_SIGMAS",
+    "GROUND_TEXTURE",
     "IMAGE_REJECT_SIGMAS",
     "IMAGE_ROUNDS",
     "IMAGE_SNOOPS",
@@ -152,6 +160,24 @@ and tower normals too). Before the fits were checked against the segments, a fit
 locked onto a texture line beside a corner the model placed 18 px off confirmed that pose (dev
 seed 58012), and with the fits' variance factor floored at 1 a camera 0.007 deg off (58006) was
 fixed only to 0.068 deg: the rounds stayed off."""
+
+GROUND_TEXTURE = True
+"""After the image rounds, the model and the later cameras are adjusted again with the
+ground's texture (`aida_kb.interpret.groundtexture`): patches of the first view's left image on
+the ground seen again in its right image and in each later view that sees enough of them fix
+the swing of the later cameras about the object that the edges and regions leave open. The
+cameras so adjusted carry that adjustment's deviations (model.json ``sd`` with
+``measurements`` "ground texture"). Measured on the kept dev runs 69000-69035 (session 26):
+see the module's docstring."""
+
+GROUND_AGREE_SIGMAS = 4.0
+"""The ground's texture is not used when it turns a later camera by more than this many of
+the deviations the images' edges gave it: the ground then is not where the model's bottom
+says (a slope, a plinth, ground hidden by what stands on it) or its texture matched at a
+wrong place, and a camera it holds tightly would be wrongly certain (dev 69009 with the ground
+started square to the estimated vertical: both later cameras 2.6-3.2 deg off at sds of 0.02-
+0.03 deg). Right moves reach 2-3 deviations (dev 69005: 0.28 and 0.43 deg off, sds 0.09 and
+0.16, to 0.06 and 0.08 deg)."""
 
 IMAGE_REJECT_SIGMAS = 6.0
 """In the image rounds after the first, a fitted edge whose mean offset or slope lies more than
@@ -454,22 +480,87 @@ def _camera_deviations(
     """The standard deviations of the free cameras (by index) at the adjusted model, from
     the measurements of that adjustment (`aida_kb.interpret.uncertainty.problem_uncertainty`);
     empty when they cannot be computed. Cameras the adjustment leaves open get none."""
-    from aida_kb.interpret.uncertainty import problem_uncertainty
-
     try:
         problem = joint_problem(model, cameras, views, free, inputs)
     except SolveError:
         return {}
+    return _deviations_of(problem, model.names, cameras, free, "image edges")
+
+
+def _deviations_of(
+    problem: Problem,
+    names: Sequence[str],
+    cameras: Sequence[PinholeCamera],
+    free: Sequence[int],
+    measurements: Literal["image edges", "ground texture"],
+) -> dict[int, CameraSd]:
+    """The free cameras' standard deviations (by index) at the solution `problem` starts
+    from (its planes `names`, in order); empty when they cannot be computed."""
+    from aida_kb.interpret.uncertainty import problem_uncertainty
+
     ids = [str(i) for i in free]
-    unc = problem_uncertainty(problem, model.names, cameras, free, ids)
+    unc = problem_uncertainty(problem, names, cameras, free, ids)
     if unc is None:
         return {}
     out = {}
     for k in free:
         angle, centre = unc.cameras[str(k)]
         if math.isfinite(angle) and math.isfinite(centre):
-            out[k] = CameraSd(rotation_deg=angle, centre_m=centre, measurements="image edges")
+            out[k] = CameraSd(rotation_deg=angle, centre_m=centre, measurements=measurements)
     return out
+
+
+def _turn_deg(a: PinholeCamera, b: PinholeCamera) -> float:
+    """The angle between two cameras' rotations, degrees."""
+    rel = a.R_cam_world @ b.R_cam_world.T
+    return math.degrees(math.acos(max(-1.0, min(1.0, (float(np.trace(rel)) - 1.0) / 2.0))))
+
+
+def _ground_step(
+    kb: KnowledgeBase,
+    interp: Interpretation,
+    evidence: Evidence,
+    current: tuple[RigidModel, list[FloatArray], list[PinholeCamera]],
+    views: Sequence[ViewMeasurements],
+    free: Sequence[int],
+    inputs: JointInputs,
+    images: tuple[Sequence[GreyImage | None], tuple[Rig, GreyImage] | None],
+    before: dict[int, CameraSd],
+) -> GroundResult | str:
+    """The image rounds' model adjusted again with the ground's texture
+    (`aida_kb.interpret.groundtexture.ground_adjustment`): the model, its polygons, the
+    cameras, the report, the free cameras' deviations and a note; or why not (the caller keeps
+    the image rounds' result: no view sees the ground well, the model would leave the
+    knowledge's ranges or not close)."""
+    from aida_kb.interpret.groundtexture import GROUND_NAME, ground_adjustment
+
+    rigid, polygons, cams = current
+    greys, first_right = images
+    step = ground_adjustment(rigid, cams, views, free, inputs, greys, first_right)
+    if isinstance(step, str):
+        return step
+    for k in step.patches:  # the ground moves a camera only as far as the edges leave open
+        sd = before.get(k)
+        turn = _turn_deg(cams[k], step.cameras[k])
+        if sd is None or sd.rotation_deg is None:
+            return f"view {views[k].view}'s camera has no deviation to hold the ground's turn to"
+        if turn > GROUND_AGREE_SIGMAS * sd.rotation_deg:
+            return (
+                f"it turns view {views[k].view}'s camera by {turn:.2f} deg, "
+                f"{turn / sd.rotation_deg:.1f} of its deviations from the images' edges"
+            )
+    try:
+        moved, moved_polygons = _rebuilt(rigid, step.normals, step.offsets)
+    except GeometryError as exc:
+        return str(exc)
+    broken = _newly_broken(kb, interp, evidence, (moved, moved_polygons), (rigid, polygons))
+    if broken:
+        return _left_ranges("adjustment with the ground's texture", broken)
+    names = [*rigid.names, GROUND_NAME]
+    sds = _deviations_of(step.problem, names, step.problem.cameras, free, "ground texture")
+    seen = ", ".join(f"{views[k].view} ({n} patches)" for k, n in sorted(step.patches.items()))
+    note = f"view(s) {seen} adjusted with the ground's texture"
+    return moved, moved_polygons, list(step.cameras), step.report, sds, note
 
 
 IMAGE_SNOOPS = 2
@@ -1090,6 +1181,28 @@ def reconstruct_from_first(
             notes.append(step if broken else f"refinement with the images' edges skipped: {step}")
             break
         own_sd = _camera_deviations(rigid, cams, views, free, inputs)
+    else:  # the image rounds ran to their end: the ground's texture fixes the swing
+        if greys and GROUND_TEXTURE:
+            if progress is not None:
+                progress("refining the cameras with the ground's texture")
+            first_right = rights[0] if rights else None
+            ground = _ground_step(
+                kb,
+                interp,
+                evidence,
+                (rigid, polygons, cams),
+                views,
+                free,
+                inputs,
+                (greys, first_right),
+                own_sd,
+            )
+            if isinstance(ground, str):
+                notes.append(f"the ground's texture not used: {ground}")
+            else:
+                rigid, polygons, cams, report, ground_sd, note = ground
+                own_sd = {**own_sd, **ground_sd}
+                notes.append(note)
     model = ReconstructedModel(
         parts=_parts(model0, rigid, polygons),
         cameras=[

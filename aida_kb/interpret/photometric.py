@@ -14,6 +14,7 @@ do to the later cameras of kept dev scenes.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -69,10 +70,14 @@ def model_faces(model: RigidModel) -> Faces:
     return Faces(tuple(model.polygons), model.normals, model.offsets, u, v)
 
 
-def _seen_faces(model: RigidModel, cameras: tuple[PinholeCamera, PinholeCamera]) -> list[int]:
-    """The faces both cameras see from the front within `TEXTURE_GRAZING_DEG` of the normal
-    (at each face's centroid)."""
-    limit = math.cos(math.radians(TEXTURE_GRAZING_DEG))
+def _seen_faces(
+    model: RigidModel,
+    cameras: tuple[PinholeCamera, PinholeCamera],
+    grazing_deg: float = TEXTURE_GRAZING_DEG,
+) -> list[int]:
+    """The faces both cameras see from the front within `grazing_deg` of the normal (at each
+    face's centroid)."""
+    limit = math.cos(math.radians(grazing_deg))
     out = []
     for f, poly in enumerate(model.polygons):
         centre = poly.mean(axis=0)
@@ -113,6 +118,9 @@ def texture_factors(
     image: TextureImage,
     sigma_grey: float,
     view: str = "",
+    *,
+    only_face: int | None = None,
+    grazing_deg: float = TEXTURE_GRAZING_DEG,
 ) -> list[Constraint]:
     """The texture factors of one later view (module docstring).
 
@@ -126,13 +134,18 @@ def texture_factors(
     image : the later view's undistorted, equally blurred image.
     sigma_grey : each residual's standard deviation, grey levels (`texture_noise_grey`).
     view : the later view's name for the labels.
+    only_face : the patches of this face alone (the others hide it); None: every face's.
+    grazing_deg : faces seen farther than this from their normal (at their centroid) by
+        either camera carry no patch.
 
     Returns
     -------
     One ``texture`` constraint per kept patch (huber loss), labelled ``texture(PART)@VIEW``.
     """
     faces = model_faces(model)
-    seen = _seen_faces(model, (reference, camera))
+    seen = _seen_faces(model, (reference, camera), grazing_deg)
+    if only_face is not None:
+        seen = [f for f in seen if f == only_face]
     if not seen:
         return []
     samples, guard = _patch_pixels(reference.width, reference.height)
@@ -189,6 +202,26 @@ def texture_factors(
             )
         )
     return out
+
+
+def agreeing_patches(
+    patches: list[Constraint],
+    normals: FloatArray,
+    offsets: FloatArray,
+    cameras: Sequence[PinholeCamera],
+) -> list[Constraint]:
+    """The ``texture`` factors whose whitened cost at the planes (``normals`` (P, 3),
+    ``offsets`` (P,), world frame) and cameras given lies within the 99.9 % quantile of their
+    chi-square: a window frame, an occluder, a shadow that moves with nothing out."""
+    from aida_kb.constraints import CHI2_999, compile_blocks
+    from aida_kb.constraints.kinds.texture import TEXTURE
+
+    if not patches:
+        return patches
+    (block,) = compile_blocks(patches, normals.shape[0], len(cameras))
+    r = block.whiten(block.evaluate(normals, offsets, cameras)[0])
+    cost = np.sum(r * r, axis=1)
+    return [c for c, z in zip(patches, cost, strict=True) if z <= CHI2_999[TEXTURE.dof]]
 
 
 def texture_noise_grey(
@@ -248,6 +281,7 @@ __all__ = [
     "PATCH_SPACING_PX",
     "SAMPLE_STRIDE_PX",
     "TEXTURE_GRAZING_DEG",
+    "agreeing_patches",
     "model_faces",
     "texture_factors",
     "texture_noise_grey",

@@ -192,7 +192,8 @@ def adjustment_uncertainty(
         rigid = RigidModel.from_model(model)
         cams = [camera_of(cams_by_view[v]) for v in order]
         views = [measurements_of(by_id[v]) for v in order]
-        free = list(range(1, len(order)))
+        held = ground_held(model)
+        free = [i for i in range(1, len(order)) if order[i] not in held]
         problem = joint_problem(
             rigid,
             cams,
@@ -204,14 +205,46 @@ def adjustment_uncertainty(
         )
     except AidaError:
         return None
-    unc = problem_uncertainty(problem, rigid.names, cams, free, order[1:], EDGE_BIAS_PX)
+    ids = [order[i] for i in free]
+    unc = problem_uncertainty(problem, rigid.names, cams, free, ids, EDGE_BIAS_PX)
     if unc is None:
         return None
     own = image_edge_deviations(model)
     if not own:
         return unc
     cameras = {v: own.get(v, sd) for v, sd in unc.cameras.items()}
+    cameras.update({v: own[v] for v in held if v in own})
     return replace(unc, cameras=cameras)
+
+
+HELD_CAMERA_SD_DEG = 0.025
+"""A later camera the reconstruction's adjustment with the ground's texture fixed to within
+this (one sd of its rotation, model.json ``sd.measurements`` "ground texture") is held where it
+is in the verdict's problem: the parts' deviations are then those of the model seen from
+known cameras. Its own deviation adds at most this much (in quadrature, through the turn it
+gives the model) to a part's, whose limit is a quarter of a degree at one sd
+(`aida_kb.interpret.verdict.tolerances`): under 1 % of that variance. Free, the camera's
+swing about the object, which the segments' problem alone leaves open to 0.06-0.23 deg, turns
+the model with it, and the parts' deviations are the swing's (dev 69009: 0.44-0.48 deg with
+the cameras 0.01-0.03 deg off)."""
+
+
+def ground_held(model: ReconstructedModel) -> frozenset[str]:
+    """The views whose cameras the verdict's problem holds (`HELD_CAMERA_SD_DEG`)."""
+    return frozenset(
+        c.view
+        for c in model.cameras
+        if c.sd is not None
+        and c.sd.measurements == "ground texture"
+        and c.sd.rotation_deg is not None
+        and c.sd.rotation_deg <= HELD_CAMERA_SD_DEG
+    )
+
+
+RECONSTRUCTION_MEASUREMENTS = frozenset({"image edges", "ground texture"})
+"""The ``measurements`` of a model camera's ``sd`` that the reconstruction's own last
+adjustment gave (the images' edges, and the ground's texture where it was used): measurements
+the verdict's segments' problem does not hold, so those deviations stand."""
 
 
 def image_edge_deviations(model: ReconstructedModel) -> dict[str, tuple[float, float]]:
@@ -223,7 +256,7 @@ def image_edge_deviations(model: ReconstructedModel) -> dict[str, tuple[float, f
         c.view: (c.sd.rotation_deg, c.sd.centre_m)
         for c in model.cameras
         if c.sd is not None
-        and c.sd.measurements == "image edges"
+        and c.sd.measurements in RECONSTRUCTION_MEASUREMENTS
         and c.sd.rotation_deg is not None
         and c.sd.centre_m is not None
     }

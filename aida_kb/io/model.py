@@ -135,11 +135,12 @@ class CameraSd(_Frozen):
 
     rotation_deg: Deviation | None = Field(description="its rotation, degrees")
     centre_m: Deviation | None = Field(description="its centre, metres (the model's units)")
-    measurements: Literal["segments", "image edges"] = Field(
+    measurements: Literal["segments", "image edges", "ground texture"] = Field(
         default="segments",
         description="whose covariance: the line detector's segments on the model's edges (the "
-        "verdict's adjustment) or the model's edges fitted along the images (the "
-        "reconstruction's last adjustment, `interpret.multiview.IMAGE_ROUNDS`)",
+        "verdict's adjustment), the model's edges fitted along the images (the "
+        "reconstruction's last adjustment, `interpret.multiview.IMAGE_ROUNDS`) or those and "
+        "the ground's texture seen again by the view (`interpret.groundtexture`)",
     )
 
 

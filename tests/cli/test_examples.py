@@ -79,13 +79,6 @@ EXIT_STATUS: dict[str, tuple[int, str]] = {
         "the file shows a syntax error on purpose",
     ),
     "aida-kb lsp --check kb/examples/broken_names.kb": (1, "the file has errors on purpose"),
-    "aida-kb reconstruct kb/buildings.kb out/house -o out/house-model": (
-        3,
-        "doubtful: the adjustment fixes the second view's camera to +-0.11 deg, more than the "
-        "0.1 deg asked (interpret.uncertainty; it is 0.04 deg off)",
-    ),
-    "aida-kb evaluate out/house-model out/house": (1, "right, but doubtful (see reconstruct)"),
-    "aida-kb evaluate out/house-model out/house --json": (1, "right, but doubtful"),
 }
 
 

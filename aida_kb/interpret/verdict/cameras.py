@@ -39,6 +39,8 @@ def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None)
     by = (
         "the model's edges fitted along the images"
         if camera.sd is not None and camera.sd.measurements == "image edges"
+        else "the model's edges fitted along the images and the ground's texture"
+        if camera.sd is not None and camera.sd.measurements == "ground texture"
         else f"{unc.measurements} measurements, their scatter "
         f"{unc.variance_factor**0.5:.2f} of their noise model"
     )
