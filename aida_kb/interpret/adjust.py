@@ -32,6 +32,7 @@ from aida_kb.interpret.verify import (
     Verification,
     build_verification,
     orientation_priors,
+    outline_priors,
     position_data,
     tilt_constraints,
     verify,
@@ -90,6 +91,7 @@ def adjust(
     verified: frozenset[str] = frozenset(),
     *,
     seen_by_edges: bool = False,
+    placed: frozenset[str] | None = None,
 ) -> Adjusted:
     """Initialise, match segments, adjust twice (re-matching in between).
 
@@ -108,6 +110,11 @@ def adjust(
 
     ``seen_by_edges``: an inserted part of the main body may face the camera (it is returned
     in ``visible``, to be judged by the segments along its edges, `unseen.initial_planes`).
+    ``placed``: the parts a relation the main body asserts beyond a weaker structure places
+    (`Knowledge.beyond_weaker`: a symmetric gable's slopes, judged by their outline after the
+    adjustment, `alternative.outline_contradiction`); its other inserted tilted parts hold
+    the slope their walls' outlines show (`verify.outline_priors`). None (a smaller part):
+    none holds it.
 
     Raises `unseen.UnseenError` when an inserted part of the main body would face the camera
     (unless ``seen_by_edges``), AidaError when the problem cannot be built or solved.
@@ -132,6 +139,14 @@ def adjust(
             for leaf in structure.leaves
             if leaf.role in initial.inserted and leaf.direction in level and not leaf.pitched
         ],
+        ground_of(ctx, set(index)),
+        index,
+    )
+    # inserted tilted parts no relation places keep the slope their walls' outlines show
+    # (verify.outline_priors; with a relation the prior perturbed the seen slope it ties them to)
+    tilts += outline_priors(
+        {r: slope for r, slope in initial.traced.items() if placed is not None and r not in placed},
+        {leaf.role: leaf.concept for leaf in structure.leaves},
         ground_of(ctx, set(index)),
         index,
     )

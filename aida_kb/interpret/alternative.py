@@ -292,6 +292,7 @@ def verify_alternative(
                 guessed,
                 met,
                 seen_by_edges=seen_by_edges and not smaller,
+                placed=None if smaller else placed,
             )
         except UnseenError as exc:
             reasons.append((str(exc), None))

@@ -16,7 +16,7 @@ structure's such parts are returned as *visible*, for `plausibility.unseen` to j
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -74,11 +74,14 @@ class Initial:
         knowledge), then the fixed planes of verified levels
     inserted : role paths of the parts no region shows
     visible : of those, the parts of a smaller structure that would face the camera
+    traced : inserted tilted parts whose slope the outlines of the walls they meet show
+        (`outline.outline_pitch`): role path -> that slope, degrees
     """
 
     planes: list[PlaneInit]
     inserted: tuple[str, ...]
     visible: tuple[str, ...]
+    traced: dict[str, float] = field(default_factory=dict)
 
 
 def initial_planes(
@@ -118,6 +121,7 @@ def initial_planes(
     start: dict[str, tuple[FloatArray, float]] = {}
     unplaced: set[str] = set()
     normals: dict[str, FloatArray] = {}
+    outlined: dict[str, float] = {}
     for leaf in structure.leaves:
         region = seen.get(leaf.role)
         if region is not None:
@@ -129,6 +133,8 @@ def initial_planes(
             outline_pitch(ctx, structure, leaf, frame, binding) if leaf.tilt_deg is None else None
         )
         start_pitch = traced if traced is not None else pitch if pitch is not None else tilt
+        if traced is not None:
+            outlined[leaf.role] = traced
         normals[leaf.role] = predicted_normal(leaf, frame, start_pitch)
 
     def place(leaf: PlanarPart, points: FloatArray, edges: Traced) -> None:
@@ -195,7 +201,7 @@ def initial_planes(
         planes.append(PlaneInit(leaf.role, leaf.concept, n, d))
     for role, (n, d) in sorted(fixed.items()):
         planes.append(PlaneInit(role, "", n, d, fixed=True))
-    return Initial(planes, tuple(inserted), tuple(visible))
+    return Initial(planes, tuple(inserted), tuple(visible), outlined)
 
 
 # two parts bound the extent of their whole along an axis when their normals lie within this

@@ -563,6 +563,57 @@ def orientation_priors(
     return out
 
 
+# an inserted tilted part whose slope the outlines of the walls it meets show
+# (`outline.outline_pitch`) holds that slope to this sigma: on 13 dev gables (65013-68029) the
+# outline's measure of the inserted back slope lies within 4.0 deg of the front's seen slope
+# (their true slope), two sigma
+OUTLINE_PRIOR_SIGMA_RAD = math.radians(2.0)
+# ... and the adjustment is rejected when it moves the part this far from it: the outline
+# contradicts it (as `alternative.OUTLINE_CONTRADICTED_DEG` rejects a slope a relation placed
+# there; the randomised asymmetric gables' slopes differ by 8 deg or more)
+OUTLINE_PRIOR_REJECT_RAD = math.radians(8.0)
+
+
+def outline_priors(
+    traced: Mapping[str, float],
+    concepts: Mapping[str, str],
+    floor: str | None,
+    index: Mapping[str, int],
+) -> list[Constraint]:
+    """Inserted tilted parts hold the slope the outlines of the walls they meet show (rule
+    ``prior``).
+
+    ``traced``: role path -> slope in degrees (`unseen.Initial.traced`); ``concepts``: role
+    path -> concept name. No region measures such a part and its slope attribute's range is
+    wide: where no segment is matched to its edges the adjustment left its slope free and it
+    drifted off the outline it started on (dev 69031, an asymmetric gable's back slope: the
+    outline 21.2 deg, the truth 21.2, adjusted to 9.0). Each gets angle(part, floor) at that
+    slope with sigma `OUTLINE_PRIOR_SIGMA_RAD`, rejected beyond `OUTLINE_PRIOR_REJECT_RAD`.
+    No floor: none.
+    """
+    if floor is None or floor not in index:
+        return []
+    out: list[Constraint] = []
+    for role, slope in sorted(traced.items()):
+        if role == floor or role not in index:
+            continue
+        concept = concepts.get(role, "")
+        label = f"{concept} outline slope"
+        out.append(
+            Constraint(
+                kind="angle",
+                parts=(index[role], index[floor]),
+                value=math.radians(slope),
+                sigma=OUTLINE_PRIOR_SIGMA_RAD,
+                reject_above=OUTLINE_PRIOR_REJECT_RAD,
+                unit="rad",
+                label=label,
+                origin=Origin(label, "prior", concept, RolePath.parse(role), None),
+            )
+        )
+    return out
+
+
 def verify(
     v: Verification,
     max_evaluations: int = MAX_EVALUATIONS,

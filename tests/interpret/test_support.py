@@ -67,14 +67,17 @@ def test_a_gable_over_a_dark_roof_is_chosen_by_its_edges(dark_roof: Interpreter)
     assert top < 0.5
     assert flat > gable + TIE_MARGIN
     # every other specialisation of the same evidence costs more by more than a tie, but the
-    # gable whose slopes may differ: it asserts less, fits as well and costs WEAKER_PENALTY more
+    # gable whose slopes may differ: it asserts less, fits about as well and costs
+    # WEAKER_PENALTY more, plus a little for holding its inserted back slope at the slope its
+    # gable end's outline shows (`verify.outline_priors`: 0.0024 here)
     weaker = "body.roof=AsymmetricGableRoof"
     assert all(
         c > gable + TIE_MARGIN
         for k, c in costs.items()
         if k[0] not in ("body.roof=GableRoof", weaker)
     )
-    assert costs[(weaker, same)] - gable == pytest.approx(WEAKER_PENALTY, abs=1e-3)
+    extra = costs[(weaker, same)] - gable
+    assert WEAKER_PENALTY - 1e-3 <= extra < WEAKER_PENALTY + 0.01
     assert dark_roof.ties(state) == []
 
 

@@ -18,6 +18,7 @@ from aida_kb.interpret.verify import (
     Verification,
     build_verification,
     fragment_scatter_px,
+    outline_priors,
     position_data,
     tilt_constraints,
     tilt_px_per_rad,
@@ -347,3 +348,36 @@ def test_the_buildings_eaves_are_measured_in_metres(buildings_kb: KnowledgeBase)
     body = buildings_kb.concepts["HouseBody"]
     units = sorted(c.unit for c in body.constraints if c.measurement)
     assert units == ["m", "px"]
+
+
+def _slope_deg(n: np.ndarray, up: np.ndarray) -> float:
+    return math.degrees(math.acos(min(1.0, abs(float(n @ up)) / float(np.linalg.norm(n)))))
+
+
+def test_an_inserted_slope_holds_its_outline() -> None:
+    up = np.array([0.0, -1.0, 0.0])
+    floor = PlaneInit("body.floor", "Floor", -up, -5.0, fixed=True)
+    start = math.radians(35.0)  # where the adjustment took it: away from its outline's 21 deg
+    tilted = np.array([0.0, -math.cos(start), math.sin(start)])
+    roof = PlaneInit("body.roof.back", "RoofPlane", tilted, float(tilted @ [0, -8.0, 30.0]))
+    index = {"body.floor": 0, "body.roof.back": 1}
+    concepts = {"body.roof.back": "RoofPlane"}
+    priors = outline_priors({"body.roof.back": 21.0}, concepts, "body.floor", index)
+    assert [c.source.rule for c in priors] == ["prior"]
+    assert outline_priors({"body.roof.back": 21.0}, concepts, None, index) == []
+    held = verify(Verification((floor, roof), tuple(priors)))
+    assert _slope_deg(held.planes["body.roof.back"][0], up) == pytest.approx(21.0, abs=0.01)
+    assert held.worst_rejected() is None
+    # a measurement that puts it 14 degrees off: the outline contradicts the adjustment
+    measured = Constraint(
+        kind="angle",
+        parts=(1, 0),
+        value=start,
+        sigma=math.radians(0.2),
+        unit="rad",
+        label="measured",
+    )
+    against = verify(Verification((floor, roof), (*priors, measured)))
+    worst = against.worst_rejected()
+    assert worst is not None
+    assert worst.label == "RoofPlane outline slope"
