@@ -124,11 +124,20 @@ class EdgeData:
     ----------
     camera : index of the camera that saw the segment.
     p1_px, p2_px : the segment's end points, pixels (x right, y down).
+    lean : 0, or the sign (+1, -1) of the end-point residuals (the model edge's distance from
+        the segment's line, `aida_kb.constraints.edge.edge_kernel`) that a one-sided bias of
+        the measurement explains: a wall's foot seen as the edge of the shadow the wall casts
+        on the ground beside it lies off the true foot towards the ground, never towards the
+        wall. Such residuals are multiplied by `lean_scale` before whitening.
+    lean_scale : in (0, 1]: that factor (the ratio of the measurement's sigma to its sigma on
+        the biased side).
     """
 
     camera: int
     p1_px: tuple[float, float]
     p2_px: tuple[float, float]
+    lean: int = 0
+    lean_scale: float = 1.0
 
 
 @dataclass(frozen=True)

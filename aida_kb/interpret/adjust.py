@@ -191,6 +191,7 @@ def adjust(
             ctx.pinholes,
             tilts,
             metric=ctx.evidence.metric,
+            ground=ground_of(ctx, set(index)),
         )
         outcome = verify(verification)
         last = (outcome, verification)

@@ -21,10 +21,11 @@ import numpy.typing as npt
 
 from aida_kb.constraints import CameraPositionData, Constraint, EdgeData, Origin
 from aida_kb.constraints.kernels import meeting_angle
-from aida_kb.constraints.kinds.edge import segment_sqrt_information
+from aida_kb.constraints.kinds.edge import MIN_FIT_POINTS, segment_sqrt_information
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.rig import Rig
+from aida_kb.interpret.feet import foot_leans, lean_scale
 from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import FIT_CORRELATED_PX, fit_sigma_rad
@@ -478,8 +479,9 @@ def _edge_factors(
     sigma = _foot_widened(
         np.full(len(faces), JOINT_EDGE_SIGMA_PX), q1, q2, _foot_grazing_of(model, camera, faces, up)
     )
+    lean, lean_scale = _foot_lean(model, camera, faces, q1, q2, sigma, up)
     out = []
-    for (a, b), p, q, s in zip(faces, q1, q2, sigma, strict=True):
+    for (a, b), p, q, s, ln, ls in zip(faces, q1, q2, sigma, lean, lean_scale, strict=True):
         if skip and (int(min(a, b)), int(max(a, b))) in skip:
             continue
         e1, e2 = (float(p[0]), float(p[1])), (float(q[0]), float(q[1]))
@@ -491,7 +493,7 @@ def _edge_factors(
                 unit="px",
                 measurement=True,
                 label=label,
-                edge=EdgeData(index, e1, e2),
+                edge=EdgeData(index, e1, e2, int(ln), float(ls)),
                 sqrt_information=segment_sqrt_information(e1, e2, float(s)),
                 origin=Origin(label, "evidence"),
             )
@@ -621,6 +623,36 @@ def _foot_widened(
     return np.where(squeezed, np.sqrt(sigma * sigma + n * FOOT_BIAS_PX**2), sigma)
 
 
+def _foot_lean(
+    model: RigidModel,
+    camera: PinholeCamera,
+    faces: npt.NDArray[np.integer],
+    p1: FloatArray,
+    p2: FloatArray,
+    sigma: FloatArray,
+    up: tuple[float, float, float] | None,
+) -> tuple[npt.NDArray[np.int64], FloatArray]:
+    """(K,), (K,): the `EdgeData.lean` and ``lean_scale`` of the edge measurements from `p1`
+    to `p2` (K, 2) px of the model edges `faces` (K, 2) seen by `camera`, with edge-point
+    sigmas `sigma` (K,) px: on a foot edge (`FOOT_SHARE`; `up` the model's vertical, world
+    frame) the side of the wall leans (`aida_kb.interpret.feet.foot_leans`, through the edge's
+    middle) and the scale is `aida_kb.interpret.feet.lean_scale` of the line's mean offset's
+    sigma ``sigma / sqrt(n)``, n its length in pixels; 0 and 1 elsewhere and where `up` is
+    None."""
+    K = len(faces)
+    lean = np.zeros(K, dtype=np.int64)
+    scale = np.ones(K)
+    on_foot = ~np.isnan(_foot_grazing_of(model, camera, faces, up))
+    if up is None or not on_foot.any():
+        return lean, scale
+    u = np.asarray(up, dtype=np.float64)
+    middle = model.edge_ends[edge_rows(model.edge_faces, faces)[on_foot]].mean(axis=1)
+    lean[on_foot] = foot_leans(camera, p1[on_foot], p2[on_foot], middle, u / np.linalg.norm(u))
+    n = np.maximum(np.linalg.norm(p2[on_foot] - p1[on_foot], axis=1), MIN_FIT_POINTS)
+    scale[on_foot] = np.where(lean[on_foot] != 0, lean_scale(sigma[on_foot] / np.sqrt(n)), 1.0)
+    return lean, scale
+
+
 def _fitted_edge_factors(
     model: RigidModel,
     camera: PinholeCamera,
@@ -638,12 +670,14 @@ def _fitted_edge_factors(
     are fitted in both images of the view: their sigma is widened by
     ``sqrt(1 + STEREO_FIT_CORRELATION)`` (`STEREO_FIT_CORRELATION`)."""
     sigma = fit_point_sigma(model, camera, edges, up)
-    out = []
     widen = math.sqrt(1.0 + STEREO_FIT_CORRELATION)
+    keys = np.sort(np.asarray(edges.faces, dtype=np.int64).reshape(-1, 2), axis=1)
+    both = np.array([(int(a), int(b)) in twice for a, b in keys], dtype=bool)
+    sigma = np.where(both, sigma * widen, sigma)
+    lean, lean_scale = _foot_lean(model, camera, edges.faces, edges.p1, edges.p2, sigma, up)
+    out = []
     for k in range(edges.size):
         a, b = int(edges.faces[k, 0]), int(edges.faces[k, 1])
-        if (min(a, b), max(a, b)) in twice:
-            sigma[k] *= widen
         e1 = (float(edges.p1[k, 0]), float(edges.p1[k, 1]))
         e2 = (float(edges.p2[k, 0]), float(edges.p2[k, 1]))
         label = f"{IMAGE_EDGE_LABEL}({model.names[a]}, {model.names[b]})@{view}"
@@ -654,7 +688,7 @@ def _fitted_edge_factors(
                 unit="px",
                 measurement=True,
                 label=label,
-                edge=EdgeData(index, e1, e2),
+                edge=EdgeData(index, e1, e2, int(lean[k]), float(lean_scale[k])),
                 sqrt_information=segment_sqrt_information(e1, e2, float(sigma[k])),
                 origin=Origin(label, "evidence"),
             )
@@ -711,13 +745,13 @@ def _attribute_constraints(
 ) -> list[Constraint]:
     """The attributes of the object at `top` as the single-view adjustment takes them
     (`aida_kb.interpret.adjust.adjust`): each planar part's slope attribute as a soft angle to
-    the object's ground (`verify.tilt_constraints`: a wall at 90 deg to the floor, sigma 1 deg),
-    and the parts no region of the first view showed (``inserted``) that the knowledge orients
-    level held level (`verify.orientation_priors`). The ground is the outermost part under
-    `top` that the knowledge orients ``downward`` (as `unseen.ground_of`). Without them the
-    floor, which the views measure only by its foot edges at grazing angles, kept the first
-    view's tilt (dev 65006: walls within 0.15 deg, the floor 1.23 deg off). `index`: role
-    path -> part index.
+    the object's ground (`verify.tilt_constraints`: a wall at 90 deg to the floor, the sigma the
+    knowledge states), and the parts no region of the first view showed (``inserted``) that
+    the knowledge orients level held level (`verify.orientation_priors`). The ground is the
+    outermost part under `top` that the knowledge orients ``downward`` (as
+    `unseen.ground_of`). Without them the floor, which the views measure only by its foot
+    edges at grazing angles, kept the first view's tilt (dev 65006: walls within 0.15 deg, the
+    floor 1.23 deg off). `index`: role path -> part index.
     """
     fillers = {inst.role: inst.concept for inst in interp.instances}
     under = {str(p): i for p, i in index.items() if p.is_under(top)}

@@ -976,7 +976,9 @@ def reconstruct_from_first(
     report: ResidualReport | None = None  # the last adjustment's, for interpretation.json
     if placed:  # the model with the views of known pose, as after a registration
         free = list(range(n_known, len(cams)))
-        step = _adjusted(rigid, cams, views, free, JointInputs(angles, internal, pairs))
+        step = _adjusted(
+            rigid, cams, views, free, JointInputs(angles, internal, pairs, up=model0.up)
+        )
         if isinstance(step, str):
             notes.append(f"joint adjustment with the views of known pose skipped: {step}")
         else:
@@ -1027,7 +1029,7 @@ def reconstruct_from_first(
             _append_view(cams, views, ids, shown, pairs, reg.camera, v, right)
             # the model and the new view's pose in one joint optimisation (for the second
             # view: the first shape and the second pose), the views before it held where they are
-            inputs = JointInputs(angles, internal, pairs)
+            inputs = JointInputs(angles, internal, pairs, up=model0.up)
             step = _adjusted(rigid, cams, views, [len(cams) - 1], inputs)
             broken = (
                 []
@@ -1137,7 +1139,9 @@ def reconstruct_from_first(
         if progress is not None:
             progress(f"refining the model with all {len(cams)} views")
         free = list(range(n_known, len(cams)))
-        step = _adjusted(rigid, cams, views, free, JointInputs(angles, internal, pairs))
+        step = _adjusted(
+            rigid, cams, views, free, JointInputs(angles, internal, pairs, up=model0.up)
+        )
         if isinstance(step, str):
             notes.append(f"refinement with all views skipped: {step}")
             break

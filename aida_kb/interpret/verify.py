@@ -38,6 +38,7 @@ from aida_kb.constraints import Constraint, EdgeData, Origin, PositionData, kind
 from aida_kb.diagnostics.core import Span
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
+from aida_kb.interpret.feet import leaning_feet
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import FIT_CORRELATED_PX, CameraView, RegionView, fit_sigma_rad
 from aida_kb.kb.paths import ROOT, RolePath
@@ -259,6 +260,7 @@ def build_verification(
     extra: Sequence[Constraint] = (),
     *,
     metric: bool = True,
+    ground: str | None = None,
 ) -> Verification:
     """The verification problem of a hypothesis, its constraints from the knowledge base.
 
@@ -276,6 +278,9 @@ def build_verification(
     extra : constraints the interpreter adds (part indices into ``planes``, with origins).
     metric : the scene's lengths are metres (an edge tolerance given as a length becomes
         pixels, `edges_in_pixels`).
+    ground : the role path of the part the object stands on (its normal pointing down), or
+        None: the measurements of its edges with the other parts are feet, whose lines lean
+        towards the ground (`aida_kb.interpret.feet.leaning_feet`).
 
     Constraints among fixed parts only are left out: they were verified with their level.
     """
@@ -321,8 +326,12 @@ def build_verification(
         o = c.source
         out.append(replace(c, label=o.label, origin=replace(o, owner=top.join(o.owner))))
     out += [c for c in extra if not set(c.parts) <= fixed]
-    out = edges_in_pixels(out, planes, cameras, metric=metric)
-    return Verification(tuple(planes), tuple(with_edge_scatter(out)), tuple(cameras), found.skipped)
+    out = with_edge_scatter(edges_in_pixels(out, planes, cameras, metric=metric))
+    if ground is not None and RolePath.parse(ground) in index:
+        normals = np.array([p.normal for p in planes], dtype=np.float64)
+        offsets = np.array([p.offset_m for p in planes], dtype=np.float64)
+        out = leaning_feet(out, normals, offsets, index[RolePath.parse(ground)], cameras)
+    return Verification(tuple(planes), tuple(out), tuple(cameras), found.skipped)
 
 
 # Edge tolerances at the object. The knowledge may give an edge measure's tolerance as a length

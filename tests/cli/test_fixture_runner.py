@@ -67,7 +67,7 @@ def test_a_wrong_expectation_gives_a_readable_diff_and_exit_1(
     ) in out
     assert (
         f"{path}:{at['pitch = 41 deg']}: expected body.roof.front.pitch = 41 deg +- 0.5 deg, "
-        "got 38.31 deg"
+        "got 38.34 deg"
     ) in out
     # the wing's subtree is not compared once its concept differs: the wrong region under it
     # is not reported separately
@@ -118,10 +118,10 @@ def test_update_rewrites_the_expectation_from_the_result_keeping_its_annotations
     out = capsys.readouterr().out
     assert f"{path}: UPDATED (" in out
     assert "expected verdict verified, got doubtful" in out
-    assert "expected body.depth = 12 m +- 0.35 m, got 9.888 m" in out
+    assert "expected body.depth = 12 m +- 0.35 m, got 9.905 m" in out
     new = path.read_text(encoding="utf-8")
     assert "// expect: verdict doubtful\n" in new
-    assert "    depth = 9.888 m\n" in new  # the result's value, for review
+    assert "    depth = 9.905 m\n" in new  # the result's value, for review
     # the author's comments and the annotations stay: the tolerance line, and a value's
     # tolerance after its new value
     assert new.startswith("// A gable house 16 x 10 m, walls 9 m, roof pitch 35 deg")

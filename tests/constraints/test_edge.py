@@ -91,3 +91,71 @@ def test_edge_jacobians_match_finite_differences(
             sel = camera == c
             np.testing.assert_allclose(Jc[sel, :, q], num[sel], atol=1e-4, rtol=1e-5)
             np.testing.assert_allclose(num[~sel], 0.0, atol=1e-9)
+
+
+def _leaning(lean: int, scale: float) -> list:
+    """The four edges of `_inputs` as edge constraints with the given lean."""
+    from aida_kb.constraints import Constraint, EdgeData
+
+    _, _, _, idx, camera, p1, p2 = _inputs()
+    return [
+        Constraint(
+            kind="edge",
+            parts=(int(a), int(b)),
+            sigma=1.0,
+            unit="px",
+            measurement=True,
+            edge=EdgeData(int(c), tuple(q1), tuple(q2), lean, scale),  # type: ignore[arg-type]
+        )
+        for (a, b), c, q1, q2 in zip(idx, camera, p1, p2, strict=True)
+    ]
+
+
+def test_a_leaning_edge_scales_its_biased_side_only_with_exact_jacobians() -> None:
+    from aida_kb.constraints import compile_blocks
+
+    cams, n, d, idx, _, _, _ = _inputs()
+    # the side wall moved and turned: the edges (front, side) lie off their segments, the end
+    # points' residuals on both sides of zero
+    d = d.copy()
+    d[1] += 0.02
+    n = n.copy()
+    n[1] = n[1] + np.array([0.0, 0.05, 0.0])
+    n[1] /= np.linalg.norm(n[1])
+    (plain,) = compile_blocks(_leaning(0, 1.0), 3, 2)
+    r0, J0, Jc0 = plain.evaluate(n, d, cams)
+    assert np.any(r0 > 0.5)
+    assert np.any(r0 < -0.5)
+    eps = 1e-6
+    for lean in (-1, 1):
+        (b,) = compile_blocks(_leaning(lean, 0.25), 3, 2)
+        r, J, Jc = b.evaluate(n, d, cams)
+        scale = np.where(lean * r0 > 0, 0.25, 1.0)
+        np.testing.assert_allclose(r, r0 * scale)
+        np.testing.assert_allclose(J, J0 * scale[:, :, None, None])
+        assert Jc is not None
+        assert Jc0 is not None
+        np.testing.assert_allclose(Jc, Jc0 * scale[:, :, None])
+        for p in range(3):  # the scaled residuals' own derivatives
+            for f in range(4):
+                n_p, n_m, d_p, d_m = n.copy(), n.copy(), d.copy(), d.copy()
+                if f < 3:
+                    n_p[p, f] += eps
+                    n_m[p, f] -= eps
+                else:
+                    d_p[p] += eps
+                    d_m[p] -= eps
+                num = (b.evaluate(n_p, d_p, cams)[0] - b.evaluate(n_m, d_m, cams)[0]) / (2 * eps)
+                ana = sum(J[:, :, s, f] * (idx[:, s] == p)[:, None] for s in range(2))
+                away = np.abs(r0) > 1e-3  # a residual at zero has no derivative there
+                np.testing.assert_allclose(ana[away], num[away], atol=1e-5, rtol=1e-5)
+
+
+@pytest.mark.parametrize(("lean", "scale"), [(2, 0.5), (1, 0.0), (-1, 1.5)])
+def test_a_bad_lean_is_refused_in_one_line(lean: int, scale: float) -> None:
+    from aida_kb.constraints import validate
+    from aida_kb.errors import SolveError
+
+    with pytest.raises(SolveError, match="lean") as info:
+        validate(_leaning(lean, scale), 3, 2)
+    assert "\n" not in str(info.value)

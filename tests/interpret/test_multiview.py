@@ -141,8 +141,9 @@ def test_the_joint_adjustment_takes_the_attributes_and_drops_the_first_views_sta
     interpreted: Callable[[str], Interpretation], buildings_kb: object
 ) -> None:
     # the walls' slope attributes tie them to the floor as in the single-view adjustment
-    # (90 deg, sigma 1 deg); the first shape's angle of a pair the knowledge relates is left
-    # out (it counted the first view twice and kept its tilt of the floor)
+    # (90 deg, the sigma kb/buildings.kb states: 0.5 deg); the first shape's angle of a pair
+    # the knowledge relates is left out (it counted the first view twice and kept its tilt of
+    # the floor)
     interp = interpreted("house_correct.json")
     assert interp.model is not None
     rigid = RigidModel.from_model(interp.model)
@@ -154,7 +155,7 @@ def test_the_joint_adjustment_takes_the_attributes_and_drops_the_first_views_sta
     assert {names[c.parts[0]] for c in tilts} == walls
     assert all(c.parts[1] == floor for c in tilts)
     assert all(c.value == pytest.approx(np.pi / 2) for c in tilts)
-    assert all(c.sigma == pytest.approx(math.radians(1.0)) for c in tilts)
+    assert all(c.sigma == pytest.approx(math.radians(0.5)) for c in tilts)
     problem = joint.joint_problem(rigid, [], [], [], joint.JointInputs(internal=cons))
     priors = {c.parts for c in problem.constraints if c.label.startswith("first-shape")}
     stated = joint.stated_pairs(cons)

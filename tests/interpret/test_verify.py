@@ -266,7 +266,7 @@ def test_constraints_come_from_the_knowledge_base(buildings_kb: KnowledgeBase) -
     assert tilt.source.rule == "attribute"
     assert tilt.source.span is not None
     assert tilt.source.span.file.endswith("buildings.kb")
-    assert tilt.sigma == pytest.approx(math.radians(1.0))
+    assert tilt.sigma == pytest.approx(math.radians(0.5))  # the tolerance the knowledge states
     assert tilt.reject_above == pytest.approx(math.radians(5.0))
 
 

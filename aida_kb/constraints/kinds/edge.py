@@ -4,7 +4,9 @@ Residuals per end point of the segment: its distance from the plane of sight in 
 "m" or ""), or the image distance of the edge's projection from the segment's line in pixels
 (unit "px") — `aida_kb.constraints.edge.edge_kernel`, with Jacobians by both planes and the
 camera pose. A segment's two end-point residuals are correlated when the segment is a fitted
-line; a ``sqrt_information`` (2, 2) whitens them (`segment_sqrt_information`).
+line; a ``sqrt_information`` (2, 2) whitens them (`segment_sqrt_information`). A measurement
+with a one-sided bias (`EdgeData.lean`) has the residuals of the biased side scaled down before
+whitening (a split normal per end point).
 """
 
 from __future__ import annotations
@@ -79,19 +81,26 @@ class Edge(Kind):
         if e is None:
             raise SolveError(f"{where}: an edge constraint needs its image segment")
         check_camera(where, e.camera, n_cameras)
+        if e.lean not in (-1, 0, 1):
+            raise SolveError(f"{where}: an edge's lean must be -1, 0 or 1, not {e.lean!r}")
+        if not 0.0 < e.lean_scale <= 1.0:
+            raise SolveError(f"{where}: an edge's lean scale must lie in (0, 1]: {e.lean_scale}")
         p1 = vector(where, "p1_px", e.p1_px, 2)
         p2 = vector(where, "p2_px", e.p2_px, 2)
         if float(np.linalg.norm(p2 - p1)) < 1e-6:
             raise SolveError(f"{where}: the image segment has zero length")
 
     def pack(self, cs: Sequence[Constraint]) -> BlockData:
-        """``camera`` (M,) int; ``p1``, ``p2`` (M, 2) px; ``px`` (M,) bool."""
+        """``camera`` (M,) int; ``p1``, ``p2`` (M, 2) px; ``px`` (M,) bool; ``lean`` (M,)
+        -1, 0 or 1 and ``lean_scale`` (M,) (`EdgeData`)."""
         eds = [_data(c) for c in cs]
         return {
             "camera": np.array([e.camera for e in eds], dtype=np.intp),
             "p1": np.array([e.p1_px for e in eds], dtype=np.float64).reshape(-1, 2),
             "p2": np.array([e.p2_px for e in eds], dtype=np.float64).reshape(-1, 2),
             "px": np.array([c.unit == "px" for c in cs], dtype=bool),
+            "lean": np.array([e.lean for e in eds], dtype=np.float64),
+            "lean_scale": np.array([e.lean_scale for e in eds], dtype=np.float64),
         }
 
     def evaluate(
@@ -102,10 +111,16 @@ class Edge(Kind):
         idx: IntArray,
         data: BlockData,
     ) -> Evaluated:
-        """r (M, 2), J (M, 2, 2, 4), J_camera (M, 2, 6)."""
-        return edge_kernel(
+        """r (M, 2), J (M, 2, 2, 4), J_camera (M, 2, 6); the end-point residuals whose sign
+        is a constraint's ``lean`` scaled by its ``lean_scale``, with their Jacobians."""
+        r, J, Jc = edge_kernel(
             normals, offsets, idx, cameras, data["camera"], data["p1"], data["p2"], data["px"]
         )
+        lean = data["lean"][:, None]
+        if not np.any(lean):
+            return r, J, Jc
+        scale = np.where(lean * r > 0.0, data["lean_scale"][:, None], 1.0)  # (M, 2)
+        return r * scale, J * scale[:, :, None, None], Jc * scale[:, :, None]
 
 
 EDGE = Edge()
