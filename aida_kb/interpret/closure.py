@@ -26,8 +26,13 @@ import numpy.typing as npt
 from aida_kb.errors import GeometryError
 from aida_kb.geometry.polyhedron import Polyhedron
 from aida_kb.interpret.hypotheses import HORIZONTAL, Frame, PlanarPart
+from aida_kb.interpret.party import one_plane
+from aida_kb.kb.paths import RolePath, Step
 
 if TYPE_CHECKING:
+    from aida_kb.constraints import Constraint
+    from aida_kb.interpret.knowledge import Knowledge
+    from aida_kb.interpret.result import Interpretation
     from aida_kb.kb.model import AttachmentModel
 
 FloatArray = npt.NDArray[np.float64]
@@ -130,6 +135,59 @@ def closing_faces(
             source,
         )
     ]
+
+
+def closing_ties(
+    knowledge: Knowledge, interp: Interpretation, names: Sequence[str]
+) -> list[Constraint]:
+    """The priors holding each closing face of the interpretation's model on the plane of its
+    whole that closed it (`closing_faces`: an oriel's back against the wall it stands out of,
+    a wing's floor in the body's floor), for an adjustment whose parts are `names`.
+
+    The first view's model copies the whole's plane into the closing face; an adjustment that
+    frees every part's plane (the views' joint adjustment) would otherwise let the face drift
+    with nothing but its own edges to hold it: on the kept dev runs 65000-70035 oriels' backs
+    and wings' floors lay up to 2.6 deg and 1.3 m off their walls and floors (70014, 70025),
+    while the knowledge's ``attach`` says they lie in them. Each tie is a `party.one_plane`
+    (facing alike for ``in``, opposite for ``against``). A model part is a closing face when
+    no instance of the interpretation fills its role and its structure's whole ``attach``es
+    that structure by a face of that name; its plane is the one of the attachment's planes
+    whose normal lies nearest (`MIN_CLOSING_ALIGNMENT`), as `closing_faces` chose it. No
+    model: no tie.
+    """
+    if interp.model is None:
+        return []
+    index = {name: i for i, name in enumerate(names)}
+    normals = {p.role: np.asarray(p.normal, dtype=np.float64) for p in interp.model.parts}
+    fillers = {inst.role: inst.concept for inst in interp.instances}
+    out: list[Constraint] = []
+    for name in names:
+        try:
+            path = RolePath.parse(name)
+        except ValueError:
+            continue
+        if len(path) < 3 or name in fillers or name not in normals:
+            continue
+        whole = path.parent.parent
+        concept = fillers.get(str(whole))
+        if concept is None or concept not in knowledge.concepts:
+            continue
+        attachment = knowledge.concept(concept).attachments.get(path.parent.last.role)
+        if attachment is None or path.last != Step(attachment.name):
+            continue
+        sense = 1 if attachment.contact == "in" else -1
+        best: tuple[float, str] | None = None
+        for plane in attachment.planes:
+            role = str(whole.join(RolePath.parse(plane)))
+            if role not in index or role not in normals:
+                continue
+            score = sense * float(normals[role] @ normals[name])
+            if best is None or score > best[0]:
+                best = (score, role)
+        if best is None or best[0] < MIN_CLOSING_ALIGNMENT:
+            continue
+        out.append(one_plane(index[name], index[best[1]], sense, f"in plane({name}, {best[1]})"))
+    return out
 
 
 def close(

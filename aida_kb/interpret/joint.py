@@ -25,6 +25,7 @@ from aida_kb.constraints.kinds.edge import MIN_FIT_POINTS, segment_sqrt_informat
 from aida_kb.errors import SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.rig import Rig
+from aida_kb.interpret.closure import closing_ties
 from aida_kb.interpret.feet import foot_leans, lean_scale
 from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD
 from aida_kb.interpret.knowledge import Knowledge
@@ -708,7 +709,8 @@ def kb_constraints(
     (`_attribute_constraints`: each part's slope to the object's ground, the level parts the
     first view inserted). Part indices are positions in `names`. Objects whose constraints
     cannot be built are skipped. Where a scene's objects touch, their shared faces are tied to
-    one plane (`party.touching_ties`).
+    one plane (`party.touching_ties`); a face that closes a smaller part in its whole (an
+    oriel's back, a wing's floor) to the whole's plane it lies in (`closure.closing_ties`).
     """
     out: list[Constraint] = []
     knowledge = Knowledge.from_kb(kb)
@@ -737,6 +739,7 @@ def kb_constraints(
         out += _attribute_constraints(knowledge, interp, top, index)
     if interp.model is not None:  # touching objects' shared walls: one plane each
         out += touching_ties(interp.model, [o.role for o in interp.objects], names)
+    out += closing_ties(knowledge, interp, names)  # open faces in their wholes' planes
     return out
 
 

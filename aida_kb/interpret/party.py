@@ -725,22 +725,25 @@ def touching_ties(
     indices are positions in `names` (an adjustment's parts); faces not among them are
     skipped. No objects, or none touching: no constraint."""
     index = {name: i for i, name in enumerate(names)}
-    info = np.diag([1.0 / math.radians(TIE_SIGMA_DEG)] * 3 + [1.0 / TIE_SIGMA_M])
-    sqrt_information = tuple(tuple(float(x) for x in row) for row in info)
     out = []
     for a, b in itertools.combinations(roles, 2):
         for fa, fb in touching_faces(model, a, b):
             if fa not in index or fb not in index:
                 continue
-            label = f"one plane({fa}, {fb})"
-            out.append(
-                Constraint(
-                    kind="coincident",
-                    parts=(index[fa], index[fb]),
-                    sign=-1,
-                    sqrt_information=sqrt_information,
-                    label=label,
-                    origin=Origin(label, "prior"),
-                )
-            )
+            out.append(one_plane(index[fa], index[fb], -1, f"one plane({fa}, {fb})"))
     return out
+
+
+def one_plane(a: int, b: int, sign: int, label: str) -> Constraint:
+    """The prior holding parts `a` and `b` (indices of an adjustment's parts) on one plane,
+    facing alike (`sign` 1) or opposite (-1): a `coincident` constraint whitened by
+    `TIE_SIGMA_DEG` (its rotation, rad) and `TIE_SIGMA_M` (its offset, m)."""
+    info = np.diag([1.0 / math.radians(TIE_SIGMA_DEG)] * 3 + [1.0 / TIE_SIGMA_M])
+    return Constraint(
+        kind="coincident",
+        parts=(a, b),
+        sign=sign,
+        sqrt_information=tuple(tuple(float(x) for x in row) for row in info),
+        label=label,
+        origin=Origin(label, "prior"),
+    )
