@@ -675,3 +675,18 @@ def test_the_rival_turns_of_a_registration_lead_to_the_symmetric_twin() -> None:
     again = register_view(model, ref, p1, p2, init_angle_deg=rivals[0])
     assert abs(again.angle_deg + 140.0) < 0.1
     assert again.cost == pytest.approx(reg.cost, abs=1e-6)
+
+
+def test_the_search_also_turns_about_the_models_middle_when_the_reference_looks_aside() -> None:
+    from aida_kb.register.register import orbit_pivots
+
+    ref = _reference()
+    up = np.array([0.0, -1.0, 0.0])
+    on_axis = ref.centre + 1.4 * ref.optical_axis
+    centred = _box(centre=(float(on_axis[0]), float(on_axis[1]), float(on_axis[2])))
+    (only,) = orbit_pivots(centred, ref, up)
+    np.testing.assert_allclose(only, centred.centroid, atol=1e-12)  # the box's middle
+    aside = _box(centre=(float(on_axis[0]) + 0.3, float(on_axis[1]), float(on_axis[2])))
+    look, middle = orbit_pivots(aside, ref, up)
+    np.testing.assert_allclose(look, orbit_pivot(aside, ref))
+    np.testing.assert_allclose(middle, aside.centroid)  # a box's middle is its centroid
