@@ -1,5 +1,4 @@
-"""The ground's and the faces' texture between the views: what fixes a later camera's swing
-about the object, and the faces' planes.
+"""The ground's texture between the views: what fixes a later camera's swing about the object.
 
 A later view's camera, registered and adjusted on the model's edges and the views' regions, is
 free to swing about the object: a turn about the vertical with a sideways shift of the centre
@@ -24,20 +23,10 @@ adjustment like a part's:
 `ground_adjustment` adds them to the image rounds' problem (`joint_problem`, the model's edges
 fitted along the images) and solves coarse to fine over `BLURS_PX`, each level's patches made
 at the previous level's solution, their noise measured there, patches beyond their chi-square
-quantile dropped.
-
-The model's own faces' patches, seen again by a later view, join them where that view sees
-`MIN_FACE_PATCHES_VIEW` of them. Held fixed, the model's planes would carry their own error
-into the camera (benchmarks/texture_cameras.py: dev 67000-67035 textured views 0.062 -> 0.088
-deg with the faces' patches alone); free here, with the ground fixing the camera's swing, the
-faces' patches fix the planes instead, across the wide baseline between the views. The first
-view's stereo pair alone does not: its baseline is a twentieth of the distance or less, and a
-disparity error of a tenth of a pixel across a face turns it by half a degree (dev 70002 and
-70016, one view each: the true model's front wall pulled 0.75-0.94 deg off by its stereo
-patches; against the renders' true depth the walls' disparities drift by 3-7 px per ten
-thousand pixels of height, a bias whose cause was not traced). Where the faces'
-patches are used the parts carry this adjustment's deviations, each model edge with its shared
-bias (`aida_kb.interpret.uncertainty.EDGE_BIAS_PX`, as in the verdict's problem).
+quantile dropped. Only the ground's patches are used: the model's own faces' texture fixes a
+camera against the model's planes, which are off in the first view's frame by as much as the
+swing (benchmarks/texture_cameras.py: dev 67000-67035 textured views 0.062 -> 0.088 deg),
+while the ground's fixes it against the first view itself.
 
 Measured through the reconstruction on dev seeds 69002-69032 (session 26; 12 scenes, the
 later views of 7 of them seeing 40 ground patches or more): those 11 cameras went from a
@@ -116,23 +105,6 @@ GROUND_TR_SOLVER: TrSolver = "lsmr"
 thousand patches and more, against 60-100 unknowns; the dense solver's SVD of every step took
 minutes a scene (dev 69009: 72 SVDs, 28 s of a 37-s solve on one loaded core)."""
 
-MIN_FACE_PATCHES_VIEW = 100
-"""A later view's patches of the model's own faces (the first view's left image on the faces,
-seen again in the later view's left image) join the adjustment with at least this many (1,600
-samples): they fix the faces' planes against the wide baseline between the views, tens of
-times the stereo pair's. Measured on kept dev models 70000-70035 (session 27, the faces'
-patches added to the ground's): with 172-310 patches a later view took the worst normal of
-70035 from 0.76 to 0.07 deg, of 70008 from 0.78 to 0.14 and of 70012 from 0.43 to 0.16 (the
-cameras 0.01-0.2 to 0.02-0.06 deg); with 16-47 (70023, 70013, 70034) the faces pulled the
-model and the cameras off, up to several degrees (patches on a few small faces, periodic
-texture matched a period off)."""
-
-FACE_NORMAL_FLOOR_DEG = 0.05
-"""A part's normal adjusted with the faces' texture is not known better than this, degrees
-(added in quadrature to its deviation): the true models of dev 70027 and 70035 started at the
-truth came to rest with their front walls 0.06-0.07 deg off at deviations of 0.016 deg, the
-texture's own bias (see the module docstring), which no count of patches averages away."""
-
 GROUND_NAME = "(ground)"
 """The ground plane's name in the adjustment (no part of the object)."""
 
@@ -142,9 +114,8 @@ class GroundStep:
     """What `ground_adjustment` leaves: the model's planes and the cameras adjusted with the
     ground's texture, the problem solved (the ground's plane its last part, the first view's
     right camera after the views' cameras) for the deviations, the report of the model's own
-    factors (the patches left out), and the patches of the ground and of the model's faces
-    each later view kept (by camera index; a view's faces' patches only where it saw
-    `MIN_FACE_PATCHES_VIEW` of them)."""
+    factors (the ground's patches left out), and the patches each later view kept (by camera
+    index)."""
 
     normals: FloatArray
     offsets: FloatArray
@@ -152,7 +123,6 @@ class GroundStep:
     problem: Problem
     report: ResidualReport
     patches: dict[int, int]
-    face_patches: dict[int, int]
 
 
 def ground_plane(model: RigidModel, up: FloatArray) -> tuple[FloatArray, float, FloatArray]:
@@ -266,7 +236,6 @@ def ground_adjustment(
         )
 
     patches: dict[int, int] = {}
-    faces_seen: dict[int, int] = {}
     problem: Problem | None = None
     result: SolveResult | None = None
     try:
@@ -274,47 +243,32 @@ def ground_adjustment(
             current = RigidModel.from_polygons(faces.names, normals, offsets, polygons)
             reference = _blurred(greys[0], blur)
             extra: list[Constraint] = []
-            patches, faces_seen = {}, {}
+            patches = {}
             for k in free:
                 image = greys[k]
                 if image is None:
                     continue
-                seen = TextureImage(_blurred(image, blur))
                 tex = texture_factors(
                     current,
                     now[0],
                     reference,
                     now[k],
                     k,
-                    seen,
+                    TextureImage(_blurred(image, blur)),
                     1.0,
                     views[k].view,
                     only_face=g,
                     grazing_deg=GROUND_GRAZING_DEG,
                 )
-                on_faces = [
-                    c
-                    for c in texture_factors(
-                        current, now[0], reference, now[k], k, seen, 1.0, views[k].view
-                    )
-                    if c.parts[0] != g
-                ]
-                for kept, tally, least in (
-                    (tex, patches, MIN_GROUND_PATCHES),
-                    (on_faces, faces_seen, MIN_FACE_PATCHES_VIEW),
-                ):
-                    if len(kept) < least:
-                        continue
-                    sigma = texture_noise_grey(normals, offsets, now, kept)
-                    if not math.isfinite(sigma) or sigma <= 0.0:
-                        continue
-                    extra += [replace(c, sigma=sigma) for c in kept]
-                    tally[k] = len(kept)
+                if len(tex) < MIN_GROUND_PATCHES:
+                    continue
+                sigma = texture_noise_grey(normals, offsets, now, tex)
+                if not math.isfinite(sigma) or sigma <= 0.0:
+                    continue
+                extra += [replace(c, sigma=sigma) for c in tex]
+                patches[k] = len(tex)
             if not extra:
-                return (
-                    f"no later view sees {MIN_GROUND_PATCHES} patches of the ground or "
-                    f"{MIN_FACE_PATCHES_VIEW} of the model's faces"
-                )
+                return f"no later view sees {MIN_GROUND_PATCHES} patches of the ground"
             everything = (*now, right)
             stereo = texture_factors(
                 current,
@@ -346,19 +300,15 @@ def ground_adjustment(
     assert result is not None
     own = len(base.constraints)
     report = ResidualReport(rows=result.report.rows[:own], dof=result.report.dof[:own])
-    return GroundStep(
-        normals[:g], offsets[:g], now[: len(cameras)], problem, report, patches, faces_seen
-    )
+    return GroundStep(normals[:g], offsets[:g], now[: len(cameras)], problem, report, patches)
 
 
 __all__ = [
     "BLURS_PX",
     "BOTTOM_FACE_DEG",
-    "FACE_NORMAL_FLOOR_DEG",
     "GROUND_GRAZING_DEG",
     "GROUND_NAME",
     "GROUND_REACH",
-    "MIN_FACE_PATCHES_VIEW",
     "MIN_GROUND_PATCHES",
     "SOLVES_PER_LEVEL",
     "GroundStep",

@@ -72,7 +72,6 @@ from aida_kb.io.model import (
     CameraSd,
     ModelCamera,
     ModelPart,
-    PartSd,
     ReconstructedModel,
     moved_part,
 )
@@ -101,13 +100,7 @@ if TYPE_CHECKING:
 FloatArray = npt.NDArray[np.float64]
 GreyImage = npt.NDArray[np.uint8]
 GroundResult = tuple[
-    RigidModel,
-    list[FloatArray],
-    list[PinholeCamera],
-    ResidualReport,
-    dict[int, CameraSd],
-    dict[str, PartSd],
-    str,
+    RigidModel, list[FloatArray], list[PinholeCamera], ResidualReport, dict[int, CameraSd], str
 ]
 
 __all__ = [
@@ -172,12 +165,10 @@ GROUND_TEXTURE = True
 """After the image rounds, the model and the later cameras are adjusted again with the
 ground's texture (`aida_kb.interpret.groundtexture`): patches of the first view's left image on
 the ground seen again in its right image and in each later view that sees enough of them fix
-the swing of the later cameras about the object that the edges and regions leave open; the
-model's own faces' patches, where a later view sees enough of them, fix the faces' planes.
-The cameras so adjusted carry that adjustment's deviations (model.json ``sd`` with
-``measurements`` "ground texture", or "texture" with the faces'), and so do the parts where the
-faces' patches were used. Measured on the kept dev runs 69000-69035 (session 26) and
-70000-70035 (session 27): see that module's docstring."""
+the swing of the later cameras about the object that the edges and regions leave open. The
+cameras so adjusted carry that adjustment's deviations (model.json ``sd`` with
+``measurements`` "ground texture"). Measured on the kept dev runs 69000-69035 (session 26):
+see the module's docstring."""
 
 GROUND_AGREE_SIGMAS = 4.0
 """The ground's texture is not used when it turns a later camera by more than this many of
@@ -501,7 +492,7 @@ def _deviations_of(
     names: Sequence[str],
     cameras: Sequence[PinholeCamera],
     free: Sequence[int],
-    measurements: Literal["image edges", "ground texture", "texture"],
+    measurements: Literal["image edges", "ground texture"],
 ) -> dict[int, CameraSd]:
     """The free cameras' standard deviations (by index) at the solution `problem` starts
     from (its planes `names`, in order); empty when they cannot be computed."""
@@ -548,7 +539,7 @@ def _ground_step(
     step = ground_adjustment(rigid, cams, views, free, inputs, greys, first_right)
     if isinstance(step, str):
         return step
-    for k in sorted({*step.patches, *step.face_patches}):  # as far as the edges leave open
+    for k in step.patches:  # the ground moves a camera only as far as the edges leave open
         sd = before.get(k)
         turn = _turn_deg(cams[k], step.cameras[k])
         if sd is None or sd.rotation_deg is None:
@@ -566,48 +557,10 @@ def _ground_step(
     if broken:
         return _left_ranges("adjustment with the ground's texture", broken)
     names = [*rigid.names, GROUND_NAME]
-    faces = bool(step.face_patches)
-    kind: Literal["ground texture", "texture"] = "texture" if faces else "ground texture"
-    sds = _deviations_of(step.problem, names, step.problem.cameras, free, kind)
-    parts = _texture_part_deviations(step.problem, names, free) if faces else {}
-    note = "; ".join(
-        f"view(s) {', '.join(f'{views[k].view} ({n} patches)' for k, n in sorted(t.items()))} "
-        f"adjusted with {what}"
-        for t, what in (
-            (step.patches, "the ground's texture"),
-            (step.face_patches, "the model's faces' texture"),
-        )
-        if t
-    )
-    return moved, moved_polygons, list(step.cameras), step.report, sds, parts, note
-
-
-def _texture_part_deviations(
-    problem: Problem, names: Sequence[str], free: Sequence[int]
-) -> dict[str, PartSd]:
-    """The parts' standard deviations (by role; the ground, the last of `names`, left out) in
-    the adjustment with the faces' texture, each model edge with its shared bias
-    (`aida_kb.interpret.uncertainty.EDGE_BIAS_PX`, as the verdict's), marked as that
-    adjustment's (model.json ``sd.measurements`` "texture"), which the verdict keeps: its
-    own problem holds no texture; each normal's with `groundtexture.FACE_NORMAL_FLOOR_DEG`
-    added. Empty when they cannot be computed."""
-    from aida_kb.interpret.groundtexture import FACE_NORMAL_FLOOR_DEG
-    from aida_kb.interpret.uncertainty import EDGE_BIAS_PX, problem_uncertainty
-
-    unc = problem_uncertainty(
-        problem, names, problem.cameras, free, [str(i) for i in free], EDGE_BIAS_PX
-    )
-    if unc is None:
-        return {}
-    out = {}
-    for role in names[:-1]:
-        normal, offset = unc.parts[role]
-        out[role] = PartSd(
-            normal_deg=math.hypot(normal, FACE_NORMAL_FLOOR_DEG) if math.isfinite(normal) else None,
-            offset_m=offset if math.isfinite(offset) else None,
-            measurements="texture",
-        )
-    return out
+    sds = _deviations_of(step.problem, names, step.problem.cameras, free, "ground texture")
+    seen = ", ".join(f"{views[k].view} ({n} patches)" for k, n in sorted(step.patches.items()))
+    note = f"view(s) {seen} adjusted with the ground's texture"
+    return moved, moved_polygons, list(step.cameras), step.report, sds, note
 
 
 IMAGE_SNOOPS = 2
@@ -1201,7 +1154,6 @@ def reconstruct_from_first(
     greys = view_images(scene, evidence, views) if wanted and scene is not None else []
     rights = right_images(scene, [m.view for m in views]) if greys and scene is not None else []
     own_sd: dict[int, CameraSd] = {}  # the image rounds' own deviations of the cameras
-    part_sd: dict[str, PartSd] = {}  # the faces' texture's deviations of the parts
     outliers: set[FitKey] = set()  # fits the adjustments found outlying (`IMAGE_SNOOPS`)
     for round_ in range(IMAGE_ROUNDS if greys else 0):
         if progress is not None:
@@ -1252,14 +1204,11 @@ def reconstruct_from_first(
             if isinstance(ground, str):
                 notes.append(f"the ground's texture not used: {ground}")
             else:
-                rigid, polygons, cams, report, ground_sd, part_sd, note = ground
+                rigid, polygons, cams, report, ground_sd, note = ground
                 own_sd = {**own_sd, **ground_sd}
                 notes.append(note)
     model = ReconstructedModel(
-        parts=[
-            p.model_copy(update={"sd": part_sd[p.role]}) if p.role in part_sd else p
-            for p in _parts(model0, rigid, polygons)
-        ],
+        parts=_parts(model0, rigid, polygons),
         cameras=[
             _model_camera(i, c, own_sd.get(k), undecided.get(i, ()))
             for k, (i, c) in enumerate(zip(ids, cams, strict=True))

@@ -7,11 +7,10 @@ from both cameras at no more than `TEXTURE_GRAZING_DEG`, not hidden by another f
 later view, with texture enough to see a shift (`MIN_PATCH_TEXTURE_GREY`), and makes one
 ``texture`` constraint per patch. `texture_noise_grey` measures the residuals' scale.
 
-The reconstruction uses the ground's patches (`aida_kb.interpret.groundtexture`: the ground
-as one more face, ``only_face``, seen up to `groundtexture.GROUND_GRAZING_DEG`) and, where a
-later view sees enough of them, the model's own faces' (`groundtexture.MIN_FACE_PATCHES_VIEW`);
-`benchmarks/texture_cameras.py` measures what the faces' patches alone do to the later cameras
-of kept dev scenes.
+The reconstruction uses the ground's patches alone (`aida_kb.interpret.groundtexture`: the
+ground as one more face, ``only_face``, seen up to `groundtexture.GROUND_GRAZING_DEG`); the model's
+own faces' patches are not used: `benchmarks/texture_cameras.py` measures what they do to the
+later cameras of kept dev scenes.
 """
 
 from __future__ import annotations

@@ -210,30 +210,12 @@ def adjustment_uncertainty(
     if unc is None:
         return None
     own = image_edge_deviations(model)
+    if not own:
+        return unc
     cameras = {v: own.get(v, sd) for v, sd in unc.cameras.items()}
     cameras.update({v: own[v] for v in held if v in own})
-    return replace(unc, cameras=cameras, parts={**unc.parts, **texture_part_deviations(model)})
+    return replace(unc, cameras=cameras)
 
-
-def texture_part_deviations(model: ReconstructedModel) -> dict[str, tuple[float, float]]:
-    """The parts whose deviations the reconstruction's adjustment with the model's faces'
-    texture gave (model.json ``sd.measurements`` "texture"; the edges' shared bias held, as in
-    the verdict's problem): role -> (normal, degrees; offset, metres; inf: not fixed). Those
-    keep them: the verdict's problem holds no texture, and the model's planes are that
-    adjustment's solution."""
-    return {
-        p.role: (
-            p.sd.normal_deg if p.sd.normal_deg is not None else math.inf,
-            p.sd.offset_m if p.sd.offset_m is not None else math.inf,
-        )
-        for p in model.parts
-        if p.sd is not None and p.sd.measurements == "texture"
-    }
-
-
-TEXTURE_MEASUREMENTS = frozenset({"ground texture", "texture"})
-"""The ``measurements`` of a camera's ``sd`` that the reconstruction's adjustment with texture
-gave (the ground's, and the model's faces' where later views saw enough of them)."""
 
 HELD_CAMERA_SD_DEG = 0.025
 """A later camera the reconstruction's adjustment with the ground's texture fixed to within
@@ -253,13 +235,13 @@ def ground_held(model: ReconstructedModel) -> frozenset[str]:
         c.view
         for c in model.cameras
         if c.sd is not None
-        and c.sd.measurements in TEXTURE_MEASUREMENTS
+        and c.sd.measurements == "ground texture"
         and c.sd.rotation_deg is not None
         and c.sd.rotation_deg <= HELD_CAMERA_SD_DEG
     )
 
 
-RECONSTRUCTION_MEASUREMENTS = frozenset({"image edges", "ground texture", "texture"})
+RECONSTRUCTION_MEASUREMENTS = frozenset({"image edges", "ground texture"})
 """The ``measurements`` of a model camera's ``sd`` that the reconstruction's own last
 adjustment gave (the images' edges, and the ground's texture where it was used): measurements
 the verdict's segments' problem does not hold, so those deviations stand."""

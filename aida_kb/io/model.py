@@ -128,12 +128,6 @@ class PartSd(_Frozen):
     offset_m: Deviation | None = Field(
         description="the plane's offset at the part's centre, metres (the model's units)"
     )
-    measurements: Literal["segments", "texture"] = Field(
-        default="segments",
-        description="whose covariance: the line detector's segments on the model's edges (the "
-        "verdict's adjustment) or the reconstruction's last adjustment with the model's faces' "
-        "texture seen again by later views (`interpret.groundtexture`), which the verdict keeps",
-    )
 
 
 class CameraSd(_Frozen):
@@ -141,13 +135,12 @@ class CameraSd(_Frozen):
 
     rotation_deg: Deviation | None = Field(description="its rotation, degrees")
     centre_m: Deviation | None = Field(description="its centre, metres (the model's units)")
-    measurements: Literal["segments", "image edges", "ground texture", "texture"] = Field(
+    measurements: Literal["segments", "image edges", "ground texture"] = Field(
         default="segments",
         description="whose covariance: the line detector's segments on the model's edges (the "
         "verdict's adjustment), the model's edges fitted along the images (the "
-        "reconstruction's last adjustment, `interpret.multiview.IMAGE_ROUNDS`), those and "
-        "the ground's texture seen again by the view (`interpret.groundtexture`), or those, "
-        "the ground's and the model's faces' texture",
+        "reconstruction's last adjustment, `interpret.multiview.IMAGE_ROUNDS`) or those and "
+        "the ground's texture seen again by the view (`interpret.groundtexture`)",
     )
 
 

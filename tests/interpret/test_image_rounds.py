@@ -28,7 +28,7 @@ from aida_kb.interpret.uncertainty import (
 )
 from aida_kb.interpret.verdict import camera_doubts, judge, with_verdict
 from aida_kb.io.evidence import Evidence, read_evidence
-from aida_kb.io.model import CameraSd, PartSd
+from aida_kb.io.model import CameraSd
 from aida_kb.kb.model import KnowledgeBase
 from aida_kb.register import (
     EdgeObservations,
@@ -236,44 +236,6 @@ def test_a_camera_fixed_by_its_image_edges_keeps_that_deviation(
     assert "+-0.16 deg" in said[0]  # at two sd, the figure held against 0.1 deg
     assert "sd 0.080 deg" in said[0]
     assert "fitted along the images" in said[0]
-
-
-def test_a_part_fixed_by_the_faces_texture_keeps_that_deviation(
-    buildings_kb: KnowledgeBase, interpreted: Get
-) -> None:
-    # the reconstruction's adjustment with the faces' texture gave one wall 0.02 deg: the
-    # verdict takes it (its own problem holds no texture), the other parts stay its own, and
-    # model.json keeps the mark; a deviation marked as the verdict's own is recomputed
-    interp, evidence = _house(interpreted)
-    assert interp.model is not None
-    segments = adjustment_uncertainty(buildings_kb, interp, evidence)
-    assert segments is not None
-    role = interp.model.parts[0].role
-    assert segments.parts[role][0] > 0.05
-
-    def with_sd(sd: PartSd) -> Interpretation:
-        assert interp.model is not None
-        parts = [
-            p.model_copy(update={"sd": sd}) if p.role == role else p for p in interp.model.parts
-        ]
-        return interp.model_copy(update={"model": interp.model.model_copy(update={"parts": parts})})
-
-    own = PartSd(normal_deg=0.02, offset_m=0.01, measurements="texture")
-    mine = with_sd(own)
-    unc = adjustment_uncertainty(buildings_kb, mine, evidence)
-    assert unc is not None
-    assert unc.parts[role] == (0.02, 0.01)
-    assert {r: v for r, v in unc.parts.items() if r != role} == {
-        r: v for r, v in segments.parts.items() if r != role
-    }
-    model = with_verdict(mine, judge(buildings_kb, mine, evidence)).model
-    assert model is not None
-    assert model.parts[0].sd == own
-    stale = adjustment_uncertainty(
-        buildings_kb, with_sd(PartSd(normal_deg=0.02, offset_m=0.01)), evidence
-    )
-    assert stale is not None
-    assert stale.parts[role] == segments.parts[role]
 
 
 def test_a_fit_the_views_own_segments_contradict_is_left_out() -> None:

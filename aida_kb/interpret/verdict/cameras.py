@@ -41,8 +41,6 @@ def camera_doubts(view: str, model: ReconstructedModel, unc: Uncertainty | None)
         if camera.sd is not None and camera.sd.measurements == "image edges"
         else "the model's edges fitted along the images and the ground's texture"
         if camera.sd is not None and camera.sd.measurements == "ground texture"
-        else "the model's edges fitted along the images and the ground's and faces' texture"
-        if camera.sd is not None and camera.sd.measurements == "texture"
         else f"{unc.measurements} measurements, their scatter "
         f"{unc.variance_factor**0.5:.2f} of their noise model"
     )
@@ -90,13 +88,10 @@ def with_deviations(model: ReconstructedModel, unc: Uncertainty) -> Reconstructe
     """`model` with the adjustment's standard deviations on its parts and cameras (model.json
     `sd`: normal degrees and offset metres of each part, rotation degrees and centre metres
     of each camera the adjustment moves; null where not fixed). A camera whose deviations
-    the reconstruction's image-edge rounds gave keeps them (`image_edge_deviations`), as does
-    a part whose deviations its adjustment with the faces' texture gave."""
+    the reconstruction's image-edge rounds gave keeps them (`image_edge_deviations`)."""
     own = image_edge_deviations(model)
     parts = [
-        p.model_copy(update={"sd": PartSd(normal_deg=a, offset_m=b)})
-        if p.role in unc.parts and not (p.sd is not None and p.sd.measurements == "texture")
-        else p
+        p.model_copy(update={"sd": PartSd(normal_deg=a, offset_m=b)}) if p.role in unc.parts else p
         for p, (a, b) in ((p, _finite_pair(unc.parts.get(p.role))) for p in model.parts)
     ]
     cameras = [
