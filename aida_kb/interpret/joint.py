@@ -477,10 +477,9 @@ def _edge_factors(
     mt = Matches(mt.edge[single], mt.segment[single], mt.distance_px[single])
     faces = model.edge_faces[vis.index[mt.edge]]
     q1, q2 = p1[mt.segment], p2[mt.segment]
-    sigma = _foot_widened(
-        np.full(len(faces), JOINT_EDGE_SIGMA_PX), q1, q2, _foot_grazing_of(model, camera, faces, up)
-    )
-    lean, lean_scale = _foot_lean(model, camera, faces, q1, q2, sigma, up)
+    grazing = _foot_grazing_of(model, camera, faces, up)
+    sigma = _foot_widened(np.full(len(faces), JOINT_EDGE_SIGMA_PX), q1, q2, grazing)
+    lean, lean_scale = _foot_lean(model, camera, faces, q1, q2, sigma, up, grazing)
     out = []
     for (a, b), p, q, s, ln, ls in zip(faces, q1, q2, sigma, lean, lean_scale, strict=True):
         if skip and (int(min(a, b)), int(max(a, b))) in skip:
@@ -632,6 +631,7 @@ def _foot_lean(
     p2: FloatArray,
     sigma: FloatArray,
     up: tuple[float, float, float] | None,
+    grazing: FloatArray | None = None,
 ) -> tuple[npt.NDArray[np.int64], FloatArray]:
     """(K,), (K,): the `EdgeData.lean` and ``lean_scale`` of the edge measurements from `p1`
     to `p2` (K, 2) px of the model edges `faces` (K, 2) seen by `camera`, with edge-point
@@ -639,11 +639,13 @@ def _foot_lean(
     frame) the side of the wall leans (`aida_kb.interpret.feet.foot_leans`, through the edge's
     middle) and the scale is `aida_kb.interpret.feet.lean_scale` of the line's mean offset's
     sigma ``sigma / sqrt(n)``, n its length in pixels; 0 and 1 elsewhere and where `up` is
-    None."""
+    None. `grazing` (K,): `_foot_grazing_of` of the edges where the caller has it already."""
     K = len(faces)
     lean = np.zeros(K, dtype=np.int64)
     scale = np.ones(K)
-    on_foot = ~np.isnan(_foot_grazing_of(model, camera, faces, up))
+    if grazing is None:
+        grazing = _foot_grazing_of(model, camera, faces, up)
+    on_foot = ~np.isnan(grazing)
     if up is None or not on_foot.any():
         return lean, scale
     u = np.asarray(up, dtype=np.float64)
