@@ -12,6 +12,7 @@ from aida_kb.constraints.kinds.angle import ANGLE
 from aida_kb.constraints.kinds.base import Kind
 from aida_kb.constraints.kinds.camera_position import CAMERA_POSITION
 from aida_kb.constraints.kinds.coincident import COINCIDENT
+from aida_kb.constraints.kinds.concurrent import CONCURRENT
 from aida_kb.constraints.kinds.edge import EDGE
 from aida_kb.constraints.kinds.parallel import PARALLEL
 from aida_kb.constraints.kinds.parallel_edge import PARALLEL_EDGE
@@ -31,6 +32,7 @@ KINDS: dict[str, Kind] = {
         EDGE,  # eq. 5: an edge against an image segment
         CAMERA_POSITION,  # eq. 4 measured in a free camera's frame (registration)
         COINCIDENT,  # one plane of two parts (touching objects' shared wall)
+        CONCURRENT,  # four planes through one point (a hip roof's eaves corner)
         TEXTURE,  # a patch of the first view's texture seen again by a later camera
     )
 }

@@ -59,6 +59,8 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 __all__ = [
+    "CORNER_SHARE",
+    "CORNER_SIGMA_M",
     "FOOT_BIAS_PX",
     "FOOT_SHARE",
     "GRAZING_DEG",
@@ -75,6 +77,7 @@ __all__ = [
     "REGION_FIT_SCALE",
     "STEREO_FIT_CORRELATION",
     "JointInputs",
+    "corner_ties",
     "edge_keys",
     "fit_point_sigma",
     "foot_grazing_deg",
@@ -184,6 +187,21 @@ median 0.06, 0.09, 0.08, 0.11, mean 0.74, 0.96, 1.30, 1.53 — one noise model f
 The cameras' deviations recomputed at those models (error over deviation: median, 90th
 percentile, within 2 sd, max): dev 61400-61935 (66 cameras) 0.72, 1.35, 0.985, 2.36 -> 0.65,
 1.31, 0.985, 2.37; 63000-63035 (9) 1.07, 2.77, 0.778, 2.82 -> 0.94, 1.94, 0.889, 2.02."""
+
+CORNER_SIGMA_M = 0.01
+"""Where more than three of the model's faces meet at a vertex (a hip roof's eaves corner, a
+pyramid's apex), the planes are held through one point to this sigma, metres (`corner_ties`):
+a corner is one point, and a centimetre lies well under what the views measure (a pixel is
+4 cm at 60 m) and under what the closure accepts (`closure.CONCURRENT_MAX_REL`, 0.5 % of the
+model's size). Without it the views' adjustment, which frees every plane, opened such corners
+by 0.07-0.31 m and the closure refused its model: on dev 71000-71035, 7 of 36 scenes (hips
+and towers of 2-3 views) kept their first view's model; with it their parts over 0.5 deg went
+39 -> 23, three of them to no part over 0.5 deg."""
+
+CORNER_SHARE = 1e-3
+"""Polygon corners of the model lie at one vertex when they lie within this share of the
+model's size of each other (`corner_ties`): the closure's polygons share their vertices to
+millimetres (`closure.CONCURRENT_MAX_REL` rounds them), its shortest edges are metres long."""
 
 FOOT_SHARE = 0.02
 """A model edge lies on the model's foot (where it stands on the ground) when both its ends lie
@@ -368,6 +386,7 @@ def joint_problem(
     if angles is None:
         angles = meeting_angles(model)
     cons.extend(internal)
+    cons += corner_ties(model)  # more than three faces at a vertex: one point
     sigma_deg = PRIOR_ANGLE_SIGMA_DEG if internal else JOINT_ANGLE_SIGMA_DEG
     stated = stated_pairs(internal)
     for (a, b), phi in angles.items():
@@ -394,6 +413,54 @@ def joint_problem(
         free_cameras=free_cameras,
         derived=derived,
     )
+
+
+def corner_ties(model: RigidModel) -> list[Constraint]:
+    """Priors holding the planes of every vertex where more than three of the model's faces
+    meet through one point (`concurrent` constraints, sigma `CORNER_SIGMA_M`).
+
+    A vertex is a point that polygons of four or more faces share (within `CORNER_SHARE` of
+    the model's size). Of its faces, the three whose normals are the most independent (the
+    largest ``|det|``) fix the point; each other face gets one constraint through it.
+
+    model : the model (world frame), its polygons closed (`closure`).
+    """
+    if not model.polygons:
+        return []
+    points = np.vstack([np.asarray(p, dtype=np.float64) for p in model.polygons])
+    faces = np.concatenate([np.full(len(p), i) for i, p in enumerate(model.polygons)])
+    tol = CORNER_SHARE * float(np.ptp(points, axis=0).max())
+    near = np.linalg.norm(points[:, None, :] - points[None, :, :], axis=2) <= tol
+    first = np.argmax(near, axis=1)  # each corner's vertex: the first corner near it
+    out: list[Constraint] = []
+    for v in np.unique(first):
+        meeting = sorted({int(f) for f in faces[first == v]})
+        if len(meeting) < 4:
+            continue
+        n = model.normals[meeting]
+        triples = [
+            (abs(float(np.linalg.det(n[[i, j, k]]))), (i, j, k))
+            for i in range(len(meeting))
+            for j in range(i + 1, len(meeting))
+            for k in range(j + 1, len(meeting))
+        ]
+        best = max(triples)[1]
+        base = tuple(meeting[i] for i in best)
+        for i, f in enumerate(meeting):
+            if i in best:
+                continue
+            label = "corner(" + ", ".join(model.names[p] for p in (*base, f)) + ")"
+            out.append(
+                Constraint(
+                    kind="concurrent",
+                    parts=(*base, f),
+                    sigma=CORNER_SIGMA_M,
+                    unit="m",
+                    label=label,
+                    origin=Origin(label, "prior"),
+                )
+            )
+    return out
 
 
 def stated_pairs(constraints: Sequence[Constraint]) -> frozenset[tuple[int, int]]:

@@ -81,6 +81,7 @@ SAMPLES: dict[str, Callable[[PinholeCamera], Constraint]] = {
             tuple(float(x) for x in row) for row in np.diag([100.0, 100.0, 100.0, 10.0])
         ),
     ),
+    "concurrent": lambda cam: Constraint(kind="concurrent", parts=(0, 1, 4, 3), sigma=0.02),
     "parallel_edge": lambda cam: Constraint(kind="parallel_edge", parts=(0, 4, 3, 4), sigma=0.01),
     "symmetry": lambda cam: Constraint(kind="symmetry", parts=(0, 4, 3, 4), sigma=0.01),
     "position": lambda cam: Constraint(
