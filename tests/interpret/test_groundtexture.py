@@ -12,6 +12,8 @@ from aida_kb.interpret.groundtexture import (
     GROUND_GRAZING_DEG,
     GROUND_REACH,
     MIN_GROUND_PATCHES,
+    bottom_face,
+    bottom_on_ground,
     ground_plane,
 )
 from aida_kb.interpret.photometric import TEXTURE_GRAZING_DEG, texture_factors
@@ -111,3 +113,31 @@ def test_the_grounds_patches_bring_a_later_camera_back() -> None:
     assert np.linalg.norm(moved.centre - cam1.centre) < 0.25 * np.linalg.norm(
         start.centre - cam1.centre
     )
+
+
+def test_the_bottom_is_held_level_on_the_ground() -> None:
+    model = _box()
+    assert model.names[bottom_face(model, UP)] == "bottom"
+    scene = _with_ground(model)
+    g = len(scene.names) - 1
+    ties = bottom_on_ground(model, UP, g)
+    assert [c.parts for c in ties] == [(model.names.index("bottom"), g)]
+    # the bottom tilted by a degree about the x axis: the tie brings it back to the ground's
+    tilt = np.radians(1.0)
+    normals = scene.normals.copy()
+    b = model.names.index("bottom")
+    normals[b] = np.array([0.0, np.cos(tilt), np.sin(tilt)])
+    others = [i for i in range(len(scene.names)) if i != b]
+    problem = build_problem(normals, scene.offsets, ties, fixed_parts=others)
+    result = solve(problem)
+    np.testing.assert_allclose(result.normals[b], -scene.normals[g], atol=1e-6)
+    # a model with no face looking down has none to hold
+    keep = others[:-1]  # the box without its bottom (and the ground)
+    open_box = RigidModel.from_polygons(
+        [model.names[i] for i in keep],
+        model.normals[keep],
+        model.offsets[keep],
+        [model.polygons[i] for i in keep],
+    )
+    assert bottom_face(open_box, UP) is None
+    assert bottom_on_ground(open_box, UP, len(keep)) == []
