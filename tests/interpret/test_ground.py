@@ -19,6 +19,7 @@ from aida_kb.interpret.context import MIN_PART_WEIGHT_FRACTION, object_reference
 from aida_kb.interpret.ground import (
     BENEATH_MARGIN,
     GROUND_MIN_SHARE,
+    OUTLINE_INLIER_SHARE,
     EvidenceGround,
     elevation,
     ground_plane,
@@ -61,6 +62,23 @@ def test_the_ground_is_the_lowest_large_level_region() -> None:
     np.testing.assert_allclose(plane[0], UP)
     assert plane[1] == pytest.approx(-1.5)
     assert ground_plane([regions[3]], UP) is None
+
+
+def test_a_region_whose_plane_fit_failed_is_no_ground() -> None:
+    """A level region whose plane fit kept almost none of its pixels tells no ground: its
+    plane lies anywhere (dev seed 72030: a dark gable roof's region, none of 7,785 pixels
+    kept, fitted level 8 m above the floor; every roofed body then measured a plinth of
+    -9.15 m and only the flat roof, which took the region as its top, was left)."""
+    failed = dataclasses.replace(_region("00/6", [0, -1, 0], [0, -5.0, 30], 30000), inliers=0)
+    ground = dataclasses.replace(_region("00/1", [0, -1, 0], [0, 1.5, 20], 50000), inliers=30000)
+    wall = _region("00/4", [0, 0, -1], [0, 0, 22], 30000)
+    # the failed fit is no ground, whether or not the view shows another
+    assert ground_region([failed, wall], UP) is None
+    assert ground_plane([failed, wall], UP) is None
+    assert ground_region([failed, ground, wall], UP) is ground
+    # a fit that kept the share the outline needs is one
+    kept = dataclasses.replace(failed, inliers=int(OUTLINE_INLIER_SHARE * failed.area_px) + 1)
+    assert ground_region([kept, wall], UP) is kept
 
 
 def test_a_regions_significance_is_judged_without_the_ground() -> None:
