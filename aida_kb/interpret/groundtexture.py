@@ -30,10 +30,15 @@ truth's, while the floor was 0.64 and 0.93 deg off with the whole house tilted b
 `ground_adjustment` adds them to the image rounds' problem (`joint_problem`, the model's edges
 fitted along the images) and solves coarse to fine over `BLURS_PX`, each level's patches made
 at the previous level's solution, their noise measured there, patches beyond their chi-square
-quantile dropped. Only the ground's patches are used: the model's own faces' texture fixes a
-camera against the model's planes, which are off in the first view's frame by as much as the
-swing (benchmarks/texture_cameras.py: dev 67000-67035 textured views 0.062 -> 0.088 deg),
-while the ground's fixes it against the first view itself.
+quantile dropped. The first view's stereo must see the ground where the model's bottom puts
+it (`ground_seen_share`, `GROUND_SEEN_SHARE`): where no ground lies under the object, what
+the first view sees below it is the sky, at infinity, and its patches, fitted in the later
+views, tilted the "ground" and the bottom held to it (dev 72014: 1.45 and 1.18 deg).
+
+Only the ground's patches are used: the model's own faces' texture fixes a camera against the
+model's planes, which are off in the first view's frame by as much as the swing
+(benchmarks/texture_cameras.py: dev 67000-67035 textured views 0.062 -> 0.088 deg), while the
+ground's fixes it against the first view itself.
 
 Measured through the reconstruction on dev seeds 69002-69032 (session 26; 12 scenes, the
 later views of 7 of them seeing 40 ground patches or more): those 11 cameras went from a
@@ -55,7 +60,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import numpy.typing as npt
 
-from aida_kb.constraints import Constraint, Origin, TextureImage
+from aida_kb.constraints import Constraint, Origin, TextureImage, compile_blocks
 from aida_kb.errors import AidaError, GeometryError, SolveError
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.geometry.rig import Rig
@@ -97,6 +102,23 @@ MIN_GROUND_PATCHES = 40
 """A later view's ground patches fix its swing only with at least this many (640 samples):
 dev 69004 (45 patches, the ground seen at 5 deg elevation) moved its camera 0.055 -> 0.15 deg
 with an sd of 0.063, which the verdict doubts; 73-290 patches fixed the others'."""
+
+GROUND_NEARER_COST = 0.5
+"""A first view's stereo patch sees the ground where its plane lies when its cost there is under
+this share of its cost at infinity (`ground_seen_share`): the same patch of the left image
+looked for in the right image at the plane's disparity and at none."""
+
+GROUND_SEEN_SHARE = 0.5
+"""At least this share of the first view's stereo patches must see the ground where the
+model's bottom puts it (`ground_seen_share`, at the first blur level, before any later view
+pulls it), or the ground's texture is not used: no ground lies there. With no ground under
+the object the first view sees the sky below it, at infinity, and the later views' fits of
+those patches tilted the "ground" and the bottom held to it (dev 72014: 1.45 and 1.18 deg, its
+worst part 0.06 deg without them). Measured at the kept models of dev runs (blur 2 px): no
+ground 0.23 (72014) and 0.43 (71031); rendered ground under models of the right kind
+0.87-1.00 (72012, 72017, 72027, 71001, 71004, 71006, 71010, 71016, 70011, 70035), Blender's
+0.69-0.94 (72100, 72103-72105); models of a wrong kind, whose bottom lies elsewhere, 0.43
+(72007) and 0.45 (71020)."""
 
 BLURS_PX = (2.0, 1.0)
 """The Gaussian blurs (sd, pixels) of the coarse-to-fine levels: a camera a few tenths of a
@@ -156,25 +178,27 @@ def bottom_face(model: RigidModel, up: FloatArray) -> int | None:
     return int(bottoms[int(np.argmin(lows))])
 
 
-def ground_plane(model: RigidModel, up: FloatArray) -> tuple[FloatArray, float, FloatArray]:
+def ground_plane(
+    model: RigidModel, up: FloatArray, bottom: int | None
+) -> tuple[FloatArray, float, FloatArray]:
     """The ground under the model: its unit normal, its offset (``n·x = d``, metres) and its
     polygon (4, 3), a square of half side `GROUND_REACH` times the model's size about the
     model's centre, counter-clockwise seen from above (world frame).
 
-    The model's face that looks down (its outward normal within `BOTTOM_FACE_DEG` of ``-up``,
-    the lowest such) gives the plane, turned to face up: an estimated vertical is a degree or
-    more off (`aida_kb.interpret.ground`), and a ground tilted by that much from the object's
-    own bottom starts its patches pixels off where it is near. Without such a face, the plane
-    square to ``up`` through the model's lowest point.
+    The model's face that looks down (``bottom``, `bottom_face`) gives the plane, turned to
+    face up: an estimated vertical is a degree or more off (`aida_kb.interpret.ground`), and a
+    ground tilted by that much from the object's own bottom starts its patches pixels off
+    where it is near. Without such a face (None), the plane square to ``up`` through the
+    model's lowest point.
 
-    model : the model (world frame); up : (3,) the model's vertical, pointing up.
+    model : the model (world frame); up : (3,) the model's vertical, pointing up;
+    bottom : the index of its bottom face (`bottom_face`) or None.
     """
     up = np.asarray(up, dtype=np.float64)
     up = up / np.linalg.norm(up)
     vertices = np.vstack([np.asarray(p, dtype=np.float64) for p in model.polygons])
-    f = bottom_face(model, up)
-    if f is not None:
-        n, d = -model.normals[f], -float(model.offsets[f])
+    if bottom is not None:
+        n, d = -model.normals[bottom], -float(model.offsets[bottom])
     else:
         n, d = up, float((vertices @ up).min())
     centre = vertices.mean(axis=0)
@@ -187,9 +211,10 @@ def ground_plane(model: RigidModel, up: FloatArray) -> tuple[FloatArray, float, 
     return n, d, np.array(square)
 
 
-def _with_ground(model: RigidModel, up: FloatArray) -> RigidModel:
-    """The model's faces and the ground's (the last), for ray casting the patches."""
-    n, d, polygon = ground_plane(model, up)
+def _with_ground(model: RigidModel, up: FloatArray, bottom: int | None) -> RigidModel:
+    """The model's faces and the ground's (the last; `ground_plane`), for ray casting the
+    patches."""
+    n, d, polygon = ground_plane(model, up, bottom)
     return RigidModel.from_polygons(
         [*model.names, GROUND_NAME],
         np.vstack([model.normals, n]),
@@ -198,22 +223,21 @@ def _with_ground(model: RigidModel, up: FloatArray) -> RigidModel:
     )
 
 
-def bottom_on_ground(model: RigidModel, up: FloatArray, ground: int) -> list[Constraint]:
-    """The prior holding the model's bottom face (`bottom_face`) parallel to the ground's
-    plane, their normals opposite (the bottom's faces down, the ground's up), to
-    `BOTTOM_LEVEL_SIGMA_DEG`; none without a bottom face.
+def bottom_on_ground(bottom: int | None, ground: int) -> list[Constraint]:
+    """The prior holding the model's bottom face parallel to the ground's plane, their
+    normals opposite (the bottom's faces down, the ground's up), to `BOTTOM_LEVEL_SIGMA_DEG`;
+    none without a bottom face.
 
-    model : the model (world frame); up : (3,) its vertical, pointing up; ground : the
-    ground plane's part index in the adjustment.
+    bottom : the bottom face's part index (`bottom_face`) or None; ground : the ground
+    plane's part index in the adjustment.
     """
-    f = bottom_face(model, up)
-    if f is None:
+    if bottom is None:
         return []
     label = "bottom on the ground"
     return [
         Constraint(
             kind="parallel",
-            parts=(f, ground),
+            parts=(bottom, ground),
             sign=-1,
             sigma=math.radians(BOTTOM_LEVEL_SIGMA_DEG),
             unit="rad",
@@ -259,11 +283,12 @@ def ground_adjustment(
     up = np.asarray(inputs.up, dtype=np.float64)
     try:
         base = joint_problem(model, cameras, views, free, inputs)
-        faces = _with_ground(model, up)
+        bottom = bottom_face(model, up)
+        faces = _with_ground(model, up, bottom)
     except (SolveError, GeometryError) as exc:
         return str(exc)
     g = len(model.names)  # the ground's plane: the last
-    ties = bottom_on_ground(model, up, g)
+    ties = bottom_on_ground(bottom, g)
     rig, right_image = first_right
     normals, offsets = faces.normals, faces.offsets
     now = tuple(base.cameras)
@@ -336,6 +361,13 @@ def ground_adjustment(
                 only_face=g,
                 grazing_deg=GROUND_GRAZING_DEG,
             )
+            if blur == BLURS_PX[0]:  # the first view's stereo must see the ground there
+                seen = ground_seen_share(stereo, normals, offsets, everything, len(now))
+                if not seen >= GROUND_SEEN_SHARE:
+                    return (
+                        f"{seen:.0%} of the first view's patches below the model lie at the "
+                        f"ground's depth (at least {GROUND_SEEN_SHARE:.0%}): no ground there"
+                    )
             sigma = texture_noise_grey(normals, offsets, everything, stereo)
             if math.isfinite(sigma) and sigma > 0.0:
                 extra += [replace(c, sigma=sigma) for c in stereo]
@@ -357,13 +389,45 @@ def ground_adjustment(
     return GroundStep(normals[:g], offsets[:g], now[: len(cameras)], problem, report, patches)
 
 
+def ground_seen_share(
+    stereo: Sequence[Constraint],
+    normals: FloatArray,
+    offsets: FloatArray,
+    cameras: Sequence[PinholeCamera],
+    right: int,
+) -> float:
+    """The share of the first view's stereo patches on the ground that fit its plane clearly
+    better than infinity: each patch's cost at the plane under `GROUND_NEARER_COST` times its
+    cost seen by the right camera moved onto the first camera's centre (no baseline: every
+    point at infinity). 0 without patches.
+
+    stereo : ``texture`` factors of the first view's left image seen by camera ``right``;
+    normals (P, 3), offsets (P,) : the planes, world frame; cameras : the problem's cameras,
+    the first view's the first.
+    """
+    if not stereo:
+        return 0.0
+    cams = list(cameras)
+    seen = cams[right]
+    cams_far = [*cams]
+    cams_far[right] = PinholeCamera(
+        seen.K, seen.R_cam_world, -seen.R_cam_world @ cams[0].centre, seen.width, seen.height
+    )
+    (block,) = compile_blocks(stereo, normals.shape[0], len(cams))
+    near = np.sum(block.evaluate(normals, offsets, cams)[0] ** 2, axis=1)
+    far = np.sum(block.evaluate(normals, offsets, cams_far)[0] ** 2, axis=1)
+    return float(np.mean(near < GROUND_NEARER_COST * far))
+
+
 __all__ = [
     "BLURS_PX",
     "BOTTOM_FACE_DEG",
     "BOTTOM_LEVEL_SIGMA_DEG",
     "GROUND_GRAZING_DEG",
     "GROUND_NAME",
+    "GROUND_NEARER_COST",
     "GROUND_REACH",
+    "GROUND_SEEN_SHARE",
     "MIN_GROUND_PATCHES",
     "SOLVES_PER_LEVEL",
     "GroundStep",
@@ -371,4 +435,5 @@ __all__ = [
     "bottom_on_ground",
     "ground_adjustment",
     "ground_plane",
+    "ground_seen_share",
 ]

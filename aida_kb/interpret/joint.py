@@ -59,6 +59,7 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 __all__ = [
+    "CORNER_MIN_DET",
     "CORNER_SHARE",
     "CORNER_SIGMA_M",
     "FOOT_BIAS_PX",
@@ -202,6 +203,16 @@ CORNER_SHARE = 1e-3
 """Polygon corners of the model lie at one vertex when they lie within this share of the
 model's size of each other (`corner_ties`): the closure's polygons share their vertices to
 millimetres (`closure.CONCURRENT_MAX_REL` rounds them), its shortest edges are metres long."""
+
+CORNER_MIN_DET = 0.01
+"""The three planes that fix a corner's point (`corner_ties`) must be this independent: the
+absolute determinant of their unit normals (the volume they span; 1 for three square to each
+other) at least this. A vertex whose most independent triple spans less gets no tie: its
+point moves by the planes' offset errors over the determinant (a hundred times at the floor),
+and an exactly dependent triple would leave the `concurrent` kind's solve for the point
+singular. Real corners span far more: a hip's eaves corner (two walls square, a roof at 15-60
+deg) 0.5-0.97, a pyramid's apex of four faces at 15 deg from level 0.13 (2 sin² p cos p for
+faces at a pitch p: 0.015 at 5 deg)."""
 
 FOOT_SHARE = 0.02
 """A model edge lies on the model's foot (where it stands on the ground) when both its ends lie
@@ -421,7 +432,8 @@ def corner_ties(model: RigidModel) -> list[Constraint]:
 
     A vertex is a point that polygons of four or more faces share (within `CORNER_SHARE` of
     the model's size). Of its faces, the three whose normals are the most independent (the
-    largest ``|det|``) fix the point; each other face gets one constraint through it.
+    largest ``|det|``, at least `CORNER_MIN_DET`) fix the point; each other face gets one
+    constraint through it.
 
     model : the model (world frame), its polygons closed (`closure`).
     """
@@ -444,7 +456,9 @@ def corner_ties(model: RigidModel) -> list[Constraint]:
             for j in range(i + 1, len(meeting))
             for k in range(j + 1, len(meeting))
         ]
-        best = max(triples)[1]
+        det, best = max(triples)
+        if det < CORNER_MIN_DET:  # no three of its planes fix a point
+            continue
         base = tuple(meeting[i] for i in best)
         for i, f in enumerate(meeting):
             if i in best:

@@ -7,27 +7,33 @@ from __future__ import annotations
 import numpy as np
 
 from aida_kb.interpret.closure import close
-from aida_kb.interpret.joint import CORNER_SIGMA_M, corner_ties
+from aida_kb.interpret.joint import CORNER_MIN_DET, CORNER_SIGMA_M, corner_ties
 from aida_kb.register import RigidModel
 from aida_kb.solve import build_problem, solve
 
 UP = np.array([0.0, -1.0, 0.0])  # OpenCV world: y down
-S = 1.0 / np.sqrt(2.0)
-SLOPES = {
-    "r_south": np.array([0.0, -S, -S]),  # the apex above (5, -5, 5)
-    "r_east": np.array([S, -S, 0.0]),
-    "r_north": np.array([0.0, -S, S]),
-    "r_west": np.array([-S, -S, 0.0]),
-}
-APEX = np.array([5.0, -5.0, 5.0])
+APEX = np.array([5.0, -5.0, 5.0])  # the 45-deg pyramid's
 
 
-def _pyramid() -> RigidModel:
-    """A pyramid on a 10 m square, its floor at y = 0."""
-    ring = list(SLOPES)
+def _slopes(pitch_deg: float) -> dict[str, np.ndarray]:
+    """The four slopes' outward normals at `pitch_deg` from level, south, east, north, west."""
+    c, s = np.cos(np.radians(pitch_deg)), np.sin(np.radians(pitch_deg))
+    return {
+        "r_south": np.array([0.0, -c, -s]),
+        "r_east": np.array([s, -c, 0.0]),
+        "r_north": np.array([0.0, -c, s]),
+        "r_west": np.array([-s, -c, 0.0]),
+    }
+
+
+def _pyramid(pitch_deg: float = 45.0) -> RigidModel:
+    """A pyramid on a 10 m square, its floor at y = 0, its slopes at `pitch_deg`."""
+    slopes = _slopes(pitch_deg)
+    apex = np.array([5.0, -5.0 * np.tan(np.radians(pitch_deg)), 5.0])
+    ring = list(slopes)
     adjacency = [(a, b) for a, b in zip(ring, ring[1:] + ring[:1], strict=True)]
     adjacency += [(r, "floor") for r in ring]
-    faces = [(r, n, float(n @ APEX)) for r, n in SLOPES.items()] + [("floor", -UP, 0.0)]
+    faces = [(r, n, float(n @ apex)) for r, n in slopes.items()] + [("floor", -UP, 0.0)]
     polygons = close(faces, adjacency)
     names = [r for r, _, _ in faces]
     return RigidModel.from_polygons(
@@ -42,7 +48,7 @@ def test_the_apex_is_tied_and_the_base_corners_are_not() -> None:
     model = _pyramid()
     (tie,) = corner_ties(model)
     assert tie.kind == "concurrent"
-    assert sorted(model.names[p] for p in tie.parts) == sorted(SLOPES)
+    assert sorted(model.names[p] for p in tie.parts) == sorted(_slopes(45.0))
     assert tie.sigma == CORNER_SIGMA_M
     # one slope moved 0.3 m, the others held: the tie brings it back through the apex
     offsets = model.offsets.copy()
@@ -51,6 +57,14 @@ def test_the_apex_is_tied_and_the_base_corners_are_not() -> None:
     fixed = [i for i in range(len(model.names)) if i != moved]
     result = solve(build_problem(model.normals, offsets, [tie], fixed_parts=fixed))
     assert abs(float(result.normals[moved] @ APEX) - float(result.offsets[moved])) < 1e-6
+
+
+def test_an_apex_whose_planes_fix_no_point_is_not_tied() -> None:
+    # slopes at 2 deg: the most independent three span 2 sin² p cos p = 0.0024 < the floor
+    flat = _pyramid(2.0)
+    assert 2 * np.sin(np.radians(2.0)) ** 2 < CORNER_MIN_DET
+    assert corner_ties(flat) == []
+    assert len(corner_ties(_pyramid(15.0))) == 1  # 0.13: tied
 
 
 def test_a_box_has_no_corner_of_four_faces() -> None:

@@ -11,10 +11,12 @@ from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.interpret.groundtexture import (
     GROUND_GRAZING_DEG,
     GROUND_REACH,
+    GROUND_SEEN_SHARE,
     MIN_GROUND_PATCHES,
     bottom_face,
     bottom_on_ground,
     ground_plane,
+    ground_seen_share,
 )
 from aida_kb.interpret.photometric import TEXTURE_GRAZING_DEG, texture_factors
 from aida_kb.register import RigidModel
@@ -25,7 +27,7 @@ UP = np.array([0.0, -1.0, 0.0])  # the first camera's frame: y points down
 
 
 def _with_ground(model: RigidModel) -> RigidModel:
-    n, d, polygon = ground_plane(model, UP)
+    n, d, polygon = ground_plane(model, UP, bottom_face(model, UP))
     return RigidModel.from_polygons(
         [*model.names, "ground"],
         np.vstack([model.normals, n]),
@@ -36,7 +38,7 @@ def _with_ground(model: RigidModel) -> RigidModel:
 
 def test_the_ground_lies_square_to_up_under_the_lowest_point() -> None:
     model = _box()
-    n, d, polygon = ground_plane(model, 2.0 * UP)  # any length: made unit
+    n, d, polygon = ground_plane(model, 2.0 * UP, None)  # any length: made unit
     np.testing.assert_allclose(n, UP)
     vertices = np.vstack(model.polygons)
     assert d == float((vertices @ UP).min())
@@ -120,7 +122,7 @@ def test_the_bottom_is_held_level_on_the_ground() -> None:
     assert model.names[bottom_face(model, UP)] == "bottom"
     scene = _with_ground(model)
     g = len(scene.names) - 1
-    ties = bottom_on_ground(model, UP, g)
+    ties = bottom_on_ground(bottom_face(model, UP), g)
     assert [c.parts for c in ties] == [(model.names.index("bottom"), g)]
     # the bottom tilted by a degree about the x axis: the tie brings it back to the ground's
     tilt = np.radians(1.0)
@@ -140,4 +142,39 @@ def test_the_bottom_is_held_level_on_the_ground() -> None:
         [model.polygons[i] for i in keep],
     )
     assert bottom_face(open_box, UP) is None
-    assert bottom_on_ground(open_box, UP, len(keep)) == []
+    assert bottom_on_ground(bottom_face(open_box, UP), len(keep)) == []
+
+
+def _seen_share(paint: str) -> float:
+    """`ground_seen_share` of the first camera's stereo pair (a 1-m baseline along its rows)
+    over the box's ground painted with the scene's pattern, or with a pattern at infinity (the
+    sky behind an object on no ground: the same in both images)."""
+    scene = _with_ground(_box())
+    g = len(scene.names) - 1
+    cam0, _ = _cameras()
+    right = PinholeCamera(K, cam0.R_cam_world, cam0.t_cam_world - np.array([1.0, 0.0, 0.0]), W, H)
+    if paint == "ground":
+        ref, seen = _image(scene, cam0), _image(scene, right)
+    else:
+        ys, xs = np.mgrid[0:H, 0:W].astype(np.float64)
+        ref = seen = 110.0 + 20.0 * np.sin(0.4 * xs) * np.cos(0.3 * ys)
+    cs = texture_factors(
+        scene,
+        cam0,
+        ref,
+        right,
+        1,
+        TextureImage(seen),
+        1.0,
+        "00 right",
+        only_face=g,
+        grazing_deg=GROUND_GRAZING_DEG,
+    )
+    assert len(cs) >= MIN_GROUND_PATCHES
+    return ground_seen_share(cs, scene.normals, scene.offsets, [cam0, right], 1)
+
+
+def test_the_first_views_stereo_sees_the_ground_but_not_the_sky() -> None:
+    assert _seen_share("ground") >= 0.9
+    # what lies at infinity fits no baseline better than the ground's disparity
+    assert _seen_share("sky") < GROUND_SEEN_SHARE
