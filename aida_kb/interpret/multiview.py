@@ -493,9 +493,11 @@ def _deviations_of(
     cameras: Sequence[PinholeCamera],
     free: Sequence[int],
     measurements: Literal["image edges", "ground texture"],
+    scale: float = 1.0,
 ) -> dict[int, CameraSd]:
     """The free cameras' standard deviations (by index) at the solution `problem` starts
-    from (its planes `names`, in order); empty when they cannot be computed."""
+    from (its planes `names`, in order), times `scale` (`GROUND_TEXTURE_SD_SCALE` says why);
+    empty when they cannot be computed."""
     from aida_kb.interpret.uncertainty import problem_uncertainty
 
     ids = [str(i) for i in free]
@@ -506,7 +508,9 @@ def _deviations_of(
     for k in free:
         angle, centre = unc.cameras[str(k)]
         if math.isfinite(angle) and math.isfinite(centre):
-            out[k] = CameraSd(rotation_deg=angle, centre_m=centre, measurements=measurements)
+            out[k] = CameraSd(
+                rotation_deg=scale * angle, centre_m=scale * centre, measurements=measurements
+            )
     return out
 
 
@@ -532,7 +536,11 @@ def _ground_step(
     cameras, the report, the free cameras' deviations and a note; or why not (the caller keeps
     the image rounds' result: no view sees the ground well, the model would leave the
     knowledge's ranges or not close)."""
-    from aida_kb.interpret.groundtexture import GROUND_NAME, ground_adjustment
+    from aida_kb.interpret.groundtexture import (
+        GROUND_NAME,
+        GROUND_TEXTURE_SD_SCALE,
+        ground_adjustment,
+    )
 
     rigid, polygons, cams = current
     greys, first_right = images
@@ -557,7 +565,9 @@ def _ground_step(
     if broken:
         return _left_ranges("adjustment with the ground's texture", broken)
     names = [*rigid.names, GROUND_NAME]
-    sds = _deviations_of(step.problem, names, step.problem.cameras, free, "ground texture")
+    sds = _deviations_of(
+        step.problem, names, step.problem.cameras, free, "ground texture", GROUND_TEXTURE_SD_SCALE
+    )
     seen = ", ".join(f"{views[k].view} ({n} patches)" for k, n in sorted(step.patches.items()))
     note = f"view(s) {seen} adjusted with the ground's texture"
     return moved, moved_polygons, list(step.cameras), step.report, sds, note

@@ -217,16 +217,17 @@ def adjustment_uncertainty(
     return replace(unc, cameras=cameras)
 
 
-HELD_CAMERA_SD_DEG = 0.025
+HELD_CAMERA_SD_DEG = 0.05
 """A later camera the reconstruction's adjustment with the ground's texture fixed to within
-this (one sd of its rotation, model.json ``sd.measurements`` "ground texture") is held where it
-is in the verdict's problem: the parts' deviations are then those of the model seen from
-known cameras. Its own deviation adds at most this much (in quadrature, through the turn it
-gives the model) to a part's, whose limit is a quarter of a degree at one sd
-(`aida_kb.interpret.verdict.tolerances`): under 1 % of that variance. Free, the camera's
-swing about the object, which the segments' problem alone leaves open to 0.06-0.23 deg, turns
-the model with it, and the parts' deviations are the swing's (dev 69009: 0.44-0.48 deg with
-the cameras 0.01-0.03 deg off)."""
+this (one sd of its rotation, model.json ``sd.measurements`` "ground texture", which is
+`aida_kb.interpret.groundtexture.GROUND_TEXTURE_SD_SCALE` times that adjustment's covariance:
+0.025 deg of the covariance's own) is held where it is in the verdict's problem: the parts'
+deviations are then those of the model seen from known cameras. Its own deviation adds at most
+this much (in quadrature, through the turn it gives the model) to a part's, whose limit is a
+quarter of a degree at one sd (`aida_kb.interpret.verdict.tolerances`): 4 % of that variance.
+Free, the camera's swing about the object, which the segments' problem alone leaves open to
+0.06-0.23 deg, turns the model with it, and the parts' deviations are the swing's (dev 69009:
+0.44-0.48 deg with the cameras 0.01-0.03 deg off)."""
 
 
 def ground_held(model: ReconstructedModel) -> frozenset[str]:

@@ -36,7 +36,15 @@ def test_demo_reconstructs_the_house_within_the_targets(demo_run: Any) -> None:
     house = next(i for i, line in enumerate(lines) if "House" in line and "(scene)" in line)
     region = next(i for i, line in enumerate(lines) if "con-of region: Region" in line)
     assert house < region
-    assert "House verified (body.roof=GableRoof)" in out
+    # the house and its roof are right; view 01's camera (0.08 deg off) is fixed only to
+    # +-0.16 deg at 2 sd (`groundtexture.GROUND_TEXTURE_SD_SCALE`), which the verdict doubts
+    summary = re.search(r"3\. reconstructed: House (verified|doubtful: (.*?)) ?\(was: ", out, re.S)
+    assert summary is not None
+    if summary.group(1) != "verified":
+        doubts = " ".join(summary.group(2).split())
+        assert doubts.startswith("view 01: the model camera is fixed by the adjustment only")
+        assert doubts.count(";") <= 2  # the camera's doubt alone (its text holds two)
+    assert "House verified (body.roof=GableRoof)" in out  # before the verdict's checks
     assert "back: Wall  <- inserted from knowledge" in out
     angle = re.search(r"largest angle error over \d+ adjacent pairs: ([0-9.]+) deg", out)
     vertex = re.search(r"largest vertex error: [0-9.]+ m = ([0-9.]+)% of", out)
