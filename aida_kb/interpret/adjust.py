@@ -24,7 +24,7 @@ from aida_kb.interpret.context import Context
 from aida_kb.interpret.edges import EdgeMatch, match_segments, plane_line
 from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD, Frame
 from aida_kb.interpret.knowledge import Structure, join
-from aida_kb.interpret.observe import CameraView
+from aida_kb.interpret.observe import CameraView, SegmentView
 from aida_kb.interpret.unseen import Planes, closing_of, ground_of, initial_planes
 from aida_kb.interpret.verify import (
     EdgeEvidence,
@@ -56,6 +56,11 @@ MIN_BORDER_SEGMENT_PX = 8.0
 # either side (outlines are good to a pixel or two; a region's border segment has the region
 # on one side only)
 SIDE_PROBE_PX = 4.0
+# a segment between a region of the structure and one of a verified level lies where their
+# planes meet (`_junction`) when, seen through its midpoint, they lie closer than this fraction
+# of the distance from the camera (dev 72010, 72015: the valley of a wing's roof running into
+# the body's roof 0.004-0.03; a wing's gable end seen against the body's roof behind it 0.10-0.13)
+JUNCTION_GAP = 0.05
 
 
 @dataclass(frozen=True)
@@ -173,7 +178,7 @@ def adjust(
     outline: list[EdgeEvidence] = []
     facing = frozenset(initial.visible) if seen_by_edges else frozenset()
     for distance_px in MATCH_DISTANCES_PX:
-        rematched = _matches(ctx, binding, current, adj, distance_px, own)
+        rematched = _matches(ctx, binding, current, adj, distance_px, own, verified)
         found = _facing_matches(ctx, structure, closing, current, facing, distance_px)
         if last is not None and _same_matches(rematched, matches) and _same(found, outline):
             break
@@ -244,15 +249,59 @@ def _matches(
     adjacency: dict[str, frozenset[str]],
     max_distance_px: float,
     own: frozenset[tuple[str, str]] = frozenset(),
+    met: frozenset[str] = frozenset(),
 ) -> list[EdgeMatch]:
     """The reference view's segments bordering bound regions, matched to the planes' edges;
     a match of one of the structure's `own` edges whose bound region lies on the other side
-    of the segment than its face is dropped (`_on_its_side`)."""
+    of the segment than its face is dropped (`_on_its_side`).
+
+    A segment between a bound region and one of `met` (the regions of the verified levels this
+    structure meets) where their planes meet (`_junction`) is where the two solids run into
+    each other: it may be an edge with a verified part (an oriel's side along the body's front
+    wall), never one of the structure's `own` edges. Matched to those, the valley where a
+    wing's roof runs into the body's roof was taken for the wing's hidden inner gable and
+    pulled that end from the body's ridge, where the knowledge puts it, to 1.2 m behind the
+    body's front (dev 72015: the wing 3.4 m short, 11.5 % of the house's size). Where the
+    planes do not meet, the segment is the structure's outline against the other behind it
+    (a wing's gable end against the body's roof): its own edge.
+    """
     segs = [s for s in ctx.segments if any(r in binding for r in s.regions)]
-    found = match_segments(segs, binding, planes, adjacency, ctx.evidence.cameras, max_distance_px)
+    joins = [s for s in segs if _junction(ctx, s, binding, met)]
+    segs = [s for s in segs if s not in joins]
+    cameras = ctx.evidence.cameras
+    found = match_segments(segs, binding, planes, adjacency, cameras, max_distance_px)
+    if joins:
+        across = {
+            a: frozenset(b for b in bs if _ordered(a, b) not in own) for a, bs in adjacency.items()
+        }
+        found += match_segments(joins, binding, planes, across, cameras, max_distance_px)
+        order = {s.id: k for k, s in enumerate(ctx.segments)}
+        found.sort(key=lambda m: order[m.segment.id])
     return [
         m for m in found if _ordered(*m.parts) not in own or _on_its_side(ctx, m, binding, planes)
     ]
+
+
+def _junction(ctx: Context, seg: SegmentView, binding: dict[str, str], met: frozenset[str]) -> bool:
+    """Whether `seg` lies between a bound region and an unbound one of `met` whose planes
+    (their stereo fits) meet at its midpoint: seen through it, they lie within
+    `JUNCTION_GAP` of the distance from the camera of each other."""
+    mine = [r for r in seg.regions if r in binding]
+    other = [r for r in seg.regions if r in met and r not in binding]
+    camera = ctx.evidence.cameras.get(seg.view)
+    if not mine or not other or camera is None:
+        return False
+    ray = camera.rays_world(seg.ends_px.mean(axis=0)[None])[0]
+    centre = camera.centre_m
+    depths = []
+    for rid in (mine[0], other[0]):
+        region = ctx.evidence.regions[rid]
+        along = float(ray @ region.normal)
+        if abs(along) < 1e-9:
+            return False
+        depths.append((region.offset_m - float(region.normal @ centre)) / along)
+    near, far = depths
+    return near > 0 and far > 0 and abs(near - far) <= JUNCTION_GAP * near
 
 
 def _ordered(a: str, b: str) -> tuple[str, str]:

@@ -194,7 +194,7 @@ def placed_offsets(
     centroids: Mapping[str, FloatArray],
     points_of: Callable[[str], FloatArray],
     directions: Callable[[str], str | None],
-    tilted_points: FloatArray,
+    reach_front: float | None,
 ) -> list[float]:
     """The offsets (n·x = d, metres) the knowledge's placements give an unseen part.
 
@@ -209,14 +209,14 @@ def placed_offsets(
     centroids : role path -> (3,) centroid of a seen part's region, world frame, metres.
     points_of : role path of a seen part -> (N, 3) its evidence points, world frame, metres.
     directions : role path -> the direction the part faces (None: not oriented).
-    tilted_points : (M, 3) evidence points of the structure's seen parts that are tilted towards
-        forward (a wing's front roof plane), world frame, metres.
+    reach_front : where a ``reach`` meets its line: a coordinate along the frame's forward
+        axis, metres (the structure's own ridge, `unseen.reach_front`); None: not known.
 
     ``mirror REF about edge(A, B)``: as far beyond the line as REF lies before it, along the
     horizontal direction REF faces; the line is the far boundary of A's evidence along that
     direction (when B is seen too, the line where the planes of A and B meet). ``at D from
     REF``: parallel to REF, D behind it. ``reach edge(A, B)``: the point of the line where it
-    lies, along the frame's forward axis, at the far boundary of ``tilted_points``. A
+    lies at ``reach_front`` along the frame's forward axis. A
     placement whose references are not seen (nor verified) gives nothing.
     """
     out: list[float] = []
@@ -242,7 +242,7 @@ def placed_offsets(
             on_ref = centroids.get(ref, n_ref * d_ref)
             out.append(float(normal @ (on_ref - p.value * n_ref)))
         elif p.kind is PlacementKind.REACH and line is not None:
-            point = _reached(line, frame, planes, tilted_points)
+            point = _reached(line, frame, planes, reach_front)
             if point is not None:
                 out.append(float(normal @ point))
     return out
@@ -296,12 +296,12 @@ def _reached(
     line: tuple[str, ...],
     frame: Frame,
     planes: Mapping[str, tuple[FloatArray, float]],
-    tilted_points: FloatArray,
+    reach_front: float | None,
 ) -> FloatArray | None:
-    """The point (3,) of the line edge(A, B) at the far boundary of ``tilted_points`` along the
-    frame's forward axis (None: A or B unknown, the line parallel to that boundary, no points)."""
+    """The point (3,) of the line edge(A, B) at ``reach_front`` (metres) along the frame's
+    forward axis (None: A or B unknown, the line across that axis, no reach given)."""
     a, b = line
-    if a not in planes or b not in planes or len(tilted_points) < 2:
+    if a not in planes or b not in planes or reach_front is None:
         return None
     meet = _line(planes[a], planes[b])
     if meet is None:
@@ -309,7 +309,6 @@ def _reached(
     p0, u = meet
     if abs(float(frame.front @ u)) < 0.1 * float(np.linalg.norm(u)):
         return None
-    along = tilted_points @ frame.front
-    t = (float(along.min()) - float(frame.front @ p0)) / float(frame.front @ u)
+    t = (reach_front - float(frame.front @ p0)) / float(frame.front @ u)
     point: FloatArray = p0 + t * u
     return point
