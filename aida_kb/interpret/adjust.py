@@ -265,9 +265,10 @@ def _matches(
     planes do not meet, the segment is the structure's outline against the other behind it
     (a wing's gable end against the body's roof): its own edge.
     """
-    segs = [s for s in ctx.segments if any(r in binding for r in s.regions)]
-    joins = [s for s in segs if _junction(ctx, s, binding, met)]
-    segs = [s for s in segs if s not in joins]
+    bordering = [s for s in ctx.segments if any(r in binding for r in s.regions)]
+    at_junction = [_junction(ctx, s, binding, met) for s in bordering]
+    joins = [s for s, j in zip(bordering, at_junction, strict=True) if j]
+    segs = [s for s, j in zip(bordering, at_junction, strict=True) if not j]
     cameras = ctx.evidence.cameras
     found = match_segments(segs, binding, planes, adjacency, cameras, max_distance_px)
     if joins:
