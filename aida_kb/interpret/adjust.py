@@ -61,6 +61,10 @@ SIDE_PROBE_PX = 4.0
 # of the distance from the camera (dev 72010, 72015: the valley of a wing's roof running into
 # the body's roof 0.004-0.03; a wing's gable end seen against the body's roof behind it 0.10-0.13)
 JUNCTION_GAP = 0.05
+# a ray through a segment's midpoint whose direction lies within this (cosine times the ray's
+# length, unit normals) of a region's plane meets the plane nowhere useful (seen edge-on):
+# the segment is then no junction (as `aida_kb.constraints.texture.MIN_INCIDENCE` for patches)
+JUNCTION_MIN_INCIDENCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -298,7 +302,7 @@ def _junction(ctx: Context, seg: SegmentView, binding: dict[str, str], met: froz
     for rid in (mine[0], other[0]):
         region = ctx.evidence.regions[rid]
         along = float(ray @ region.normal)
-        if abs(along) < 1e-9:
+        if abs(along) < JUNCTION_MIN_INCIDENCE:
             return False
         depths.append((region.offset_m - float(region.normal @ centre)) / along)
     near, far = depths
