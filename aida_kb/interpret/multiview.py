@@ -536,11 +536,8 @@ def _ground_step(
     cameras, the report, the free cameras' deviations and a note; or why not (the caller keeps
     the image rounds' result: no view sees the ground well, the model would leave the
     knowledge's ranges or not close)."""
-    from aida_kb.interpret.groundtexture import (
-        GROUND_NAME,
-        GROUND_TEXTURE_SD_SCALE,
-        ground_adjustment,
-    )
+    from aida_kb.interpret.groundtexture import GROUND_NAME, ground_adjustment
+    from aida_kb.interpret.uncertainty import GROUND_TEXTURE_SD_SCALE
 
     rigid, polygons, cams = current
     greys, first_right = images
