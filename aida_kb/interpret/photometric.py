@@ -3,9 +3,11 @@ seen again by the later view's camera (`aida_kb.constraints.kinds.texture`).
 
 `texture_factors` samples the reference image (the first view's left image, its camera fixed)
 on a grid of 4 x 4-pixel patches, keeps the patches that lie well inside one model face seen
-from both cameras at no more than `TEXTURE_GRAZING_DEG`, not hidden by another face in the
-later view, with texture enough to see a shift (`MIN_PATCH_TEXTURE_GREY`), and makes one
-``texture`` constraint per patch. `texture_noise_grey` measures the residuals' scale.
+from both cameras at no more than `TEXTURE_GRAZING_DEG` from its normal (at the patch: a
+face's centre may lie where a low camera sees it edge-on while its near part is seen well),
+not hidden by another face in the later view, with texture enough to see a shift
+(`MIN_PATCH_TEXTURE_GREY`), and makes one ``texture`` constraint per patch.
+`texture_noise_grey` measures the residuals' scale.
 
 The reconstruction uses the ground's patches alone (`aida_kb.interpret.groundtexture`: the
 ground as one more face, ``only_face``, seen up to `groundtexture.GROUND_GRAZING_DEG`); the model's
@@ -49,8 +51,9 @@ pixels off the image's (eaves, the fitted edges' 1-2 px errors), and a sample ac
 compare two surfaces (the prototype's 4-px masks)."""
 
 TEXTURE_GRAZING_DEG = 70.0
-"""Faces seen at more than this angle from their normal by either camera are left out: their
-texture is foreshortened beyond what bilinear sampling follows (the prototype's cut)."""
+"""Patches seen at more than this angle from their face's normal by either camera are left
+out: their texture is foreshortened beyond what bilinear sampling follows (the prototype's
+cut)."""
 
 MIN_PATCH_TEXTURE_GREY = 0.2
 """A patch whose reference grey levels vary by less than this (standard deviation, in the
@@ -72,26 +75,26 @@ def model_faces(model: RigidModel) -> Faces:
     return Faces(tuple(model.polygons), model.normals, model.offsets, u, v)
 
 
-def _seen_faces(
-    model: RigidModel,
+def _seen_within(
+    normals: FloatArray,
+    points: FloatArray,
     cameras: tuple[PinholeCamera, PinholeCamera],
-    grazing_deg: float = TEXTURE_GRAZING_DEG,
-) -> list[int]:
-    """The faces both cameras see from the front within `grazing_deg` of the normal (at each
-    face's centroid)."""
+    grazing_deg: float,
+) -> npt.NDArray[np.bool_]:
+    """(Q,) whether both cameras see each point from the front of its face within
+    `grazing_deg` of the face's normal.
+
+    normals : (Q, 3) the unit normal of each point's face; points : (Q, 3) the points, world
+    frame, metres.
+    """
     limit = math.cos(math.radians(grazing_deg))
-    out = []
-    for f, poly in enumerate(model.polygons):
-        centre = poly.mean(axis=0)
-        ok = True
-        for cam in cameras:
-            to_cam = cam.centre - centre
-            dist = float(np.linalg.norm(to_cam))
-            if dist <= 0.0 or float(model.normals[f] @ to_cam) / dist < limit:
-                ok = False
-        if ok:
-            out.append(f)
-    return out
+    ok = np.ones(points.shape[0], dtype=bool)
+    for cam in cameras:
+        to_cam = cam.centre[None, :] - points
+        dist = np.linalg.norm(to_cam, axis=1)
+        cos = np.einsum("qi,qi->q", normals, to_cam) / np.where(dist > 0.0, dist, np.inf)
+        ok &= cos >= limit
+    return ok
 
 
 def _patch_pixels(width: int, height: int) -> tuple[FloatArray, FloatArray]:
@@ -137,19 +140,15 @@ def texture_factors(
     sigma_grey : each residual's standard deviation, grey levels (`texture_noise_grey`).
     view : the later view's name for the labels.
     only_face : the patches of this face alone (the others hide it); None: every face's.
-    grazing_deg : faces seen farther than this from their normal (at their centroid) by
-        either camera carry no patch.
+    grazing_deg : a patch whose middle either camera sees farther than this from its face's
+        normal is left out.
 
     Returns
     -------
     One ``texture`` constraint per kept patch (huber loss), labelled ``texture(PART)@VIEW``.
     """
     faces = model_faces(model)
-    seen = _seen_faces(model, (reference, camera), grazing_deg)
-    if only_face is not None:
-        seen = [f for f in seen if f == only_face]
-    if not seen:
-        return []
+    seen = list(range(len(model.names))) if only_face is None else [only_face]
     samples, guard = _patch_pixels(reference.width, reference.height)
     Q = samples.shape[0]
     points = np.concatenate([samples, guard], axis=1)  # (Q, 24, 2)
@@ -162,6 +161,12 @@ def texture_factors(
         return []
     hits = reference.centre + np.where(np.isfinite(depth), depth, 0.0)[:, None] * rays
     X = hits.reshape(Q, -1, 3)[keep]
+    # each patch seen within the grazing limit at its own middle, by both cameras
+    middle = X[:, :PATCH_SAMPLES].mean(axis=1)
+    near = _seen_within(model.normals[face[keep, 0]], middle, (reference, camera), grazing_deg)
+    keep, X = keep[near], X[near]
+    if keep.size == 0:
+        return []
     # the later view: every point in the image and on the same face there (not hidden)
     Xf = X.reshape(-1, 3)
     in_front = camera.in_front(Xf).reshape(keep.size, -1).all(axis=1)

@@ -178,3 +178,37 @@ def test_the_first_views_stereo_sees_the_ground_but_not_the_sky() -> None:
     assert _seen_share("ground") >= 0.9
     # what lies at infinity fits no baseline better than the ground's disparity
     assert _seen_share("sky") < GROUND_SEEN_SHARE
+
+
+def test_a_low_camera_sees_its_near_ground_though_not_the_ground_under_the_object() -> None:
+    # the first camera and its stereo partner 0.6 m above the ground (the box's bottom at
+    # y = 5 m), 1 m apart: the ground under the box, 30 m off, is seen 88.9 deg from its
+    # normal, the ground a few metres before the camera under the limit
+    scene = _with_ground(_box())
+    g = len(scene.names) - 1
+    target = np.array([0.0, 5.0, 30.0])
+    cam0 = _looking_at(np.array([0.0, 4.4, 0.0]), target)
+    right = PinholeCamera(K, cam0.R_cam_world, cam0.t_cam_world - np.array([1.0, 0.0, 0.0]), W, H)
+    n, d = scene.normals[g], float(scene.offsets[g])
+    to_centre = cam0.centre - scene.polygons[g].mean(axis=0)
+    assert np.degrees(np.arccos(n @ to_centre / np.linalg.norm(to_centre))) > GROUND_GRAZING_DEG
+    cs = texture_factors(
+        scene,
+        cam0,
+        _image(scene, cam0),
+        right,
+        1,
+        TextureImage(_image(scene, right)),
+        1.0,
+        "00 right",
+        only_face=g,
+        grazing_deg=GROUND_GRAZING_DEG,
+    )
+    assert len(cs) >= MIN_GROUND_PATCHES
+    for c in cs:  # each patch's middle seen within the limit by both cameras
+        assert c.texture is not None
+        o, rays = np.asarray(c.texture.origin), np.asarray(c.texture.rays)
+        middle = np.mean([o + (d - n @ o) / (n @ r) * r for r in rays], axis=0)
+        for cam in (cam0, right):
+            to_cam = cam.centre - middle
+            assert n @ to_cam / np.linalg.norm(to_cam) >= np.cos(np.radians(GROUND_GRAZING_DEG))
