@@ -81,6 +81,7 @@ from aida_kb.register import (
     RigidModel,
     StereoSegments,
     rival_turns,
+    rivals_left,
 )
 from aida_kb.register.evidence import (
     ViewMeasurements,
@@ -90,6 +91,7 @@ from aida_kb.register.evidence import (
     right_segments,
 )
 from aida_kb.register.extents import reached_offsets
+from aida_kb.register.twins import CONFIRM_MARGIN
 from aida_kb.solve import ResidualReport
 from aida_kb.solve.problem import Problem
 
@@ -993,6 +995,7 @@ def reconstruct_from_first(
     for v in later:
         if progress is not None:
             progress(f"registering view {v.id}")
+        registered_on = rigid  # the model the view's registrations hold fixed
         stereo = None if scene is None else right_segments(scene, v.id)
         judge = (
             None
@@ -1140,6 +1143,20 @@ def reconstruct_from_first(
             )
         if trusted[-1] == len(cams) - 1:  # confirmed: the turn from its reference
             turn = reg.angle_deg if adjacent else None
+        if reg.undecided and judge is not None and trusted[-1] == len(cams) - 1:
+            # judged at the adjusted pose: where the registration's own was a degree or two
+            # off, the images hardly correlated there and ruled no rival out
+            narrowed, there = rivals_left(registered_on, reference, reg, cams[-1], judge)
+            dropped = [a for a in reg.undecided if a not in narrowed.undecided]
+            if dropped:
+                notes.append(
+                    f"view {v.id}: the turns {', '.join(f'{a:.1f}' for a in dropped)} deg its "
+                    "registration left open are ruled out by its images at the adjusted pose "
+                    f"(the registered views' images carried into it correlate {there.ncc:.2f} "
+                    f"there; at each rival at least {CONFIRM_MARGIN:g} less, or on no face "
+                    "they share)"
+                )
+            reg = narrowed
         if reg.undecided:
             undecided[v.id] = reg.undecided
     for _ in range(FINAL_ROUNDS if len(cams) > n_known else 0):

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -89,6 +89,7 @@ __all__ = [
     "region_parts",
     "register_view",
     "rival_turns",
+    "rivals_left",
     "symmetry_order",
     "turned",
     "vertical_axis",
@@ -175,6 +176,9 @@ class Registration:
     about as well and which the images, carried through the model, do not correlate clearly
     worse (`twins.undecided_rivals`); without images, a symmetric model's twins. Non-empty:
     the pose taken is a choice the evidence has not made (the verdict doubts the view).
+    undecided_support : the images' support of each of them (`twins.PoseSupport`, as
+    ``undecided``; empty without images), for judging them again at an adjusted pose
+    (`rivals_left`).
     """
 
     camera: PinholeCamera
@@ -189,6 +193,7 @@ class Registration:
     rotation_sigma_deg: float
     alternatives: tuple[tuple[float, float], ...] = ()
     undecided: tuple[float, ...] = ()
+    undecided_support: tuple[PoseSupport, ...] = ()
 
 
 def vertical_axis(model: RigidModel, reference: PinholeCamera) -> FloatArray:
@@ -865,6 +870,7 @@ def register_view(
             f"the expected {centre:.1f}: the evidence does not decide between them"
         )
     undecided: tuple[float, ...] = ()
+    undecided_support: tuple[PoseSupport, ...] = ()
     if photometric is None and order > 1:  # nothing but the expected turn chose among twins
         undecided = tuple(_wrap(final + 360.0 * k / order) for k in range(1, order))
     if photometric is not None:
@@ -873,6 +879,7 @@ def register_view(
         undecided = undecided_rivals(
             final, support, [a for a, _ in rivals], [s for _, s in rivals], opts.span_deg
         )
+        undecided_support = tuple(s for a, s in rivals if a in undecided)
         if not support.shares:
             # a view of a sequence shares faces with the views before it at its true pose;
             # a symmetric model's twin sees their backs: nothing confirms such a pose
@@ -895,8 +902,64 @@ def register_view(
     alternatives = tuple(sorted(others.items()))
     chosen = (cost, final, cam, rms, ne, nr, 0.0)
     return _registration(
-        model, reference, up, chosen, refined, alternatives, given, image, undecided
+        model,
+        reference,
+        up,
+        chosen,
+        refined,
+        alternatives,
+        given,
+        image,
+        (undecided, undecided_support),
     )
+
+
+def rivals_left(
+    model: RigidModel,
+    reference: PinholeCamera,
+    reg: Registration,
+    camera: PinholeCamera,
+    photometric: PhotometricJudge,
+    options: RegistrationOptions | None = None,
+) -> tuple[Registration, PoseSupport]:
+    """``reg`` with only the rivals (its ``undecided`` turns) the images still do not rule out
+    once the view's pose is adjusted to ``camera``, and the images' support there.
+
+    The registration judged its rivals at its own refined pose, which may lie a degree or two
+    off: there the registered views' images carried into the view hardly correlate (dev
+    73034's view 01: NCC 0.14 at 1.1 deg off, 0.83 at the adjusted pose 0.01 deg off; 73013's
+    view 02: 0.22 at 1.4 deg off, 0.88 adjusted), and no rival can fall `CONFIRM_MARGIN`
+    below it. At ``camera`` the pose is judged again; a rival that is the model's twin
+    (`symmetry_order`: its edges are the pose's turned by 360/n) is judged at the exact twin
+    of ``camera``, on the same footing, and any other at the pose the registration refined
+    (`twins.undecided_rivals`). Nothing changes unless ``camera`` is
+    `twins.PoseSupport.confirmed`: a pose the images do not confirm decides nothing.
+
+    model, reference : as given to `register_view` (world frame); camera : the view's camera
+    after the adjustment (world frame); photometric : the judge the registration used.
+    Returns the registration (its pose unchanged, ``undecided`` and ``undecided_support``
+    narrowed) and the support of ``camera``.
+    """
+    opts = options or RegistrationOptions()
+    support = photometric(camera)
+    judged = bool(reg.undecided) and len(reg.undecided_support) == len(reg.undecided)
+    if not (judged and support.confirmed):
+        return reg, support
+    up = vertical_axis(model, reference)
+    final = angle_about(reference, camera, up)
+    order = symmetry_order(model, up, model.centroid)
+    steps = [360.0 * k / order for k in range(1, order)]
+    supports: list[PoseSupport] = []
+    for turn, own in zip(reg.undecided, reg.undecided_support, strict=True):
+        step = next((s for s in steps if abs(_wrap(turn - final - s)) <= opts.span_deg), None)
+        supports.append(
+            own
+            if step is None
+            else photometric(turned(camera, up, model.centroid, math.radians(step)))
+        )
+    left = undecided_rivals(final, support, reg.undecided, supports, opts.span_deg)
+    kept = tuple(s for a, s in zip(reg.undecided, reg.undecided_support, strict=True) if a in left)
+    return replace(reg, undecided=left, undecided_support=kept), support
 
 
 REALIGN_SCHEDULE_PX = (6.0, 3.0, 2.0, 2.0)
@@ -1044,11 +1107,12 @@ def _registration(
     alternatives: tuple[tuple[float, float], ...],
     given: _Measured,
     image: npt.NDArray[np.uint8] | None,
-    undecided: tuple[float, ...] = (),
+    undecided: tuple[tuple[float, ...], tuple[PoseSupport, ...]] = ((), ()),
 ) -> Registration:
     """The `Registration` of the chosen refined candidate ``(cost, turn, camera, rms,
     n_edges, n_regions, start turn)``: polished against the image when it is given, with the
-    covariance of its final measurements; ``undecided`` as `Registration.undecided`."""
+    covariance of its final measurements; ``undecided`` as `Registration.undecided` and
+    `Registration.undecided_support`."""
     q1, q2, regions, opts, stereo, sig = given
     cost, final, cam, rms, ne, nr, _ = chosen
     max_angle = math.radians(opts.max_angle_deg)
@@ -1064,7 +1128,7 @@ def _registration(
             model, reference, cam, up, q1, q2, regions, opts, stereo, sig
         )
     return Registration(
-        cam, final, rms, cost, ne, nr, cands, cov, turn_sd, rot_sd, alternatives, undecided
+        cam, final, rms, cost, ne, nr, cands, cov, turn_sd, rot_sd, alternatives, *undecided
     )
 
 

@@ -22,6 +22,7 @@ from aida_kb.register import (
     orbit_pivot,
     register_view,
     rival_turns,
+    rivals_left,
     symmetry_order,
     turned,
     vertical_axis,
@@ -593,6 +594,48 @@ def test_the_images_choose_between_a_symmetric_models_twins() -> None:
     blank = ImageTransfer(model, [ref], [np.full_like(images[0], 90)], images[1])
     with pytest.raises(SolveError, match="shares no textured face"):
         register_view(model, ref, p1, p2, expected_turn_deg=0.0, photometric=blank, options=fast)
+
+
+def test_rivals_the_images_rule_out_at_the_adjusted_pose_are_dropped() -> None:
+    from aida_kb.interpret.transfer import ImageTransfer
+    from aida_kb.register import Registration
+
+    # a registration that took its pose 3 degrees off: there the images hardly correlate (NCC
+    # 0.33) and rule neither its twin (-77) nor a rival a quarter turn back (13 degrees) out;
+    # judged again at the adjusted pose (the truth: 0.80), they do
+    model = _box()
+    up = vertical_axis(model, _reference())
+    ref = turned(_reference(), up, model.centroid, math.radians(30.0))
+    truth = turned(ref, up, model.centroid, math.radians(100.0))
+    off = turned(truth, up, model.centroid, math.radians(3.0))
+    images = [_textured_image(model, cam, seed=5) for cam in (ref, truth)]
+    judge = ImageTransfer(model, [ref], [images[0]], images[1])
+    twin = turned(off, up, model.centroid, math.radians(180.0))
+    other = turned(off, up, model.centroid, math.radians(-90.0))
+    assert not judge(off).confirmed
+    assert judge(twin).shares  # both judged there, neither ruled out
+    assert judge(other).shares
+    turns = (angle_about(ref, twin, up), angle_about(ref, other, up))
+    reg = Registration(
+        off, angle_about(ref, off, up), 0.5, 0.5, 12, 0, (), np.eye(6), 0.1, 0.1, (), turns,
+        (judge(twin), judge(other)),
+    )  # fmt: skip
+    kept, there = rivals_left(model, ref, reg, off, judge)
+    assert kept.undecided == turns  # a pose the images do not confirm decides nothing
+    narrowed, there = rivals_left(model, ref, reg, truth, judge)
+    assert there.confirmed
+    assert narrowed.undecided == ()
+    assert narrowed.undecided_support == ()
+    assert narrowed.camera is off  # the pose is the caller's to keep
+    # faces that look alike: the exact twin of the adjusted pose correlates as well, and stays
+    alike = [_textured_image(model, cam, seed=5, alike=True) for cam in (ref, truth)]
+    same = ImageTransfer(model, [ref], [alike[0]], alike[1])
+    doubt = Registration(
+        off, reg.angle_deg, 0.5, 0.5, 12, 0, (), np.eye(6), 0.1, 0.1, (), turns[:1],
+        (same(twin),),
+    )  # fmt: skip
+    left, _ = rivals_left(model, ref, doubt, truth, same)
+    assert left.undecided == turns[:1]
 
 
 def _regions_seen(model: RigidModel, camera: PinholeCamera) -> tuple[np.ndarray, object]:
