@@ -42,7 +42,9 @@ def edge_kernel(
     p1: FloatArray,
     p2: FloatArray,
     px: npt.NDArray[np.bool_],
-) -> tuple[FloatArray, FloatArray, FloatArray]:
+    *,
+    camera_jacobian: bool = True,
+) -> tuple[FloatArray, FloatArray, FloatArray | None]:
     """Residuals of M edge constraints and their Jacobians.
 
     Parameters
@@ -52,11 +54,13 @@ def edge_kernel(
     cameras : the problem's cameras; camera : (M,) index of each constraint's camera.
     p1, p2 : (M, 2) the image segment's end points, pixels.
     px : (M,) True where the residual is in pixels, else metres.
+    camera_jacobian : compute J_camera (False: None, and none of the sight planes'
+        derivatives by the pose, about half the work, for problems whose cameras are held).
 
     Returns
     -------
     r : (M, 2); J : (M, 2, 2, 4) by (n, d) of the two planes; J_camera : (M, 2, 6) by the pose
-    ``[rvec, C]`` of the constraint's camera.
+    ``[rvec, C]`` of the constraint's camera, or None.
 
     Raises
     ------
@@ -71,19 +75,22 @@ def edge_kernel(
     for c in np.unique(camera):
         sel = np.flatnonzero(camera == c)
         cam = cameras[int(c)]
-        rj = cam.unproject_with_jacobians(np.concatenate([p1[sel], p2[sel]]))
-        C[sel] = rj.centre
+        both, d_both = cam.unproject_with_rotation_jacobian(np.concatenate([p1[sel], p2[sel]]))
+        C[sel] = cam.centre
         n = sel.size
-        rays[sel, 0], rays[sel, 1] = rj.rays[:n], rj.rays[n:]
-        d_rays[sel, 0], d_rays[sel, 1] = rj.d_rays_d_rvec[:n], rj.d_rays_d_rvec[n:]
+        rays[sel, 0], rays[sel, 1] = both[:n], both[n:]
+        d_rays[sel, 0], d_rays[sel, 1] = d_both[:n], d_both[n:]
     r1, r2 = rays[:, 0], rays[:, 1]
     s = cross(r1, r2)
     s_len = np.sqrt(dot(s, s))
     m = s / s_len[:, None]
-    proj = (np.eye(3)[None] - np.einsum("mi,mj->mij", m, m)) / s_len[:, None, None]
-    dm_drvec = (
-        proj @ (-skew(r2, check=False)) @ d_rays[:, 0] + proj @ skew(r1, check=False) @ d_rays[:, 1]
-    )
+    dm_drvec = None
+    if camera_jacobian:
+        proj = (np.eye(3)[None] - np.einsum("mi,mj->mij", m, m)) / s_len[:, None, None]
+        dm_drvec = (
+            proj @ (-skew(r2, check=False)) @ d_rays[:, 0]
+            + proj @ skew(r1, check=False) @ d_rays[:, 1]
+        )
     na, nb = normals[idx[:, 0]], normals[idx[:, 1]]
     da, db = offsets[idx[:, 0]], offsets[idx[:, 1]]
     # image line normal for the pixel residuals
@@ -92,7 +99,7 @@ def edge_kernel(
 
     r = np.empty((M, 2))
     J = np.zeros((M, 2, 2, 4))
-    Jc = np.zeros((M, 2, 6))
+    Jc = np.zeros((M, 2, 6)) if camera_jacobian else None
     for k in range(2):
         rk = rays[:, k]
         a = cross(m, rk)
@@ -108,16 +115,12 @@ def edge_kernel(
         rhs = np.stack([da, db, dot(a, C)], axis=1)
         S = np.einsum("mij,mj->mi", Ainv, rhs)
         SC = S - C
-        da_drvec = (
-            -skew(rk, check=False) @ dm_drvec + skew(m, check=False) @ d_rays[:, k]
-        )  # (M, 3, 3)
-        dS_da = np.einsum("mi,mj->mij", Ainv[:, :, 2], C - S)
-        dS_dC = np.einsum("mi,mj->mij", Ainv[:, :, 2], a)
         # metric residual and its gradient by S (g), plus direct terms
         g = m.copy()
         res = dot(m, SC)
-        d_rvec = np.einsum("mi,mij->mj", SC, dm_drvec)
-        d_C = -m.copy()
+        d_pose = None
+        if dm_drvec is not None:
+            d_pose = np.concatenate([np.einsum("mi,mij->mj", SC, dm_drvec), -m], axis=1)
         if np.any(px):
             q = np.empty((M, 2))
             dq_dS = np.zeros((M, 2, 3))
@@ -131,11 +134,10 @@ def edge_kernel(
                 q[sel], dq_dS[sel], dq_dpose[sel] = pr
             g_px = np.einsum("mi,mij->mj", nu, dq_dS)
             res_px = np.sum(nu * (q - p1), axis=1)
-            pose_px = np.einsum("mi,mij->mj", nu, dq_dpose)
             g = np.where(px[:, None], g_px, g)
             res = np.where(px, res_px, res)
-            d_rvec = np.where(px[:, None], pose_px[:, :3], d_rvec)
-            d_C = np.where(px[:, None], pose_px[:, 3:], d_C)
+            if d_pose is not None:
+                d_pose = np.where(px[:, None], np.einsum("mi,mij->mj", nu, dq_dpose), d_pose)
         r[:, k] = res
         ga = np.einsum("mi,mi->m", g, Ainv[:, :, 0])
         gb = np.einsum("mi,mi->m", g, Ainv[:, :, 1])
@@ -143,6 +145,13 @@ def edge_kernel(
         J[:, k, 0, 3] = ga
         J[:, k, 1, :3] = -gb[:, None] * S
         J[:, k, 1, 3] = gb
-        Jc[:, k, :3] = d_rvec + np.einsum("mi,mij,mjl->ml", g, dS_da, da_drvec)
-        Jc[:, k, 3:] = d_C + np.einsum("mi,mij->mj", g, dS_dC)
+        if Jc is None or d_pose is None or dm_drvec is None:
+            continue
+        da_drvec = (
+            -skew(rk, check=False) @ dm_drvec + skew(m, check=False) @ d_rays[:, k]
+        )  # (M, 3, 3)
+        dS_da = np.einsum("mi,mj->mij", Ainv[:, :, 2], C - S)
+        dS_dC = np.einsum("mi,mj->mij", Ainv[:, :, 2], a)
+        Jc[:, k, :3] = d_pose[:, :3] + np.einsum("mi,mij,mjl->ml", g, dS_da, da_drvec)
+        Jc[:, k, 3:] = d_pose[:, 3:] + np.einsum("mi,mij->mj", g, dS_dC)
     return r, J, Jc

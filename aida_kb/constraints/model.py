@@ -66,11 +66,19 @@ class ConstraintBlock:
         return int(self.members.shape[0])
 
     def evaluate(
-        self, normals: FloatArray, offsets: FloatArray, cameras: Sequence[PinholeCamera] = ()
+        self,
+        normals: FloatArray,
+        offsets: FloatArray,
+        cameras: Sequence[PinholeCamera] = (),
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
         """Unweighted residuals (M, k) and Jacobians by the planes (M, k, a, 4) and, for
-        camera kinds, by the camera pose (M, k, 6) — see `Kind.evaluate`."""
-        return self.kind.evaluate(normals, offsets, cameras, self.idx, self.data)
+        camera kinds, by the camera pose (M, k, 6; None without ``camera_jacobian``) — see
+        `Kind.evaluate`."""
+        return self.kind.evaluate(
+            normals, offsets, cameras, self.idx, self.data, camera_jacobian=camera_jacobian
+        )
 
     def whiten(self, r: FloatArray) -> FloatArray:
         """Whitened residuals (M, k): ``sqrt_weight · S · r``."""

@@ -453,18 +453,34 @@ class PinholeCamera:
     def unproject_with_jacobians(self, pixels: npt.ArrayLike) -> RayJacobians:
         """`unproject` with the rays' derivatives w.r.t. the rotation vector and the pixels."""
         q = _pixels(pixels)
-        dR = self.rotation_jacobian[1]
         Kinv = self._K_inv
         m = np.hstack([q, np.ones((q.shape[0], 1))]) @ Kinv.T  # (N, 3), camera frame
         norm = np.linalg.norm(m, axis=1)
         mh = m / norm[:, None]
-        rays = mh @ self.R_cam_world
-        # ray = R^T mh: d ray_j / d rvec_i = dR[k, j, i] mh_k (the norm is rotation invariant)
-        d_rvec = np.einsum("kji,nk->nji", dR, mh)
+        rays, d_rvec = self._rays_and_rotation_jacobian(mh)
         # d mh / d m = (I - mh mh^T)/|m|; d m / d pixel = Kinv[:, :2]
         P_perp = (np.eye(3)[None] - mh[:, :, None] * mh[:, None, :]) / norm[:, None, None]
         d_pix = np.einsum("kj,nkl,lp->njp", self.R_cam_world, P_perp, Kinv[:, :2])
         return RayJacobians(self.centre, rays, d_rvec, d_pix)
+
+    def unproject_with_rotation_jacobian(
+        self, pixels: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """The rays of `unproject` (N, 3), unit, world frame, and their derivatives by the
+        rotation vector (N, 3, 3), per radian, ``d rays[n, j] / d rvec[i]`` at ``[n, j, i]``
+        (`RayJacobians` without the pixels' derivatives, which the edge kernel does not use)."""
+        q = _pixels(pixels)
+        m = np.hstack([q, np.ones((q.shape[0], 1))]) @ self._K_inv.T  # (N, 3), camera frame
+        return self._rays_and_rotation_jacobian(m / np.linalg.norm(m, axis=1)[:, None])
+
+    def _rays_and_rotation_jacobian(self, mh: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """World rays ``R^T mh`` of unit camera-frame directions ``mh`` (N, 3) and their
+        derivatives by the rotation vector (N, 3, 3) at ``[n, j, i]``."""
+        dR = self.rotation_jacobian[1]
+        rays = mh @ self.R_cam_world
+        # ray = R^T mh: d ray_j / d rvec_i = dR[k, j, i] mh_k (the norm is rotation invariant)
+        d_rvec = np.einsum("kji,nk->nji", dR, mh)
+        return rays, d_rvec
 
     def _rays_cam(self, q: FloatArray) -> FloatArray:
         m = np.linalg.solve(self.K, np.vstack([q.T, np.ones((1, q.shape[0]))])).T

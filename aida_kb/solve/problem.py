@@ -224,6 +224,7 @@ class Evaluation:
         cols_all: list[IntArray] = []
         self._masks: list[npt.NDArray[np.bool_]] = []
         self._cam_masks: list[npt.NDArray[np.bool_] | None] = []
+        self._cam_wanted: list[bool] = []
         row = 0
         for b in blocks:
             k = b.kind.residual_size
@@ -248,6 +249,8 @@ class Evaluation:
                 rows_all.append(np.broadcast_to(rows[:, :, None], cshape)[cam_mask])
                 cols_all.append(np.broadcast_to(ccols, cshape)[cam_mask])
             self._cam_masks.append(cam_mask)
+            # the block's Jacobian by the poses is wanted only where it sees a free camera
+            self._cam_wanted.append(cam_mask is not None and bool(np.any(cam_mask)))
             row += M * k
         self.n_residuals = row
         # the constraint of each residual row (messages about degenerate geometry)
@@ -319,7 +322,8 @@ class Evaluation:
         """Unweighted residuals (M, k) per block and, if asked, Jacobians by the unknowns.
 
         Returns residuals, Jacobians by the part parameters (M, k, a, 3) and by the pose of
-        each constraint's (base) camera (M, k, 6; camera kinds only, else None).
+        each constraint's (base) camera (M, k, 6; camera kinds seeing a free camera only, else
+        None: a block whose cameras are all held skips that work).
         """
         frames = self.problem.frames
         chain = None
@@ -332,10 +336,10 @@ class Evaluation:
         rs: list[FloatArray] = []
         js: list[FloatArray] = []
         jcs: list[FloatArray | None] = []
-        for b in self.blocks:
+        for b, wanted in zip(self.blocks, self._cam_wanted, strict=True):
             # degenerate geometry gives non-finite values, which the callers check and name
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                r, J, Jc = b.evaluate(n, d, cameras)
+                r, J, Jc = b.evaluate(n, d, cameras, camera_jacobian=jacobian and wanted)
             rs.append(r)
             if jacobian:
                 js.append(np.einsum("mkaf,mafq->mkaq", J, G[b.idx]))
@@ -377,8 +381,8 @@ class Evaluation:
         """Weighted residuals and the Jacobian's entries in the order of ``rows``/``cols``."""
         rs, js, jcs = self.raw(self.params(x), self.cameras(x), jacobian=True)
         fs, vals = [], []
-        for b, r, J, Jc, mask, cmask in zip(
-            self.blocks, rs, js, jcs, self._masks, self._cam_masks, strict=True
+        for b, r, J, Jc, mask, cmask, wanted in zip(
+            self.blocks, rs, js, jcs, self._masks, self._cam_masks, self._cam_wanted, strict=True
         ):
             f, scale = self._weigh(b, r)
             fs.append(f.reshape(-1))
@@ -386,7 +390,8 @@ class Evaluation:
                 vals.append((J * scale[:, None, None, None])[mask])
             else:
                 vals.append(np.einsum("mij,mjaq->miaq", scale, J)[mask])
-            if cmask is not None:
+            if wanted:
+                assert cmask is not None
                 assert Jc is not None
                 if scale.ndim == 1:
                     vals.append((Jc * scale[:, None, None])[cmask])

@@ -93,6 +93,24 @@ def test_edge_jacobians_match_finite_differences(
             np.testing.assert_allclose(num[~sel], 0.0, atol=1e-9)
 
 
+@pytest.mark.parametrize("pixels", [False, True])
+def test_without_the_camera_jacobian_the_residuals_and_plane_jacobian_are_the_same(
+    pixels: bool,
+) -> None:
+    # a problem whose cameras are held asks for no pose derivatives: the kernel skips them and
+    # what it does return is bit for bit what the full evaluation gives
+    cams, n, d, idx, camera, p1, p2 = _inputs()
+    d = d + np.array([0.1, -0.2, 0.05])
+    px = np.array([pixels, not pixels, pixels, not pixels])
+    r, J, Jc = edge_kernel(n, d, idx, cams, camera, p1, p2, px)
+    r0, J0, Jc0 = edge_kernel(n, d, idx, cams, camera, p1, p2, px, camera_jacobian=False)
+    assert Jc is not None
+    assert Jc0 is None
+    assert np.abs(r).max() > 1e-3  # off the true edges, so the comparison means something
+    np.testing.assert_array_equal(r0, r)
+    np.testing.assert_array_equal(J0, J)
+
+
 def _leaning(lean: int, scale: float) -> list:
     """The four edges of `_inputs` as edge constraints with the given lean."""
     from aida_kb.constraints import Constraint, EdgeData

@@ -84,9 +84,16 @@ class Kind:
         cameras: Sequence[PinholeCamera],
         idx: IntArray,
         data: BlockData,
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
         """Residuals and Jacobians of a block: ``normals`` (P, 3) unit and ``offsets`` (P,)
-        metres are all planes (world frame), ``idx`` (M, arity) the block's part indices."""
+        metres are all planes (world frame), ``idx`` (M, arity) the block's part indices.
+
+        ``camera_jacobian``: whether the caller needs the Jacobian by the camera poses (a
+        problem whose cameras are all held does not); without it a camera kind may return
+        None in its place and skip that work (as Ceres skips the Jacobian of a constant
+        parameter block)."""
         raise NotImplementedError
 
 
@@ -111,6 +118,8 @@ class NormalsKind(Kind):
         cameras: Sequence[PinholeCamera],
         idx: IntArray,
         data: BlockData,
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
         """r (M, k) rad and J (M, k, arity, 4) from the kernel; no camera."""
         r, J = self._kernel(normals, idx, *(data[k] for k in self.data_keys))

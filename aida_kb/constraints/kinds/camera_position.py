@@ -92,8 +92,10 @@ class CameraPosition(Kind):
         cameras: Sequence[PinholeCamera],
         idx: IntArray,
         data: BlockData,
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
-        """r (M, 3), J (M, 3, 1, 4), J_camera (M, 3, 6)."""
+        """r (M, 3), J (M, 3, 1, 4), J_camera (M, 3, 6) (None unless ``camera_jacobian``)."""
         M = idx.shape[0]
         cam_of = data["camera"]
         X = np.empty((M, 3))
@@ -123,6 +125,8 @@ class CameraPosition(Kind):
         J[:, 0, 0, :3] = X
         J[:, 0, 0, 3] = -1.0
         J[:, 1:, 0, :3] = skew(nw, check=False)[rows, keep]  # d(nw × n)/dn = [nw]x
+        if not camera_jacobian:
+            return r, J, None
         Jc = np.zeros((M, 3, 6))
         Jc[:, 0, :3] = np.einsum("mi,mij->mj", n, dX)
         Jc[:, 0, 3:] = n

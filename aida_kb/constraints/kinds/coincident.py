@@ -48,6 +48,8 @@ class Coincident(Kind):
         cameras: Sequence[PinholeCamera],
         idx: IntArray,
         data: BlockData,
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
         """r (M, 4): the parallel kernel's rotation vector (rad) and ``d_a - s·d_b`` (m);
         J (M, 4, 2, 4)."""

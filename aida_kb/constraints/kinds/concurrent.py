@@ -37,6 +37,8 @@ class Concurrent(Kind):
         cameras: Sequence[PinholeCamera],
         idx: IntArray,
         data: BlockData,
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
         """r (M, 1) metres; J (M, 1, 4, 4) by each plane's ``(n, d)``; no camera."""
         n = normals[idx]  # (M, 4, 3)

@@ -110,17 +110,32 @@ class Edge(Kind):
         cameras: Sequence[PinholeCamera],
         idx: IntArray,
         data: BlockData,
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
-        """r (M, 2), J (M, 2, 2, 4), J_camera (M, 2, 6); the end-point residuals whose sign
-        is a constraint's ``lean`` scaled by its ``lean_scale``, with their Jacobians."""
+        """r (M, 2), J (M, 2, 2, 4), J_camera (M, 2, 6) (None unless ``camera_jacobian``);
+        the end-point residuals whose sign is a constraint's ``lean`` scaled by its
+        ``lean_scale``, with their Jacobians."""
         r, J, Jc = edge_kernel(
-            normals, offsets, idx, cameras, data["camera"], data["p1"], data["p2"], data["px"]
+            normals,
+            offsets,
+            idx,
+            cameras,
+            data["camera"],
+            data["p1"],
+            data["p2"],
+            data["px"],
+            camera_jacobian=camera_jacobian,
         )
         lean = data["lean"][:, None]
         if not np.any(lean):
             return r, J, Jc
         scale = np.where(lean * r > 0.0, data["lean_scale"][:, None], 1.0)  # (M, 2)
-        return r * scale, J * scale[:, :, None, None], Jc * scale[:, :, None]
+        return (
+            r * scale,
+            J * scale[:, :, None, None],
+            None if Jc is None else Jc * scale[:, :, None],
+        )
 
 
 EDGE = Edge()

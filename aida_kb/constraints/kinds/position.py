@@ -92,6 +92,8 @@ class Position(Kind):
         cameras: Sequence[PinholeCamera],
         idx: IntArray,
         data: BlockData,
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
         """r (M, 4), J (M, 4, 1, 4)."""
         r, J = kernels.position_kernel(

@@ -96,9 +96,12 @@ class Texture(Kind):
         cameras: Sequence[PinholeCamera],
         idx: IntArray,
         data: BlockData,
+        *,
+        camera_jacobian: bool = True,
     ) -> Evaluated:
-        """r (M, N) grey, J (M, N, 1, 4), J_camera (M, N, 6)."""
-        return texture_kernel(
+        """r (M, N) grey, J (M, N, 1, 4), J_camera (M, N, 6) (None unless
+        ``camera_jacobian``)."""
+        r, J, Jc = texture_kernel(
             normals,
             offsets,
             idx,
@@ -109,6 +112,7 @@ class Texture(Kind):
             data["values"],
             list(data["image"]),
         )
+        return r, J, (Jc if camera_jacobian else None)
 
 
 TEXTURE = Texture()
