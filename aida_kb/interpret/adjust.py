@@ -25,7 +25,7 @@ from aida_kb.interpret.edges import EdgeMatch, match_segments, plane_line
 from aida_kb.interpret.hypotheses import DOWNWARD, UPWARD, Frame
 from aida_kb.interpret.knowledge import Structure, join
 from aida_kb.interpret.observe import CameraView, SegmentView
-from aida_kb.interpret.unseen import Planes, closing_of, ground_of, initial_planes
+from aida_kb.interpret.unseen import Planes, closing_of, ground_of, initial_planes, mirrored_again
 from aida_kb.interpret.verify import (
     EdgeEvidence,
     Outcome,
@@ -209,6 +209,12 @@ def adjust(
             replace(p, normal=current[p.role][0], offset_m=current[p.role][1]) for p in planes
         ]
     assert last is not None
+    # the parts mirrored about a line the adjustment moved follow it (`unseen.mirrored_again`)
+    again = mirrored_again(
+        ctx, structure, frame, last[0].planes, binding, choices, initial.inserted
+    )
+    if again:
+        last = (replace(last[0], planes={**last[0].planes, **again}), last[1])
     last = (_settled(last[0], structure, closing, initial.inserted), last[1])
     matched = {m.segment.id for m in matches}
     bordering = [

@@ -95,12 +95,12 @@ def ground_region(
         if abs(float(r.normal @ up)) >= cos_level
         and r.area_px >= GROUND_MIN_SHARE * total
         and r.id not in exclude
-        and _fitted(r)
+        and plane_fitted(r)
     ]
     return min(level, key=lambda r: float(r.centroid_m @ up)) if level else None
 
 
-def _fitted(region: RegionView) -> bool:
+def plane_fitted(region: RegionView) -> bool:
     """Whether a region's fitted plane tells where its surface lies: the fit kept at least
     `OUTLINE_INLIER_SHARE` of its pixels (or the region says nothing of its fit)."""
     return region.inliers is None or region.inliers >= OUTLINE_INLIER_SHARE * region.area_px
@@ -201,7 +201,7 @@ class EvidenceGround:
     ) -> None:
         self.up = up
         self.plane = None if beneath_only else ground_plane(regions, up, own)
-        self._others = [r for r in regions if r.id not in own and _fitted(r)]
+        self._others = [r for r in regions if r.id not in own and plane_fitted(r)]
         self._points_on = points_on
         self._seen: FloatArray | None = None
 

@@ -24,9 +24,12 @@ import numpy.typing as npt
 from aida_kb.errors import AidaError
 from aida_kb.interpret.closure import ClosingFace, closing_faces
 from aida_kb.interpret.context import Context
+from aida_kb.interpret.edges import plane_line
+from aida_kb.interpret.ground import plane_fitted
 from aida_kb.interpret.hypotheses import (
     DEFAULT_PITCH_DEG,
     DOWNWARD,
+    HORIZONTAL,
     Frame,
     PlanarPart,
     faces_camera,
@@ -38,6 +41,7 @@ from aida_kb.interpret.knowledge import Attribute, Node, Structure
 from aida_kb.interpret.observe import RegionView, slope_deg
 from aida_kb.interpret.outline import far_edge, outline_pitch
 from aida_kb.interpret.verify import PlaneInit
+from aida_kb.kb.model import PlacementKind
 
 FloatArray = npt.NDArray[np.float64]
 # the directions of the language that face across the forward axis (a wing's gable ends)
@@ -414,3 +418,59 @@ def closing_of(
         ctx.knowledge.attachment(structure.root),
         {r: ctx.knowledge.concept_at(r) for r in fixed},
     )
+
+
+def mirrored_again(
+    ctx: Context,
+    structure: Structure,
+    frame: Frame,
+    planes: Planes,
+    binding: dict[str, str],
+    choices: dict[str, str],
+    inserted: tuple[str, ...],
+) -> Planes:
+    """Inserted parts a ``mirror REF about edge(A, B)`` places about the far boundary of the
+    evidence of an A whose plane fit failed, placed again about the line where the adjusted
+    planes of A and B meet: REF's region centroid mirrored about it, along the direction REF
+    faces.
+
+    Before the adjustment the line is the far boundary of A's evidence when B is inserted
+    (`hypotheses.placed_offsets`): of a roof region whose plane fit failed (it kept under
+    `ground.OUTLINE_INLIER_SHARE` of its pixels, `ground.plane_fitted`), its outline
+    back-projected onto that plane metres beyond the ridge the adjustment then finds (dev
+    73018, a 135-degree wing under a dark roof: its hidden back wall 6.2 m too far back, the
+    wall 0.9 m high under a slope reaching down to it, and the right wing rejected for it).
+    Nothing measures such a wall, so the adjustment leaves it where it was put. Where A's fit
+    held, or B is seen, the placement stands: there the knowledge's other placements and the
+    seen points' support (the farthest wins) place the part, and the line the adjustment
+    finds for an inserted B is no better (the fixture house_correct, 12 m deep: 9.9 m).
+    ``planes``: role path -> (unit normal (3,), offset m), world, every leaf adjusted;
+    ``binding``: region id -> role path. Returns the parts placed again (role -> plane).
+    """
+    seen = {role: ctx.evidence.regions[rid] for rid, role in binding.items()}
+    fillers = {**choices, **dict(structure.choices)}
+    out: Planes = {}
+    for role in inserted:
+        if role not in planes:
+            continue
+        normal = planes[role][0]
+        offsets = []
+        for p, _, paths in ctx.knowledge.placements(role, fillers):
+            if p.kind is not PlacementKind.MIRROR or p.ref is None or p.line is None:
+                continue
+            ref = seen.get(paths[p.ref])
+            a, b = (paths[x] for x in p.line)
+            facing = ctx.knowledge.direction(paths[p.ref])
+            if ref is None or a not in planes or b not in planes or facing not in HORIZONTAL:
+                continue
+            if b in seen or a not in seen or plane_fitted(seen[a]):
+                continue  # the line was placed by planes, or by a fit's evidence: it stands
+            meet = plane_line(*planes[a], *planes[b])
+            if meet is None:
+                continue
+            u = frame.direction(facing)
+            c = ref.centroid_m
+            offsets.append(float(normal @ (c + 2.0 * float(u @ (meet[0] - c)) * u)))
+        if offsets:
+            out[role] = (normal, max(offsets))
+    return out
