@@ -452,15 +452,11 @@ class PinholeCamera:
 
     def unproject_with_jacobians(self, pixels: npt.ArrayLike) -> RayJacobians:
         """`unproject` with the rays' derivatives w.r.t. the rotation vector and the pixels."""
-        q = _pixels(pixels)
-        Kinv = self._K_inv
-        m = np.hstack([q, np.ones((q.shape[0], 1))]) @ Kinv.T  # (N, 3), camera frame
-        norm = np.linalg.norm(m, axis=1)
-        mh = m / norm[:, None]
+        mh, norm = self._directions(_pixels(pixels))
         rays, d_rvec = self._rays_and_rotation_jacobian(mh)
         # d mh / d m = (I - mh mh^T)/|m|; d m / d pixel = Kinv[:, :2]
         P_perp = (np.eye(3)[None] - mh[:, :, None] * mh[:, None, :]) / norm[:, None, None]
-        d_pix = np.einsum("kj,nkl,lp->njp", self.R_cam_world, P_perp, Kinv[:, :2])
+        d_pix = np.einsum("kj,nkl,lp->njp", self.R_cam_world, P_perp, self._K_inv[:, :2])
         return RayJacobians(self.centre, rays, d_rvec, d_pix)
 
     def unproject_with_rotation_jacobian(
@@ -469,9 +465,14 @@ class PinholeCamera:
         """The rays of `unproject` (N, 3), unit, world frame, and their derivatives by the
         rotation vector (N, 3, 3), per radian, ``d rays[n, j] / d rvec[i]`` at ``[n, j, i]``
         (`RayJacobians` without the pixels' derivatives, which the edge kernel does not use)."""
-        q = _pixels(pixels)
+        return self._rays_and_rotation_jacobian(self._directions(_pixels(pixels))[0])
+
+    def _directions(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The unit camera-frame directions (N, 3) of pixels ``q`` (N, 2), through K's
+        inverse, and the lengths (N,) of the unnormalised ``K⁻¹ [q, 1]`` they were scaled by."""
         m = np.hstack([q, np.ones((q.shape[0], 1))]) @ self._K_inv.T  # (N, 3), camera frame
-        return self._rays_and_rotation_jacobian(m / np.linalg.norm(m, axis=1)[:, None])
+        norm = np.linalg.norm(m, axis=1)
+        return m / norm[:, None], norm
 
     def _rays_and_rotation_jacobian(self, mh: FloatArray) -> tuple[FloatArray, FloatArray]:
         """World rays ``R^T mh`` of unit camera-frame directions ``mh`` (N, 3) and their
