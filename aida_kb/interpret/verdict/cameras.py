@@ -71,7 +71,9 @@ def undecided_doubts(camera: ModelCamera) -> list[str]:
         return []
     turns = ", ".join(f"{a:.1f}" for a in camera.undecided_turns_deg)
     return [
-        f"camera pose is not decided: poses turned to {turns} deg fit its edges about as well "
+        f"camera pose is not decided: poses at turns of {turns} deg about the vertical "
+        "(counted from the view it was registered against, not from the pose taken) fit its "
+        "edges about as well "
         "and its images do not rule them out (a symmetric model's twins look alike)"
     ]
 
