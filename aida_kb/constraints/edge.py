@@ -75,11 +75,15 @@ def edge_kernel(
     for c in np.unique(camera):
         sel = np.flatnonzero(camera == c)
         cam = cameras[int(c)]
-        both, d_both = cam.unproject_with_rotation_jacobian(np.concatenate([p1[sel], p2[sel]]))
+        ends = np.concatenate([p1[sel], p2[sel]])
         C[sel] = cam.centre
         n = sel.size
+        if camera_jacobian:
+            both, d_both = cam.unproject_with_rotation_jacobian(ends)
+            d_rays[sel, 0], d_rays[sel, 1] = d_both[:n], d_both[n:]
+        else:
+            both = cam.unit_rays(ends)
         rays[sel, 0], rays[sel, 1] = both[:n], both[n:]
-        d_rays[sel, 0], d_rays[sel, 1] = d_both[:n], d_both[n:]
     r1, r2 = rays[:, 0], rays[:, 1]
     s = cross(r1, r2)
     s_len = np.sqrt(dot(s, s))

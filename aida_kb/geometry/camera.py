@@ -467,6 +467,12 @@ class PinholeCamera:
         (`RayJacobians` without the pixels' derivatives, which the edge kernel does not use)."""
         return self._rays_and_rotation_jacobian(self._directions(_pixels(pixels))[0])
 
+    def unit_rays(self, pixels: npt.ArrayLike) -> FloatArray:
+        """The rays of `unproject_with_rotation_jacobian` (N, 3), unit, world frame, without
+        their derivatives (the same operations: bit for bit the same rays)."""
+        rays: FloatArray = self._directions(_pixels(pixels))[0] @ self.R_cam_world
+        return rays
+
     def _directions(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """The unit camera-frame directions (N, 3) of pixels ``q`` (N, 2), through K's
         inverse, and the lengths (N,) of the unnormalised ``K⁻¹ [q, 1]`` they were scaled by."""

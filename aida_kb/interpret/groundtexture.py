@@ -424,8 +424,8 @@ def ground_seen_share(
         seen.K, seen.R_cam_world, -seen.R_cam_world @ cams[0].centre, seen.width, seen.height
     )
     (block,) = compile_blocks(stereo, normals.shape[0], len(cams))
-    near = np.sum(block.evaluate(normals, offsets, cams)[0] ** 2, axis=1)
-    far = np.sum(block.evaluate(normals, offsets, cams_far)[0] ** 2, axis=1)
+    near = np.sum(block.evaluate(normals, offsets, cams, camera_jacobian=False)[0] ** 2, axis=1)
+    far = np.sum(block.evaluate(normals, offsets, cams_far, camera_jacobian=False)[0] ** 2, axis=1)
     return float(np.mean(near < GROUND_NEARER_COST * far))
 
 

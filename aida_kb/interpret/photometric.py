@@ -226,7 +226,7 @@ def agreeing_patches(
     if not patches:
         return patches
     (block,) = compile_blocks(patches, normals.shape[0], len(cameras))
-    r = block.whiten(block.evaluate(normals, offsets, cameras)[0])
+    r = block.whiten(block.evaluate(normals, offsets, cameras, camera_jacobian=False)[0])
     cost = np.sum(r * r, axis=1)
     return [c for c, z in zip(patches, cost, strict=True) if z <= CHI2_999[TEXTURE.dof]]
 
@@ -246,7 +246,7 @@ def texture_noise_grey(
     if not cs:
         return math.nan
     (block,) = compile_blocks(cs, normals.shape[0], len(cameras))
-    r = block.evaluate(normals, offsets, cameras)[0]
+    r = block.evaluate(normals, offsets, cameras, camera_jacobian=False)[0]
     scale = MAD_TO_SD * float(np.median(np.abs(r)))
     return scale * math.sqrt(PATCH_SAMPLES / (PATCH_SAMPLES - 2))
 
