@@ -36,7 +36,7 @@ without labels 1.03 deg / 2.3 % instead of 0.46 deg / 0.93 %).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -495,24 +495,23 @@ def _deviations_of(
     cameras: Sequence[PinholeCamera],
     free: Sequence[int],
     measurements: Literal["image edges", "ground texture"],
-    scale: float = 1.0,
+    inflation: Mapping[str, float] | None = None,
 ) -> dict[int, CameraSd]:
     """The free cameras' standard deviations (by index) at the solution `problem` starts
-    from (its planes `names`, in order), times `scale` (`GROUND_TEXTURE_SD_SCALE` says why);
-    empty when they cannot be computed."""
+    from (its planes `names`, in order), the variance factors of the groups `inflation`
+    names inflated (`GROUND_TEXTURE_VARIANCE_INFLATION` says why); empty when they cannot
+    be computed."""
     from aida_kb.interpret.uncertainty import problem_uncertainty
 
     ids = [str(i) for i in free]
-    unc = problem_uncertainty(problem, names, cameras, free, ids)
+    unc = problem_uncertainty(problem, names, cameras, free, ids, inflation=inflation)
     if unc is None:
         return {}
     out = {}
     for k in free:
         angle, centre = unc.cameras[str(k)]
         if math.isfinite(angle) and math.isfinite(centre):
-            out[k] = CameraSd(
-                rotation_deg=scale * angle, centre_m=scale * centre, measurements=measurements
-            )
+            out[k] = CameraSd(rotation_deg=angle, centre_m=centre, measurements=measurements)
     return out
 
 
@@ -539,7 +538,7 @@ def _ground_step(
     the image rounds' result: no view sees the ground well, the model would leave the
     knowledge's ranges or not close)."""
     from aida_kb.interpret.groundtexture import GROUND_NAME, ground_adjustment
-    from aida_kb.interpret.uncertainty import GROUND_TEXTURE_SD_SCALE
+    from aida_kb.interpret.uncertainty import GROUND_TEXTURE_VARIANCE_INFLATION
 
     rigid, polygons, cams = current
     greys, first_right = images
@@ -564,8 +563,9 @@ def _ground_step(
     if broken:
         return _left_ranges("adjustment with the ground's texture", broken)
     names = [*rigid.names, GROUND_NAME]
+    inflation = {"texture": GROUND_TEXTURE_VARIANCE_INFLATION}
     sds = _deviations_of(
-        step.problem, names, step.problem.cameras, free, "ground texture", GROUND_TEXTURE_SD_SCALE
+        step.problem, names, step.problem.cameras, free, "ground texture", inflation
     )
     seen = ", ".join(f"{views[k].view} ({n} patches)" for k, n in sorted(step.patches.items()))
     note = f"view(s) {seen} adjusted with the ground's texture"

@@ -37,7 +37,7 @@ def test_demo_reconstructs_the_house_within_the_targets(demo_run: Any) -> None:
     region = next(i for i, line in enumerate(lines) if "con-of region: Region" in line)
     assert house < region
     # the house and its roof are right; view 01's camera (0.08 deg off) is fixed only to
-    # +-0.16 deg at 2 sd (`uncertainty.GROUND_TEXTURE_SD_SCALE`), which the verdict doubts
+    # +-0.16 deg at 2 sd (`uncertainty.GROUND_TEXTURE_VARIANCE_INFLATION`), which the verdict doubts
     summary = re.search(r"3\. reconstructed: House (verified|doubtful: (.*?)) ?\(was: ", out, re.S)
     assert summary is not None
     if summary.group(1) != "verified":

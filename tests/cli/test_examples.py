@@ -80,7 +80,7 @@ EXIT_STATUS: dict[str, tuple[int, str]] = {
     ),
     "aida-kb lsp --check kb/examples/broken_names.kb": (1, "the file has errors on purpose"),
     # the house's second camera is 0.05-0.14 deg off the truth (seeds 0-2) and, its
-    # deviation taken honestly (`uncertainty.GROUND_TEXTURE_SD_SCALE`), fixed only to
+    # deviation taken honestly (`uncertainty.GROUND_TEXTURE_VARIANCE_INFLATION`), fixed only to
     # +-0.16 deg at 2 sd: the model is right but doubtful, so evaluate's "correct" fails too
     "aida-kb reconstruct kb/buildings.kb out/house -o out/house-model": (
         3,

@@ -189,3 +189,29 @@ def test_an_edges_shared_bias_is_not_averaged_away_by_its_segments() -> None:
         assert sds["twice", EDGE_BIAS_PX].parts[role][0] > 0.8 * biased
         assert biased > 2.0 * plain
     assert sds["once", EDGE_BIAS_PX].cameras == sds["once", 0.0].cameras
+
+
+def test_an_inflated_groups_noise_weighs_only_where_that_group_fixes_the_unknowns() -> None:
+    """`problem_uncertainty`'s ``inflation`` (`GROUND_TEXTURE_VARIANCE_INFLATION`): on the
+    synthetic box in three views, whose cameras its segments alone fix, the segments' variance
+    factor taken four times doubles the cameras' deviations within the knowledge's own share
+    (the first shape's angles, not measured, are not inflated: 1.93 times); a group the
+    problem does not hold changes nothing."""
+    from aida_kb.interpret.uncertainty import problem_uncertainty
+
+    model, cams = synthetic_box()
+    views = synthetic_views(model, cams, 0)
+    inputs = joint.JointInputs(joint.meeting_angles(model))
+    problem = joint.joint_problem(model, cams, views, [1, 2], inputs)
+    ids = ["01", "02"]
+    plain = problem_uncertainty(problem, model.names, cams, [1, 2], ids)
+    edges = problem_uncertainty(problem, model.names, cams, [1, 2], ids, inflation={"edge": 4.0})
+    other = problem_uncertainty(problem, model.names, cams, [1, 2], ids, inflation={"texture": 4.0})
+    assert plain is not None
+    assert edges is not None
+    assert other is not None
+    assert edges.factors["edge"] == pytest.approx(4.0 * plain.factors["edge"])
+    for view in ids:  # the rotations' (the box's scale leaves the centres open)
+        ratio = edges.cameras[view][0] / plain.cameras[view][0]
+        assert 1.85 < ratio <= 2.0
+        assert other.cameras[view][0] == plain.cameras[view][0]
