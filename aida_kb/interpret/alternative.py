@@ -368,7 +368,7 @@ def verify_alternative(
             edges,
             overflow(ctx, binding, polygons),
             adjusted.visible,
-            0.0 if smaller else uncovered(ctx, binding, polygons),
+            uncovered(ctx, binding, polygons),
         )
         if best is None or level.misfit < best.misfit:
             best = level

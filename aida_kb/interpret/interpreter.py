@@ -378,10 +378,20 @@ class Interpreter:
                         if level is None:
                             continue
                         # a verified smaller part costs its misfit in proportion to the
-                        # evidence it explains (the body's misfit counts whole): whether to
-                        # add it is decided by that evidence, not by its few constraints
+                        # evidence it explains, as the body does: whether to add it is
+                        # decided by that evidence, not by its few constraints
                         share = sum(self.evidence.regions[r].weight for r in level.binding)
-                        out.append((level, state.cost + level.misfit * share / ctx.total_weight))
+                        cost = state.cost + level.misfit * share / ctx.total_weight
+                        # what the image contradicts it by counts as the body's does: its
+                        # bound regions beyond their faces and its faces over no region
+                        # (`contradicted`). Which arm of an L-shape is taken for the body and
+                        # which for its wing must not change that (dev 73011, a 135-degree L:
+                        # the wing taken for a shed body and the body for its wing cost 0.053
+                        # less than the right pair, the gable end of the wing over the sky
+                        # free). Its guessed parts are not charged: that prior chooses
+                        # between the body's specialisations (`INSERTED_PART_PENALTY`)
+                        cost += contradicted(ctx, level)
+                        out.append((level, cost))
         return out
 
     # ---- the search --------------------------------------------------------------------------
@@ -551,14 +561,19 @@ def guessed(level: Level) -> float:
 
 def body_evidence_cost(ctx: Context, level: Level) -> float:
     """What a verified body costs beyond its misfit: `INSERTED_PART_PENALTY` for each part
-    it guesses (`guessed`), and the evidence weight of its bound regions that lies outside
-    their faces (`support.overflow`; a gable end wall's triangle above a flat roof's eave) at
-    the rate of unexplained evidence (`plausibility.UNEXPLAINED_PENALTY`), as are the region
-    pixels its bound faces cover where no region lies (`support.uncovered`: a shed's side
-    wall rising past a gable wall's rake into the sky)."""
+    it guesses (`guessed`), and what the image contradicts it by (`contradicted`)."""
+    return INSERTED_PART_PENALTY * guessed(level) + contradicted(ctx, level)
+
+
+def contradicted(ctx: Context, level: Level) -> float:
+    """What the image contradicts a verified level (the body, or a smaller part of it) by:
+    the evidence weight of its bound regions that lies outside their faces
+    (`support.overflow`; a gable end wall's triangle above a flat roof's eave) at the rate of
+    unexplained evidence (`plausibility.UNEXPLAINED_PENALTY`), as are the region pixels its
+    bound faces cover where no region lies (`support.uncovered`: a shed's side wall rising
+    past a gable wall's rake into the sky)."""
     return (
-        INSERTED_PART_PENALTY * guessed(level)
-        + UNEXPLAINED_PENALTY * level.overflow / ctx.total_weight
+        UNEXPLAINED_PENALTY * level.overflow / ctx.total_weight
         + UNEXPLAINED_PENALTY * level.uncovered
     )
 

@@ -1,5 +1,6 @@
 """What the image says beyond the regions: model edges seen, outlines beyond their faces, and
-the specialisation chosen by them (`interpret.support`, `interpreter.body_evidence_cost`)."""
+the specialisation chosen by them (`interpret.support`, `interpreter.body_evidence_cost`,
+`interpreter.contradicted`)."""
 
 from __future__ import annotations
 
@@ -9,10 +10,12 @@ from typing import Any
 import numpy as np
 import pytest
 
+from aida_kb.interpret import alternative
 from aida_kb.interpret.generate import WEAKER_PENALTY
-from aida_kb.interpret.interpreter import TIE_MARGIN, Interpreter
+from aida_kb.interpret.interpreter import TIE_MARGIN, Interpreter, contradicted, guessed
 from aida_kb.interpret.knowledge import Knowledge
 from aida_kb.interpret.observe import view_of
+from aida_kb.interpret.plausibility import UNEXPLAINED_PENALTY
 from aida_kb.interpret.support import (
     OVERFLOW_FREE,
     OVERFLOW_MARGIN_PX,
@@ -79,6 +82,36 @@ def test_a_gable_over_a_dark_roof_is_chosen_by_its_edges(dark_roof: Interpreter)
     extra = costs[(weaker, same)] - gable
     assert WEAKER_PENALTY - 1e-3 <= extra < WEAKER_PENALTY + 0.01
     assert dark_roof.ties(state) == []
+
+
+def test_a_wing_is_charged_for_what_the_image_contradicts_as_the_body_is(
+    buildings_kb: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """What the image contradicts a level by (its faces over no region, its regions beyond
+    its faces) costs a wing what it costs the body, so that which arm of an L-shape is taken
+    for the body does not change what the pair costs (dev 73011: the wing's gable end over
+    the sky was free, and the wing taken for a shed body won by 0.053); its guessed parts do
+    not (that prior chooses the body's specialisation). The fixture's evidence has no
+    outlines: every face is taken to cover 1 % of the view's region pixels over nothing.
+    The complete state's cost is the body's, the wing's misfit by its share of the evidence,
+    what contradicts the wing, and the evidence left unexplained."""
+    bare = 0.01
+    monkeypatch.setattr(alternative, "uncovered", lambda *_: bare)
+    evidence = read_evidence(FIXTURES / "wing_135.json")
+    it = Interpreter(Knowledge.from_kb(buildings_kb), view_of(evidence, "wing"), "House")
+    state, _, _ = it.run()
+    assert state is not None
+    body, wing = state.levels
+    assert dict(wing.structure.choices) == {"body.wings[0]": "SkewWing"}
+    assert wing.uncovered == bare
+    assert guessed(wing) > 0.5  # four parts inserted, not all their edges seen
+    ctx = it.context
+    assert contradicted(ctx, wing) == pytest.approx(UNEXPLAINED_PENALTY * bare)
+    own = next(cost for level, cost in it.bodies if level is body)
+    share = sum(ctx.evidence.regions[r].weight for r in wing.binding) / ctx.total_weight
+    left = it.left_unexplained(list(state.levels))
+    expected = own + wing.misfit * share + UNEXPLAINED_PENALTY * bare + left
+    assert state.cost == pytest.approx(expected, abs=1e-9)
 
 
 def test_a_frontal_gable_and_a_shed_are_a_tie(buildings_kb: Any, generate: Any) -> None:
