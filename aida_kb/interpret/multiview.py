@@ -65,6 +65,7 @@ from aida_kb.interpret.joint import (
 )
 from aida_kb.interpret.result import INSERTED, Interpretation
 from aida_kb.interpret.run import interpret
+from aida_kb.interpret.silhouette import outline_steps
 from aida_kb.interpret.transfer import ImageTransfer
 from aida_kb.io.evidence import Evidence, ViewEvidence
 from aida_kb.io.model import (
@@ -380,6 +381,36 @@ def _reached(
     note = ", ".join(
         f"{rigid.names[m.part]} {m.moved_m:.2f} m out (region {view.id}/{ids[m.region]})"
         for m in moved
+    )
+    return out, polygons, note
+
+
+def _outlined(
+    rigid: RigidModel,
+    cameras: Sequence[PinholeCamera],
+    greys: Sequence[npt.NDArray[np.uint8] | None],
+    movable: frozenset[str],
+    views: Sequence[ViewMeasurements],
+) -> tuple[RigidModel, list[FloatArray], str] | None:
+    """The model with the parts the knowledge placed (`movable`, role paths) moved onto the
+    outlines the views' images show of them and their segments
+    (`aida_kb.interpret.silhouette.outline_steps`), its polygons and a note naming them; None
+    when nothing moves or the moved planes close no solid."""
+    mask = np.array([name in movable for name in rigid.names], dtype=bool)
+    steps = outline_steps(rigid, cameras, greys, mask, views) if mask.any() else []
+    if not steps:
+        return None
+    offsets = rigid.offsets.copy()
+    for s in steps:
+        offsets[s.part] += s.step_m
+    try:
+        out, polygons = _rebuilt(rigid, rigid.normals, offsets)
+    except GeometryError:
+        return None
+    note = "; ".join(
+        f"{rigid.names[s.part]} moved {s.step_m:+.2f} m onto its outline beside "
+        + ", ".join(f"{rigid.names[q]} in view {k:02d}" for k, q in s.edges)
+        for s in steps
     )
     return out, polygons, note
 
@@ -1177,6 +1208,11 @@ def reconstruct_from_first(
     wanted = IMAGE_ROUNDS > 0 and scene is not None and len(cams) > n_known
     greys = view_images(scene, evidence, views) if wanted and scene is not None else []
     rights = right_images(scene, [m.view for m in views]) if greys and scene is not None else []
+    if greys:  # the parts the knowledge placed, onto the outlines the images show of them
+        outlined = _outlined(rigid, cams, greys, movable, views)
+        if outlined is not None:
+            rigid, polygons, note = outlined
+            notes.append(note)
     own_sd: dict[int, CameraSd] = {}  # the image rounds' own deviations of the cameras
     outliers: set[FitKey] = set()  # fits the adjustments found outlying (`IMAGE_SNOOPS`)
     for round_ in range(IMAGE_ROUNDS if greys else 0):
