@@ -22,12 +22,13 @@ K = np.array([[700.0, 0.0, 320.0], [0.0, 700.0, 240.0], [0.0, 0.0, 1.0]])
 W, H = 640, 480
 
 
-def _box() -> RigidModel:
-    """A 10 m cube about 30 m ahead, turned 45 deg about the vertical (y)."""
+def _box(back: float = 5.0) -> RigidModel:
+    """A 10 m cube about 30 m ahead, turned 45 deg about the vertical (y); its back face
+    `back` m behind its centre (5: a cube)."""
     a = np.radians(45.0)
     R = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
     centre = np.array([0.0, 0.0, 30.0])
-    corners = np.array([[x, y, z] for x in (-5, 5) for y in (-5, 5) for z in (-5, 5)], float)
+    corners = np.array([[x, y, z] for x in (-5, 5) for y in (-5, 5) for z in (-5, back)], float)
     quads = {
         (-1, 0, 0): [0, 1, 3, 2],
         (1, 0, 0): [4, 6, 7, 5],

@@ -11,34 +11,11 @@ from aida_kb.interpret.silhouette import outline_shift, outline_steps, shown_sha
 from aida_kb.register import RegionMeasurements, RigidModel
 from aida_kb.register.evidence import ViewMeasurements
 from aida_kb.texture.raycast import first_hits
+from tests.interpret.test_photometric import H, K, W, _box
 
-K = np.array([[700.0, 0.0, 320.0], [0.0, 700.0, 240.0], [0.0, 0.0, 1.0]])
-W, H = 640, 480
+# `_box`: a 10 m cube 30 m ahead, turned 45 deg about the vertical: the camera at the origin
+# sees its front and right, and their outlines beside the left and the back
 NAMES = ["left", "right", "top", "bottom", "front", "back"]
-
-
-def _box(back: float = 5.0) -> RigidModel:
-    """A 10 m cube (its back face `back` m behind its centre) 30 m ahead, turned 45 deg about
-    the vertical: the camera at the origin sees its front and right, and their outlines beside
-    the left and the back."""
-    a = np.radians(45.0)
-    R = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
-    corners = np.array(
-        [[x, y, z] for x in (-5.0, 5.0) for y in (-5.0, 5.0) for z in (-5.0, back)], float
-    )
-    quads = {
-        (-1, 0, 0): [0, 1, 3, 2],
-        (1, 0, 0): [4, 6, 7, 5],
-        (0, -1, 0): [0, 4, 5, 1],
-        (0, 1, 0): [2, 3, 7, 6],
-        (0, 0, -1): [0, 2, 6, 4],
-        (0, 0, 1): [1, 5, 7, 3],
-    }
-    world = corners @ R.T + np.array([0.0, 0.0, 30.0])
-    normals = np.array(list(quads), dtype=float) @ R.T
-    polygons = [world[q] for q in quads.values()]
-    offsets = np.array([n @ p[0] for n, p in zip(normals, polygons, strict=True)])
-    return RigidModel.from_polygons(NAMES, normals, offsets, polygons)
 
 
 def _image(model: RigidModel, cam: PinholeCamera) -> np.ndarray:
