@@ -46,6 +46,7 @@ __all__ = [
     "fitted_edges",
     "outlying_fit",
     "right_images",
+    "segments_along",
     "subset_edges",
     "view_images",
     "without_fits",
@@ -252,22 +253,7 @@ def corroborated(edges: EdgeObservations, view: ViewMeasurements) -> npt.NDArray
     if F == 0 or S == 0:
         return np.ones(F, dtype=bool)
     bounding = np.ones(S, dtype=bool) if view.bounding is None else view.bounding
-    d = edges.p2 - edges.p1
-    length = np.maximum(np.linalg.norm(d, axis=1), 1e-9)
-    u = d / length[:, None]  # (F, 2)
-    n = np.stack([-u[:, 1], u[:, 0]], axis=1)
-    r1 = view.p1[None, :, :] - edges.p1[:, None, :]  # (F, S, 2)
-    r2 = view.p2[None, :, :] - edges.p1[:, None, :]
-    off = np.maximum(np.abs(np.einsum("fsc,fc->fs", r1, n)), np.abs(np.einsum("fsc,fc->fs", r2, n)))
-    t1 = np.einsum("fsc,fc->fs", r1, u)
-    t2 = np.einsum("fsc,fc->fs", r2, u)
-    seg = view.p2 - view.p1
-    seg_len = np.maximum(np.linalg.norm(seg, axis=1), 1e-9)
-    parallel = np.abs(np.einsum("fc,sc->fs", n, seg)) / seg_len[None, :] <= math.sin(
-        math.radians(CORROBORATE_DEG)
-    )
-    lo = np.clip(np.minimum(t1, t2), 0.0, length[:, None])
-    hi = np.clip(np.maximum(t1, t2), 0.0, length[:, None])
+    off, parallel, lo, hi, length = segments_along(edges.p1, edges.p2, view)
 
     def cover(reach: float, which: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
         near = parallel & (off <= reach) & which[None, :]
@@ -281,6 +267,32 @@ def corroborated(edges: EdgeObservations, view: ViewMeasurements) -> npt.NDArray
     elsewhere = cover(CONTRADICT_PX, bounding)
     keep: npt.NDArray[np.bool_] = shown | ~(texture | elsewhere)
     return keep
+
+
+def segments_along(
+    a: FloatArray, b: FloatArray, view: ViewMeasurements
+) -> tuple[FloatArray, npt.NDArray[np.bool_], FloatArray, FloatArray, FloatArray]:
+    """How the view's S segments lie along F image lines a-b ((F, 2) each, pixels): ``off``
+    (F, S) the larger distance of a segment's two ends from the line, pixels; ``parallel``
+    (F, S) within `CORROBORATE_DEG` of it; ``lo``, ``hi`` (F, S) the stretch of the line the
+    segment spans, pixels from a, clipped to the line; ``length`` (F,) the lines' lengths."""
+    d = b - a
+    length = np.maximum(np.linalg.norm(d, axis=1), 1e-9)
+    u = d / length[:, None]  # (F, 2)
+    n = np.stack([-u[:, 1], u[:, 0]], axis=1)
+    r1 = view.p1[None, :, :] - a[:, None, :]  # (F, S, 2)
+    r2 = view.p2[None, :, :] - a[:, None, :]
+    off = np.maximum(np.abs(np.einsum("fsc,fc->fs", r1, n)), np.abs(np.einsum("fsc,fc->fs", r2, n)))
+    t1 = np.einsum("fsc,fc->fs", r1, u)
+    t2 = np.einsum("fsc,fc->fs", r2, u)
+    seg = view.p2 - view.p1
+    seg_len = np.maximum(np.linalg.norm(seg, axis=1), 1e-9)
+    parallel = np.abs(np.einsum("fc,sc->fs", n, seg)) / seg_len[None, :] <= math.sin(
+        math.radians(CORROBORATE_DEG)
+    )
+    lo = np.clip(np.minimum(t1, t2), 0.0, length[:, None])
+    hi = np.clip(np.maximum(t1, t2), 0.0, length[:, None])
+    return off, parallel, lo, hi, length
 
 
 def subset_edges(edges: EdgeObservations, keep: npt.NDArray[np.bool_]) -> EdgeObservations:

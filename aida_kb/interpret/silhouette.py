@@ -32,9 +32,9 @@ import numpy.typing as npt
 
 from aida_kb.geometry.camera import PinholeCamera
 from aida_kb.interpret.imagefit import (
-    CORROBORATE_DEG,
     CORROBORATE_PX,
     IMAGE_MAX_POINT_SIGMA_PX,
+    segments_along,
 )
 from aida_kb.register import RigidModel
 from aida_kb.register.evidence import ViewMeasurements
@@ -119,8 +119,7 @@ def outline_shift(
     """The one straight line within `band_px` (from, to: pixels along the left normal of the
     image segment a-b, (2,) each) that runs along the segment, as its shift across it (pixels,
     along that normal), or None when there is none or more than one."""
-    t = (b - a) / max(float(np.linalg.norm(b - a)), 1e-9)
-    n = np.array([-t[1], t[0]])
+    t, n = _direction(a, b)
     shifts = np.arange(band_px[0], band_px[1] + 1e-9, OUTLINE_STEP_PX)
     if shifts.size == 0:
         return None
@@ -149,24 +148,16 @@ def outline_shift(
 def shown_share(view: ViewMeasurements, a: FloatArray, b: FloatArray) -> float:
     """The share of the image segment a-b ((2,) each, pixels) that the view's own segments
     lying along it show: both their ends within `CORROBORATE_PX` of its line and within
-    `CORROBORATE_DEG` of its direction; 0-1."""
-    length = float(np.linalg.norm(b - a))
-    if view.p1.shape[0] == 0 or length <= 0:
+    `CORROBORATE_DEG` of its direction (`aida_kb.interpret.imagefit.segments_along`); 0-1."""
+    if view.p1.shape[0] == 0 or float(np.linalg.norm(b - a)) <= 0:
         return 0.0
-    u = (b - a) / length
-    n = np.array([-u[1], u[0]])
-    p1, p2 = view.p1, view.p2
-    seg = p2 - p1
-    seg_len = np.maximum(np.linalg.norm(seg, axis=1), 1e-9)
-    near = (np.abs((p1 - a) @ n) <= CORROBORATE_PX) & (np.abs((p2 - a) @ n) <= CORROBORATE_PX)
-    near &= np.abs(seg @ n) / seg_len <= np.sin(np.radians(CORROBORATE_DEG))
+    off, parallel, lo, hi, length = segments_along(a[None, :], b[None, :], view)
+    near = (off[0] <= CORROBORATE_PX) & parallel[0]
     if not near.any():
         return 0.0
-    t1, t2 = (p1[near] - a) @ u, (p2[near] - a) @ u
-    lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
-    samples = np.linspace(0.0, length, OUTLINE_COVER_SAMPLES)
-    covered = ((samples[:, None] >= lo[None, :]) & (samples[:, None] <= hi[None, :])).any(axis=1)
-    return float(covered.mean())
+    samples = np.linspace(0.0, float(length[0]), OUTLINE_COVER_SAMPLES)
+    inside = (samples[:, None] >= lo[0, near][None, :]) & (samples[:, None] <= hi[0, near][None, :])
+    return float(inside.any(axis=1).mean())
 
 
 OUTLINE_COVER_SAMPLES = 64
@@ -213,8 +204,8 @@ def outline_steps(
                 mid = model.edge_ends[e].mean(axis=0)
                 h = 1e-3 * model.size
                 m2 = camera.project(np.stack([mid, mid + (h / along) * w]))
-                t = (qb - qa) / max(float(np.linalg.norm(qb - qa)), 1e-9)
-                px_per_m = float((m2[1] - m2[0]) @ np.array([-t[1], t[0]])) / h
+                _, normal = _direction(qa, qb)
+                px_per_m = float((m2[1] - m2[0]) @ normal) / h
                 if abs(px_per_m) < 1e-9:
                     continue
                 band = _band(model, camera, q, qa, qb)
@@ -222,7 +213,6 @@ def outline_steps(
                 if shift is None or abs(shift / px_per_m) > OUTLINE_MAX_STEP_REL * model.size:
                     continue
                 view = None if views is None else views[k]
-                normal = np.array([-t[1], t[0]])
                 if view is not None and (
                     shown_share(view, qa + shift * normal, qb + shift * normal)
                     < OUTLINE_SHOWN_SHARE
@@ -251,8 +241,13 @@ def _band(
     z = poly @ camera.R_cam_world[2] + camera.t_cam_world[2]
     if np.any(z <= 0):
         return None
-    t = (b - a) / max(float(np.linalg.norm(b - a)), 1e-9)
-    across = (camera.project(poly) - a) @ np.array([-t[1], t[0]])
+    across = (camera.project(poly) - a) @ _direction(a, b)[1]
     inward = float(across[np.argmax(np.abs(across))])
     reach = min(OUTLINE_REACH_PX, OUTLINE_FACE_SHARE * abs(inward))
     return (-reach, OUTLINE_REACH_PX) if inward < 0 else (-OUTLINE_REACH_PX, reach)
+
+
+def _direction(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The unit direction of the image segment a-b and its left normal, (2,) each."""
+    t = (b - a) / max(float(np.linalg.norm(b - a)), 1e-9)
+    return t, np.array([-t[1], t[0]])
